@@ -1,0 +1,116 @@
+"""Point location in a TET10 mesh: host element and local coordinates xi.
+
+For a query point q:
+
+1. candidates: the ``k`` elements with the nearest vertex centroids (KD-tree);
+2. linear guess: barycentric coordinates in each candidate's straight tet,
+   ``xi = T^-1 (q - X_0)`` with ``T = [X_1 - X_0, X_2 - X_0, X_3 - X_0]``;
+3. Newton on the isoparametric map ``X(xi) = sum_a N_a(xi) X_a``::
+
+       xi <- xi - J(xi)^-1 (X(xi) - q),     J = dX/dxi = sum_a X_a (dN_a/dxi)^T
+
+   for the best ``n_newton`` candidates; the host is the candidate whose converged
+   xi is most inside the reference tet (largest minimum barycentric coordinate).
+
+A point is "found" when that minimum barycentric coordinate is >= ``-tol``.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from fem import element
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Location:
+    """Host elements and local coordinates of located points.
+
+    Attributes
+    ----------
+    host_elements : ndarray, shape (n,), int64
+    local_coords : ndarray, shape (n, 3)
+    inside : ndarray, shape (n,), bool
+        Minimum barycentric coordinate >= -tol.
+    residual : ndarray, shape (n,)
+        ``|X(xi) - q|`` after Newton.
+    """
+
+    host_elements: np.ndarray
+    local_coords: np.ndarray
+    inside: np.ndarray
+    residual: np.ndarray
+
+
+class PointLocator:
+    """Reusable locator for one mesh (see module docstring).
+
+    Parameters
+    ----------
+    points : ndarray, shape (n_nodes, 3)
+    cells : ndarray, shape (n_el, 10)
+    """
+
+    def __init__(self, points: np.ndarray, cells: np.ndarray) -> None:
+        self.points = np.asarray(points, dtype=np.float64)
+        self.cells = np.asarray(cells, dtype=np.int64)
+        X = self.points[self.cells[:, :4]]  # (n_el, 4, 3)
+        self.x0 = X[:, 0]
+        T = np.transpose(X[:, 1:] - X[:, :1], (0, 2, 1))  # (n_el, 3, 3) columns = edges
+        self.Tinv = np.linalg.inv(T)  # (n_el, 3, 3)
+        self.tree = cKDTree(X.mean(axis=1))
+
+    def linear_coords(self, q: np.ndarray, elems: np.ndarray) -> np.ndarray:
+        """Straight-tet local coords of points q (n, 3) in elements elems (n, k), shape (n, k, 3)."""
+        return np.einsum("nkij,nkj->nki", self.Tinv[elems], q[:, None, :] - self.x0[elems])  # (n, k, 3)
+
+    def newton(self, q: np.ndarray, elems: np.ndarray, xi: np.ndarray, iters: int = 12) -> tuple[np.ndarray, np.ndarray]:
+        """Newton inverse of the isoparametric map for points q (n,3) in elems (n,), start xi (n,3)."""
+        Xe = self.points[self.cells[elems]]  # (n, 10, 3)
+        xi = xi.copy()
+        for _ in range(iters):
+            N = element.shape_functions(xi)  # (n, 10)
+            dN = element.shape_gradients(xi)  # (n, 10, 3)
+            r = np.einsum("na,nai->ni", N, Xe) - q  # (n, 3)
+            J = np.einsum("nai,naj->nij", Xe, dN)  # (n, 3, 3)
+            J[np.abs(np.linalg.det(J)) < 1e-30] = np.eye(3)  # guard far-outside guesses
+            step = np.linalg.solve(J, r[..., None])[..., 0]  # (n, 3)
+            xi -= step
+            if np.max(np.abs(step), initial=0.0) < 1e-14:
+                break
+        res = np.linalg.norm(np.einsum("na,nai->ni", element.shape_functions(xi), Xe) - q, axis=1)
+        return xi, res
+
+    def locate(self, q: np.ndarray, k: int = 24, n_newton: int = 4, tol: float = 1e-6) -> Location:
+        """Locate points q, shape (n, 3) (see module docstring)."""
+        q = np.atleast_2d(np.asarray(q, dtype=np.float64))
+        n_el = len(self.cells)
+        k = min(k, n_el)
+        _, cand = self.tree.query(q, k=k)
+        cand = np.asarray(cand).reshape(len(q), k)
+        xi_lin = self.linear_coords(q, cand)  # (n, k, 3)
+        lam_min = np.minimum(1.0 - xi_lin.sum(axis=2), xi_lin.min(axis=2))  # (n, k)
+        m = min(n_newton, k)
+        order = np.argsort(-lam_min, axis=1)[:, :m]  # (n, m)
+        rows = np.arange(len(q))[:, None]
+        el = cand[rows, order]  # (n, m)
+        xi0 = xi_lin[rows, order]  # (n, m, 3)
+        xi, res = self.newton(np.repeat(q, m, axis=0), el.ravel(), np.clip(xi0.reshape(-1, 3), -0.5, 1.5))
+        xi = xi.reshape(len(q), m, 3)
+        res = res.reshape(len(q), m)
+        lam = np.minimum(1.0 - xi.sum(axis=2), xi.min(axis=2))  # (n, m)
+        lam = np.where(res < 1e-8 * (1.0 + np.abs(q).max()), lam, -np.inf)
+        best = np.argmax(lam, axis=1)
+        r = np.arange(len(q))
+        return Location(
+            host_elements=el[r, best].astype(np.int64),
+            local_coords=xi[r, best],
+            inside=lam[r, best] >= -tol,
+            residual=res[r, best],
+        )

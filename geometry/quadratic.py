@@ -1,0 +1,131 @@
+"""Linear tets -> 10-node tets whose boundary lies on the exact whisker surfaces.
+
+Steps (see :mod:`geometry.boundary` for the patches):
+
+1. classify the boundary triangles (unless the classes are given, e.g. by a template);
+2. project boundary *vertices* onto their patch (rim vertices onto rim circles),
+   undoing the move of any vertex whose projection would invert a linear tet;
+3. upgrade to TET10 with :func:`fem.mesh.p1_to_p2` (straight mid-edge nodes, VTK order);
+4. project the mid-edge nodes of boundary edges that lie on a cone (outer surface or
+   cavity wall) radially at their x onto ``r_o(x)`` / ``r_i(x)``; flat patches need
+   nothing (the midpoint of two points of a plane lies in it);
+5. undo step 4 for any element whose isoparametric Jacobian ``det(dX/dxi)`` would not
+   stay positive at its nodes and degree-2 quadrature points.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+
+from fem import element
+from fem.mesh import boundary_faces, jacobian_determinants, p1_to_p2, signed_volumes_linear
+from fem.quadrature import tet_rule
+from geometry import boundary as bd
+from geometry.design import WhiskerDesign
+
+logger = logging.getLogger(__name__)
+
+#: local points where the P2 Jacobian is checked: the 10 nodes and the 4-point rule
+CHECK_POINTS = np.vstack([element.NODES, tet_rule(2).points])
+
+
+@dataclass(frozen=True)
+class QuadraticMesh:
+    """Result of :func:`upgrade`.
+
+    Attributes
+    ----------
+    points : ndarray, shape (n_nodes, 3)
+    cells : ndarray, shape (n_el, 10)
+    face_elem, face_local : ndarray, shape (n_f,)
+        Owning element and local face of each boundary face.
+    faces6 : ndarray, shape (n_f, 6)
+        Outward boundary tri6 faces (:func:`fem.mesh.boundary_faces` order).
+    face_class : ndarray, shape (n_f,)
+        Patch id of each boundary face.
+    n_unprojected : int
+        Boundary vertices left off their patch to avoid inversion.
+    n_unsnapped : int
+        Elements whose curved mid-edge nodes were reverted to straight.
+    """
+
+    points: np.ndarray
+    cells: np.ndarray
+    face_elem: np.ndarray
+    face_local: np.ndarray
+    faces6: np.ndarray
+    face_class: np.ndarray
+    n_unprojected: int = 0
+    n_unsnapped: int = 0
+
+
+def _project_safely(d: WhiskerDesign, pts: np.ndarray, tets4: np.ndarray, tris: np.ndarray, cls: np.ndarray):
+    proj = bd.project_vertices(d, pts, tris, cls)
+    moved = np.any(proj != pts, axis=1)
+    reverted = np.zeros(len(pts), dtype=bool)
+    for _ in range(10):
+        bad = signed_volumes_linear(proj, tets4) <= 0
+        if not bad.any():
+            break
+        vs = np.unique(tets4[bad])
+        vs = vs[moved[vs] & ~reverted[vs]]
+        if len(vs) == 0:
+            break
+        proj[vs] = pts[vs]
+        reverted[vs] = True
+    if reverted.any():
+        logger.warning("%d boundary vertices kept off their surface to avoid inverted tets", reverted.sum())
+    return proj, int(reverted.sum())
+
+
+def upgrade(
+    design: WhiskerDesign,
+    points1: np.ndarray,
+    tets4: np.ndarray,
+    face_class: np.ndarray | None = None,
+) -> QuadraticMesh:
+    """Build the boundary-conforming TET10 mesh (see module docstring).
+
+    Parameters
+    ----------
+    design : WhiskerDesign
+    points1 : ndarray, shape (n_v, 3)
+        Vertices (positively oriented tets assumed).
+    tets4 : ndarray, shape (n_el, 4)
+    face_class : ndarray, shape (n_f,), optional
+        Patch ids of the boundary faces in :func:`fem.mesh.boundary_faces` order; by
+        default classified geometrically.
+
+    Returns
+    -------
+    QuadraticMesh
+    """
+    pts = np.asarray(points1, dtype=np.float64)
+    tets4 = np.asarray(tets4, dtype=np.int64)
+    _, cells, edges = p1_to_p2(pts, tets4)
+    felem, flocal, faces6 = boundary_faces(cells)
+    tris = faces6[:, :3]
+    if face_class is None:
+        face_class = bd.classify_faces(design, pts, tris)
+    face_class = np.asarray(face_class, dtype=np.int64)
+    if len(face_class) != len(faces6):
+        raise ValueError(f"upgrade: face_class has {len(face_class)} entries, mesh has {len(faces6)} boundary faces")
+    pts, n_unproj = _project_safely(design, pts, tets4, tris, face_class)
+    n_v = len(pts)
+    mid = 0.5 * (pts[edges[:, 0]] + pts[edges[:, 1]])
+    points = np.vstack([pts, mid])
+    straight = points.copy()
+    for patch in bd.CONE_PATCHES:
+        nodes = np.unique(faces6[face_class == patch][:, 3:])
+        nodes = nodes[nodes >= n_v]
+        points[nodes] = bd.project_radially(design, points[nodes], patch)
+    detj = jacobian_determinants(points, cells, CHECK_POINTS)  # (n_el, n_check)
+    bad = np.nonzero(detj.min(axis=1) <= 0)[0]
+    if len(bad):
+        nodes = np.unique(cells[bad][:, 4:])
+        points[nodes] = straight[nodes]
+        logger.warning("%d elements: curved mid-edge nodes reverted to straight (Jacobian <= 0)", len(bad))
+    return QuadraticMesh(points, cells, felem, flocal, faces6, face_class, n_unproj, len(bad))

@@ -1,0 +1,218 @@
+"""Template (fast-path) meshes: TET10 order, exact boundary, tags, fibres, storage, cache.
+
+Everything here maps shipped template meshes (no fTetWild), so it is fast; the fresh
+fTetWild path is exercised in test_geometry_fresh.py.
+"""
+
+import numpy as np
+import pytest
+
+from fem import element
+from fem.mesh import boundary_faces, jacobian_determinants, signed_volumes_linear
+from fem.quadrature import tet_rule
+from geometry import analytic
+from geometry import boundary as bd
+from geometry.design import InvalidDesignError, WhiskerDesign
+from geometry.mesh import MeshSizing, TemplateError, WhiskerMesh, build_mesh
+from geometry.quality import radius_ratio
+from geometry.template import TEMPLATE_DIR, load_templates, map_points
+
+
+@pytest.fixture(scope="module")
+def wm():
+    return build_mesh(WhiskerDesign(), MeshSizing(), method="template")
+
+
+def test_templates_are_shipped_and_small():
+    files = list(TEMPLATE_DIR.glob("*.npz"))
+    assert len(files) >= 6
+    assert sum(f.stat().st_size for f in files) < 2e6
+
+
+def test_node_order_and_positive_jacobians(wm):
+    m = wm.mesh
+    assert m.points.dtype == np.float64 and m.cells.shape[1] == 10
+    assert (signed_volumes_linear(m.points, m.cells) > 0).all()
+    for deg in (2, 3):
+        assert (jacobian_determinants(m.points, m.cells, tet_rule(deg).points) > 0).all()
+    # straight-edge elements: mid-edge nodes at edge midpoints, in VTK order (0,1),(1,2),(0,2),(0,3),(1,3),(2,3)
+    X = m.points[m.cells]
+    mid = 0.5 * (X[:, element.EDGES[:, 0]] + X[:, element.EDGES[:, 1]])
+    dev = np.linalg.norm(X[:, 4:] - mid, axis=2).max(axis=1)
+    h = np.linalg.norm(X[:, 1] - X[:, 0], axis=1)
+    assert np.median(dev / h) < 1e-12  # interior elements are straight
+    assert (dev / h).max() < 0.1  # curved boundary elements are only mildly curved
+
+
+def test_boundary_nodes_on_exact_surfaces(wm):
+    d, P = wm.design, wm.mesh.points
+    x, r, _ = bd.to_meridian(P)
+    o = wm.node_sets["outer"]
+    assert np.abs(r[o] - d.r_outer(x[o])).max() < 1e-9
+    cw = wm.node_sets["cavity_wall"]
+    assert np.abs(r[cw] - d.r_inner(x[cw])).max() < 1e-9
+    assert np.abs(x[wm.node_sets["base"]]).max() < 1e-12
+    assert np.abs(x[wm.node_sets["tip"]] - d.length).max() < 1e-9
+    assert np.abs(x[wm.node_sets["cavity_start"]] - d.c).max() < 1e-9
+    assert np.abs(x[wm.node_sets["cavity_end"]] - d.l).max() < 1e-9
+
+
+def test_face_sets_cover_the_boundary_and_are_outward(wm):
+    d, P, fs = wm.design, wm.mesh.points, wm.face_sets
+    _, _, allf = boundary_faces(wm.mesh.cells)
+    n = sum(len(fs[k]) for k in ("base", "outer", "tip", "cavity"))
+    assert n == len(allf)
+    assert len(fs["cavity"]) == len(fs["cavity_wall"]) + len(fs["cavity_start"]) + len(fs["cavity_end"])
+
+    def normals(f):
+        a, b, c = P[f[:, 0]], P[f[:, 1]], P[f[:, 2]]
+        nn = np.cross(b - a, c - a)
+        return nn / np.linalg.norm(nn, axis=1, keepdims=True), (a + b + c) / 3
+
+    n, _ = normals(fs["base"])
+    assert (n[:, 0] < -0.999).all()
+    n, _ = normals(fs["tip"])
+    assert (n[:, 0] > 0.999).all()
+    n, cen = normals(fs["outer"])
+    assert (np.einsum("ij,ij->i", n[:, 1:], cen[:, 1:]) > 0).all()  # away from the axis
+    n, cen = normals(fs["cavity_wall"])
+    assert (np.einsum("ij,ij->i", n[:, 1:], cen[:, 1:]) < 0).all()  # into the cavity
+    assert (normals(fs["cavity_start"])[0][:, 0] > 0.999).all()
+    assert (normals(fs["cavity_end"])[0][:, 0] < -0.999).all()
+    # closed cavity: the outward normals integrate to zero, enclosed volume = cavity volume
+    a, b, c = (P[fs["cavity"][:, k]] for k in range(3))
+    vol = -np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6
+    assert vol == pytest.approx(analytic.cavity_volume(d), rel=2e-3)  # straight triangles
+
+
+def test_gauge_footprint(wm):
+    d, P = wm.design, wm.mesh.points
+    g = wm.face_sets["gauge"]
+    assert len(g) >= 4
+    cen = P[g].mean(axis=1)
+    assert (cen[:, 0] >= d.x_ss).all() and (cen[:, 0] <= d.x_ss + d.e).all()
+    assert (cen[:, 1] > 0).all()
+    assert np.degrees(np.abs(np.arctan2(cen[:, 2], cen[:, 1]))).max() <= d.gauge_half_angle_deg
+    assert set(wm.node_sets["gauge"]) <= set(wm.node_sets["outer"])
+
+
+def test_fibres_located(wm):
+    d = wm.design
+    assert len(wm.fibres) == 2
+    for f in wm.fibres:
+        X = wm.mesh.points[wm.mesh.cells[f.host_elements]]  # (n, 10, 3)
+        N = element.shape_functions(f.local_coords)
+        assert np.abs(np.einsum("na,nai->ni", N, X) - f.points_ref).max() < 1e-8
+        lam = element.barycentric(f.local_coords)
+        assert lam.min() >= 0.0
+        assert f.segments.shape == (len(f.points_ref) - 1, 2)
+        seg = np.linalg.norm(np.diff(f.points_ref, axis=0), axis=1)
+        assert seg.max() <= 0.5 * MeshSizing().wall_size(d) + 1e-9
+        assert f.length == pytest.approx(analytic.fibre_length(d), rel=1e-3)
+        x, r, _ = bd.to_meridian(f.points_ref)
+        assert np.allclose(r, d.r_fibre(x))
+
+
+def test_report(wm):
+    r = wm.report
+    d = wm.design
+    assert r.n_nodes == wm.mesh.n_nodes and r.n_elements == wm.mesh.n_elements
+    assert abs(r.volume_error) < 5e-3 and abs(r.cavity_area_error) < 1e-2
+    assert r.quality_min > 0.05 and r.jacobian_ratio_min > 0.25
+    assert r.elements_through_wall >= 3
+    assert r.wall_layers > 1.5
+    assert r.method.startswith("template:")
+    assert r.volume_analytic == pytest.approx(analytic.solid_volume(d))
+    assert set(r.as_dict()) >= {"n_nodes", "volume_error", "elements_through_wall", "quality_min"}
+
+
+def test_save_load_roundtrip(wm, tmp_path):
+    p = wm.save(tmp_path / "m.npz")
+    back = WhiskerMesh.load(p)
+    assert np.array_equal(back.mesh.points, wm.mesh.points)
+    assert np.array_equal(back.mesh.cells, wm.mesh.cells)
+    assert back.design == wm.design and back.report == wm.report and back.sizing == wm.sizing
+    for k in wm.face_sets:
+        assert np.array_equal(back.face_sets[k], wm.face_sets[k])
+        assert np.array_equal(back.node_sets[k], wm.node_sets[k])
+    for a, b in zip(back.fibres, wm.fibres):
+        assert np.array_equal(a.local_coords, b.local_coords) and np.array_equal(a.host_elements, b.host_elements)
+
+
+def test_template_path_is_deterministic():
+    d = WhiskerDesign(alpha_deg=4.1, l=11.0, t=2.7)
+    a = build_mesh(d, method="template")
+    b = build_mesh(d, method="template")
+    assert np.array_equal(a.mesh.points, b.mesh.points) and np.array_equal(a.mesh.cells, b.mesh.cells)
+
+
+def test_cache(tmp_path):
+    d = WhiskerDesign(alpha_deg=3.0, t=4.0, l=12.0, trim=5.0)
+    a = build_mesh(d, method="template", cache_dir=tmp_path)
+    files = list(tmp_path.glob("*.npz"))
+    assert len(files) == 1
+    b = build_mesh(d, method="template", cache_dir=tmp_path)
+    assert np.array_equal(a.mesh.points, b.mesh.points) and b.report == a.report
+
+
+def test_map_takes_surfaces_onto_surfaces():
+    tpl = load_templates()[0]
+    src = tpl.design
+    dst = WhiskerDesign(alpha_deg=5.7, l=10.5, t=2.2, trim=8.0)
+    rng = np.random.default_rng(0)
+    th = rng.uniform(0, 2 * np.pi, 200)
+
+    def pts(x, r):
+        return np.stack([x, r * np.cos(th), r * np.sin(th)], axis=1)
+
+    x = rng.uniform(src.c, src.l, 200)
+    m = map_points(src, dst, pts(x, src.r_inner(x)))
+    xm, rm, _ = bd.to_meridian(m)
+    assert np.allclose(rm, dst.r_inner(xm)) and (xm >= dst.c - 1e-12).all() and (xm <= dst.l + 1e-12).all()
+    x = rng.uniform(0, src.length, 200)
+    m = map_points(src, dst, pts(x, src.r_outer(x)))
+    xm, rm, _ = bd.to_meridian(m)
+    assert np.allclose(rm, dst.r_outer(xm)) and xm.max() <= dst.length + 1e-12
+    r = rng.uniform(0, src.r_inner(src.c), 200)
+    m = map_points(src, dst, pts(np.full(200, src.c), r))
+    xm, rm, _ = bd.to_meridian(m)
+    assert np.allclose(xm, dst.c) and (rm <= dst.r_inner(dst.c) + 1e-12).all()
+
+
+def test_fast_path_100_random_designs_in_the_ga_box():
+    rng = np.random.default_rng(2024)
+    worst_vol, worst_area, worst_q = 0.0, 0.0, 1.0
+    for _ in range(100):
+        d = WhiskerDesign(
+            alpha_deg=rng.uniform(2.5, 6.0),
+            l=rng.uniform(10.0, 15.0),
+            t=rng.uniform(2.0, 6.0),
+            trim=float(rng.choice([0.0, rng.uniform(5.0, 10.0)])),
+        )
+        wm = build_mesh(d, method="template")
+        r = wm.report
+        worst_vol = max(worst_vol, abs(r.volume_error))
+        worst_area = max(worst_area, abs(r.cavity_area_error))
+        worst_q = min(worst_q, r.quality_min)
+        assert (jacobian_determinants(wm.mesh.points, wm.mesh.cells, tet_rule(2).points) > 0).all()
+        assert r.elements_through_wall >= 3
+    assert worst_vol <= 5e-3 and worst_area <= 1e-2 and worst_q > 0.05
+
+
+def test_template_refuses_absolute_sizing():
+    with pytest.raises(TemplateError):
+        build_mesh(WhiskerDesign(), MeshSizing(h_wall=0.9), method="template")
+
+
+def test_invalid_design_refused_before_meshing():
+    with pytest.raises(InvalidDesignError, match="tip radius"):
+        build_mesh(WhiskerDesign(alpha_deg=9.0), method="fresh")
+
+
+def test_radius_ratio_of_regular_tet_is_one():
+    s = np.sqrt(2.0)
+    P = np.array([[1, 0, -1 / s], [-1, 0, -1 / s], [0, 1, 1 / s], [0, -1, 1 / s]], float)
+    t = np.array([[0, 1, 2, 3]])
+    if signed_volumes_linear(P, t)[0] < 0:
+        t = t[:, [0, 2, 1, 3]]
+    assert radius_ratio(P, t)[0] == pytest.approx(1.0)

@@ -1,0 +1,362 @@
+"""The simulated experiment: pressurise, then deflect, reading the gauge (SPEC §5).
+
+Step 1, pressurise
+    Base face fixed (all components), follower pressure Q on every cavity face, fibres
+    embedded as trusses. Skipped when Q = 0 (the state is then the reference state).
+    Outputs the axial extension Δl(Q) (mean axial displacement of the tip face), the new
+    length L_Q = L + Δl and the radial growth at mid-chamber (mean radial displacement of
+    the outer surface nodes within ±0.5 mm of x = (c + l)/2).
+
+Step 2, deflect
+    The contact is modelled as a *band* of nodes whose current axial position after
+    step 1 lies within ``band_width`` of the contact point x = a·L_Q (for a = 1 the last
+    ``band_width`` of the whisker). The band's y-displacement is prescribed (pushed by δ
+    in −y from its pressurised position), its x and z displacements are free, so the
+    section may slide axially and rotate under the edge: a frictionless edge whose local
+    indentation is ignored, as the thesis neglected the contact's lateral slip. The
+    band's width changes the reading little (measured in tests/test_scene.py and
+    benchmarks/bench_scene.py).
+
+Gauge
+    See :mod:`whisker_opt.gauge`; it is zeroed at contact onset.
+
+Only gauge quantities are evaluated per increment; full states are kept only when asked
+(``keep_states=True``), e.g. for VTU output.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+
+from fem.loads import LoadState
+from fem.material import NeoHookean
+from fem.problem import Dirichlet, EmbeddedTrusses, FollowerPressure, Problem
+from fem.state import State
+from fem.stepping import SolveOptions, solve_path
+from geometry.design import WhiskerDesign
+from geometry.mesh import MeshSizing, WhiskerMesh, build_mesh
+from whisker_opt.gauge import GaugeGeometry, GaugeReader, gauge_points
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class SceneSpec:
+    """Everything that determines one scene's result (hashable, so it keys the memo).
+
+    Attributes
+    ----------
+    design : WhiskerDesign
+        Geometry, including the trim (the whisker's length is ``design.length``).
+    Q : float
+        Chamber pressure [MPa], >= 0.
+    contact_ratio : float
+        a in (0, 1]; the contact is at x = a·L_Q.
+    delta_max : float
+        Final deflection [mm].
+    c10, d1 : float
+        Neo-Hookean constants [MPa], [1/MPa].
+    calibration : float
+        Gauge factor ξ [-].
+    band_width : float
+        Axial width of the contact band [mm].
+    n_pressure_steps, n_deflection_steps : int
+        Solved (reported) load levels in each step; the solver may substep between them.
+    sizing : MeshSizing
+    mesh_method : str
+        'auto' | 'fresh' | 'template'.
+    solve_options : SolveOptions
+    """
+
+    design: WhiskerDesign
+    Q: float = 0.0
+    contact_ratio: float = 1.0
+    delta_max: float = 5.0
+    c10: float = 0.14
+    d1: float = 0.0
+    calibration: float = 3.9
+    band_width: float = 1.0
+    n_pressure_steps: int = 2
+    n_deflection_steps: int = 5
+    sizing: MeshSizing = field(default_factory=MeshSizing)
+    mesh_method: str = "auto"
+    solve_options: SolveOptions = field(default_factory=SolveOptions)
+
+    def __post_init__(self) -> None:
+        checks = [
+            ("Q", self.Q, self.Q >= 0, ">= 0 MPa"),
+            ("contact_ratio", self.contact_ratio, 0 < self.contact_ratio <= 1, "in (0, 1]"),
+            ("delta_max", self.delta_max, self.delta_max > 0, "> 0 mm"),
+            ("band_width", self.band_width, self.band_width > 0, "> 0 mm"),
+            ("n_pressure_steps", self.n_pressure_steps, self.n_pressure_steps >= 1, ">= 1"),
+            ("n_deflection_steps", self.n_deflection_steps, self.n_deflection_steps >= 1, ">= 1"),
+        ]
+        for name, value, ok, allowed in checks:
+            if not ok:
+                raise ValueError(f"SceneSpec.{name}={value!r}: must be {allowed}")
+
+
+@dataclass(frozen=True)
+class SceneResult:
+    """Outputs of one scene.
+
+    Attributes
+    ----------
+    delta : ndarray, shape (k + 1,)
+        Solved deflections [mm], starting at 0.
+    eps_line, eps_centroid : ndarray, shape (k + 1,)
+        Calibrated gauge readings (line and thesis-centroid variants) [-].
+    delta_l : float
+        Axial extension of the tip after pressurisation [mm].
+    length_q : float
+        Whisker length after pressurisation, L_Q [mm].
+    radial_growth : float
+        Mean radial displacement of the outer surface at mid-chamber [mm].
+    reports : tuple
+        Solver step reports (pressurise, then deflect).
+    timings : dict
+        Seconds spent in 'mesh', 'setup', 'pressurise', 'deflect', 'readout'.
+    mesh : WhiskerMesh or None
+    states : dict or None
+        'pressurised' and 'deflected' :class:`fem.state.State` when kept.
+    """
+
+    spec: SceneSpec
+    delta: np.ndarray
+    eps_line: np.ndarray
+    eps_centroid: np.ndarray
+    delta_l: float
+    length_q: float
+    radial_growth: float
+    reports: tuple
+    timings: dict
+    mesh: WhiskerMesh | None = None
+    states: dict | None = None
+
+    def curve(self, delta: np.ndarray, variant: str = "line") -> np.ndarray:
+        """Gauge reading at arbitrary deflections by a cubic spline through the solved points.
+
+        The spline is 'not-a-knot' with >= 4 points, otherwise linear interpolation. Its
+        error against densely solved increments is measured in benchmarks/bench_scene.py.
+        """
+        y = self.eps_line if variant == "line" else self.eps_centroid
+        delta = np.asarray(delta, dtype=float)
+        if np.any(delta < -1e-12) or np.any(delta > self.delta[-1] * (1 + 1e-9)):
+            raise ValueError(
+                f"curve: deflections must lie in [0, {self.delta[-1]}] mm, got "
+                f"[{delta.min()}, {delta.max()}]"
+            )
+        if len(self.delta) >= 4:
+            return CubicSpline(self.delta, y)(delta)
+        return np.interp(delta, self.delta, y)
+
+
+def make_problem(wm: WhiskerMesh, spec: SceneSpec, band_nodes: np.ndarray | None) -> Problem:
+    """FE problem of the scene: fixed base, cavity pressure (if Q > 0), fibres, contact band."""
+    d = spec.design
+    dirichlet = [Dirichlet(wm.node_sets["base"], (0, 1, 2))]
+    if band_nodes is not None:
+        dirichlet.append(Dirichlet(band_nodes, (1,)))
+    pressures = (FollowerPressure(wm.face_sets["cavity"]),) if spec.Q > 0 else ()
+    area = np.pi * d.fibre_diameter**2 / 4.0
+    trusses = tuple(
+        EmbeddedTrusses(f.host_elements, f.local_coords, f.segments, d.fibre_E, area) for f in wm.fibres
+    )
+    return Problem(
+        mesh=wm.mesh,
+        material=NeoHookean(spec.c10, spec.d1),
+        dirichlet=tuple(dirichlet),
+        pressures=pressures,
+        trusses=trusses,
+    )
+
+
+def locate_gauge(wm: WhiskerMesh, design: WhiskerDesign, n: int = 4) -> GaugeGeometry:
+    """Host elements and local coordinates of the gauge's Gauss points and its centre."""
+    from geometry.locate import PointLocator
+
+    pts, w, tangent = gauge_points(design.x_ss, design.e, design.r_outer, design.alpha_deg, n)
+    centre = np.array([[design.x_ss + 0.5 * design.e, design.r_outer(design.x_ss + 0.5 * design.e), 0.0]])
+    loc = PointLocator(wm.mesh.points, wm.mesh.cells).locate(np.vstack([pts, centre]))
+    if not np.all(loc.inside):
+        raise ValueError(f"gauge points not inside the mesh (residuals {loc.residual})")
+    elems, xi = loc.host_elements, loc.local_coords
+    return GaugeGeometry(elems[:n], xi[:n], w, tangent, int(elems[n]))
+
+
+def contact_band(wm: WhiskerMesh, u: np.ndarray, x_contact: float, width: float, at_tip: bool) -> np.ndarray:
+    """Nodes whose current axial position lies in the contact band."""
+    xc = wm.mesh.points[:, 0] + u[:, 0]  # (n_nodes,)
+    if at_tip:
+        sel = xc >= x_contact - width
+    else:
+        sel = np.abs(xc - x_contact) <= 0.5 * width
+    nodes = np.nonzero(sel)[0]
+    if len(nodes) == 0:
+        raise ValueError(f"contact band of width {width} mm at x = {x_contact:.3f} mm holds no node")
+    return nodes
+
+
+def mid_chamber_radial_growth(wm: WhiskerMesh, u: np.ndarray) -> float:
+    """Mean radial displacement of outer-surface nodes within ±0.5 mm of mid-chamber."""
+    d = wm.design
+    X = wm.mesh.points
+    outer = wm.node_sets["outer"]
+    xm = 0.5 * (d.c + d.l)
+    sel = outer[np.abs(X[outer, 0] - xm) <= 0.5]
+    r = np.linalg.norm(X[sel, 1:], axis=1)  # (k,)
+    ur = np.einsum("ki,ki->k", u[sel, 1:], X[sel, 1:]) / r  # (k,)
+    return float(ur.mean())
+
+
+class SceneRunner:
+    """Runs scenes, with a memo of results and of meshes.
+
+    A memo entry is keyed by the whole :class:`SceneSpec`, so an identical
+    (design, trim, Q, a, fidelity) is solved once per runner.
+
+    Parameters
+    ----------
+    mesh_cache_dir : path or None
+        Passed to :func:`geometry.mesh.build_mesh` (on-disk mesh cache).
+    memo_size : int
+        Maximum number of memoised results (oldest dropped first).
+    """
+
+    def __init__(self, mesh_cache_dir=None, memo_size: int = 256) -> None:
+        self.mesh_cache_dir = mesh_cache_dir
+        self.memo_size = memo_size
+        self._memo: dict[SceneSpec, SceneResult] = {}
+        self._meshes: dict[tuple, WhiskerMesh] = {}
+        self.memo_hits = 0
+
+    def mesh_for(self, spec: SceneSpec) -> WhiskerMesh:
+        key = (spec.design, spec.sizing, spec.mesh_method)
+        wm = self._meshes.get(key)
+        if wm is None:
+            wm = build_mesh(spec.design, spec.sizing, method=spec.mesh_method, cache_dir=self.mesh_cache_dir)
+            if len(self._meshes) >= 8:
+                self._meshes.pop(next(iter(self._meshes)))
+            self._meshes[key] = wm
+        return wm
+
+    def run(self, spec: SceneSpec, keep_states: bool = False) -> SceneResult:
+        """Solve one scene (or return the memoised result)."""
+        hit = self._memo.get(spec)
+        if hit is not None and (hit.states is not None or not keep_states):
+            self.memo_hits += 1
+            return hit
+        res = run_scene(spec, self.mesh_for(spec), keep_states=keep_states)
+        if len(self._memo) >= self.memo_size:
+            self._memo.pop(next(iter(self._memo)))
+        self._memo[spec] = res
+        return res
+
+
+def run_scene(spec: SceneSpec, wm: WhiskerMesh | None = None, keep_states: bool = False) -> SceneResult:
+    """Pressurise-then-deflect one whisker and read its gauge.
+
+    Parameters
+    ----------
+    spec : SceneSpec
+    wm : WhiskerMesh, optional
+        A mesh of ``spec.design``; built when not given.
+    keep_states : bool
+        Keep the pressurised and final states (for VTU output).
+
+    Raises
+    ------
+    geometry.design.InvalidDesignError
+        Impossible geometry.
+    fem.stepping.SolveFailed
+        The nonlinear solve did not converge (carries the report).
+    """
+    timings: dict[str, float] = {}
+    t0 = time.perf_counter()
+    design = spec.design
+    design.validate()
+    if wm is None:
+        wm = build_mesh(design, spec.sizing, method=spec.mesh_method)
+    timings["mesh"] = time.perf_counter() - t0
+
+    t = time.perf_counter()
+    gauge = locate_gauge(wm, design)
+    reader = GaugeReader(wm.mesh, gauge, spec.calibration)
+    base = wm.node_sets["base"]
+    zeros_base = np.zeros((len(base), 3))
+    timings["setup"] = time.perf_counter() - t
+    reports = []
+
+    # ---- step 1: pressurise (skipped when Q = 0)
+    t = time.perf_counter()
+    prob1 = make_problem(wm, spec, None)
+    state = State.zero(prob1)
+    if spec.Q > 0:
+        fr = tuple(np.linspace(0, 1, spec.n_pressure_steps + 1)[1:])
+        states, rep = solve_path(
+            prob1,
+            state,
+            LoadState((0.0,), (zeros_base,)),
+            LoadState((spec.Q,), (zeros_base,)),
+            fractions=fr,
+            options=spec.solve_options,
+        )
+        state = states[-1]
+        reports.extend(rep)
+    u1 = state.u
+    tip = wm.node_sets["tip"]
+    delta_l = float(u1[tip, 0].mean())
+    length_q = design.length + delta_l
+    radial = mid_chamber_radial_growth(wm, u1) if spec.Q > 0 else 0.0
+    timings["pressurise"] = time.perf_counter() - t
+
+    # ---- step 2: deflect
+    t = time.perf_counter()
+    at_tip = spec.contact_ratio >= 1.0
+    band = contact_band(wm, u1, spec.contact_ratio * length_q, spec.band_width, at_tip)
+    prob2 = make_problem(wm, spec, band)
+    uy0 = u1[band, 1:2]  # (k, 1)
+    pq = (spec.Q,) if spec.Q > 0 else ()
+    load0 = LoadState(pq, (zeros_base, uy0))
+    load1 = LoadState(pq, (zeros_base, uy0 - spec.delta_max))
+    reader.zero(u1)
+    fractions = tuple(np.linspace(0, 1, spec.n_deflection_steps + 1)[1:])
+    readings = [(0.0, 0.0)]
+    t_read = [0.0]
+
+    def _read(fraction: float, st: State) -> None:
+        tr = time.perf_counter()
+        readings.append(reader.read(st.u))
+        t_read[0] += time.perf_counter() - tr
+
+    states2, rep2 = solve_path(prob2, state, load0, load1, fractions=fractions, options=spec.solve_options, callback=_read)
+    reports.extend(rep2)
+    timings["deflect"] = time.perf_counter() - t - t_read[0]
+    timings["readout"] = t_read[0]
+    arr = np.array(readings)
+    delta = np.concatenate([[0.0], np.asarray(fractions) * spec.delta_max])
+    kept = {"pressurised": state, "deflected": states2[-1]} if keep_states else None
+    logger.debug("scene %s: %s", design, timings)
+    return SceneResult(
+        spec=spec,
+        delta=delta,
+        eps_line=arr[:, 0],
+        eps_centroid=arr[:, 1],
+        delta_l=delta_l,
+        length_q=length_q,
+        radial_growth=radial,
+        reports=tuple(reports),
+        timings=timings,
+        mesh=wm if keep_states else None,
+        states=kept,
+    )
+
+
+def with_design(spec: SceneSpec, **changes) -> SceneSpec:
+    """A copy of ``spec`` whose design has ``changes`` applied (e.g. ``trim=5``)."""
+    return replace(spec, design=replace(spec.design, **changes))
