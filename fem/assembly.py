@@ -1,0 +1,237 @@
+"""Vectorised residual/tangent assembly of the mixed u–p total-Lagrangian problem.
+
+Discrete potential (P2 displacement, P0 element pressure p_e)::
+
+    Π(u, p) = Σ_e [ ∫_e W_iso(F) dV + p_e ∫_e (J − 1) dV − (D1/4) p_e² V_e ]
+              + Ψ_fibres(u) − W_ext(u)
+
+Stationarity gives (G = F⁻¹, ∂J/∂F = J Gᵀ)::
+
+    R_u = ∫ (P_iso + p J G^T) : ∇_X δu dV + R_fibres + R_pressure
+    R_p = ∫_e (J − 1) dV − (D1/2) p_e V_e
+
+For D1 > 0 eliminating p_e gives p_e = 2(J̄_e − 1)/D1 with J̄_e the element mean of
+J, i.e. the energy (1/D1)(J̄ − 1)² of a mean-dilatation element; D1 = 0 enforces
+∫_e (J − 1) = 0. The P2/P0 pair does not lock (tests/test_fem_locking.py).
+Simo, Taylor & Pister (1985); Bonet & Wood (2008) §8.6.
+
+Tangent of the volumetric term: ∂(p J G_Ji)/∂F_kL = p J (G_Ji G_Lk − G_Jk G_Li).
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+
+from fem import element
+from fem.pressure import PressureKernel
+from fem.problem import Problem
+from fem.quadrature import tet_rule
+from fem.sparsity import Pattern, build_pattern
+from fem.truss import TrussKernel
+
+logger = logging.getLogger(__name__)
+
+
+class InvertedElements(ArithmeticError):
+    """Some quadrature point has det F ≤ 0 (or the state is not finite)."""
+
+    def __init__(self, n_bad: int, min_j: float):
+        super().__init__(f"{n_bad} quadrature points with det F <= 0 (min J = {min_j:.3g})")
+        self.n_bad = n_bad
+        self.min_j = min_j
+
+
+class Topology:
+    """Everything about a problem that does not depend on the material or the loads.
+
+    Shared between problems that differ only in Dirichlet sets or material (see
+    :func:`topology_for`): reference gradients, quadrature weights, the sparsity
+    pattern and the scatter maps of pressures and fibres.
+    """
+
+    def __init__(self, problem: Problem) -> None:
+        mesh = problem.mesh
+        rule = tet_rule(problem.quadrature_degree)
+        dN = element.shape_gradients(rule.points)  # (n_qp, 10, 3)
+        Xe = mesh.points[mesh.cells]  # (n_el, 10, 3)
+        J0 = np.einsum("eai,qaj->eqij", Xe, dN)  # (n_el, n_qp, 3, 3)  dX_i/dxi_j
+        det0 = np.linalg.det(J0)  # (n_el, n_qp)
+        if np.any(det0 <= 0):
+            bad = int(np.sum(np.any(det0 <= 0, axis=1)))
+            raise ValueError(f"mesh: {bad} elements with non-positive Jacobian at a quadrature point")
+        inv0 = np.linalg.inv(J0)  # (n_el, n_qp, 3, 3)
+        self.dNdX = np.einsum("qaj,eqji->eqai", dN, inv0)  # (n_el, n_qp, 10, 3)
+        self.wdet = rule.weights[None, :] * det0  # (n_el, n_qp)
+        self.vol = self.wdet.sum(axis=1)  # (n_el,)
+        self.cells = mesh.cells
+        self.n_nodes = mesh.n_nodes
+        self.n_el = mesh.n_elements
+        self.pressure_kernels = [PressureKernel(pr.faces, problem.face_quadrature_degree) for pr in problem.pressures]
+        self.truss_kernels = [
+            TrussKernel(mesh.points, mesh.cells, t.host_elements, t.local_coords, t.segments, t.youngs_modulus, t.area)
+            for t in problem.trusses
+        ]
+        groups = [pk.faces for pk in self.pressure_kernels] + [tk.nodes for tk in self.truss_kernels]
+        self.pattern: Pattern = build_pattern(mesh.n_nodes, mesh.cells, groups)
+        pat = self.pattern
+        self.pressure_pos = [
+            pat.node_block_positions(pk.faces[:, :, None], pk.faces[:, None, :]).transpose(0, 1, 3, 2, 4)
+            for pk in self.pressure_kernels
+        ]  # each (n_f, 6, 3, 6, 3)
+        self.truss_pos = [
+            pat.node_block_positions(tk.nodes[:, :, None], tk.nodes[:, None, :]).transpose(0, 1, 3, 2, 4)
+            for tk in self.truss_kernels
+        ]  # each (n_seg, 20, 3, 20, 3)
+        self.truss_dofs = [(3 * tk.nodes[:, :, None] + np.arange(3)).reshape(len(tk.nodes), -1) for tk in self.truss_kernels]
+        self.face_dofs = [(3 * pk.faces[:, :, None] + np.arange(3)).reshape(len(pk.faces), -1) for pk in self.pressure_kernels]
+        self.edofs = (3 * mesh.cells[:, :, None] + np.arange(3)).reshape(self.n_el, 30)  # (n_el, 30)
+
+
+def topology_key(problem: Problem) -> tuple:
+    return (
+        id(problem.mesh),
+        tuple(id(p.faces) for p in problem.pressures),
+        tuple(id(t.segments) for t in problem.trusses),
+        problem.quadrature_degree,
+        problem.face_quadrature_degree,
+    )
+
+
+def topology_for(problem: Problem) -> Topology:
+    """The (cached) :class:`Topology` of ``problem``.
+
+    The cache lives in the problem (and is shared by ``dataclasses.replace`` copies,
+    which keep the same mesh/face/fibre arrays), never at module level.
+    """
+    key = ("topology",) + topology_key(problem)
+    topo = problem._cache.get(key)
+    if topo is None:
+        topo = Topology(problem)
+        # keep referenced arrays alive so the id()-based key stays valid
+        problem._cache[key] = topo
+        problem._cache[key + ("refs",)] = (problem.mesh, problem.pressures, problem.trusses)
+    return topo
+
+
+class Assembler:
+    """Residual, tangent and energy of a :class:`Problem` at a state.
+
+    Parameters
+    ----------
+    problem : Problem
+    """
+
+    def __init__(self, problem: Problem) -> None:
+        self.problem = problem
+        self.topo = topology_for(problem)
+        self.pattern = self.topo.pattern
+
+    # ------------------------------------------------------------------ kinematics
+    def deformation(self, u: np.ndarray):
+        """F, J, G = F⁻¹ at every quadrature point; raises InvertedElements if J ≤ 0."""
+        ue = u[self.topo.cells]  # (n_el, 10, 3)
+        F = np.einsum("eai,eqaJ->eqiJ", ue, self.topo.dNdX)  # (n_el, n_qp, 3, 3)
+        F[..., 0, 0] += 1.0
+        F[..., 1, 1] += 1.0
+        F[..., 2, 2] += 1.0
+        J = np.linalg.det(F)  # (n_el, n_qp)
+        if not np.all(np.isfinite(J)) or np.any(J <= 0):
+            bad = int(np.sum(~(J > 0)))
+            raise InvertedElements(bad, float(np.nanmin(J)) if np.any(np.isfinite(J)) else float("nan"))
+        G = np.linalg.inv(F)  # (n_el, n_qp, 3, 3)
+        return F, J, G
+
+    def min_jacobian(self, u: np.ndarray) -> float:
+        """Smallest det F over all quadrature points (may be ≤ 0)."""
+        ue = u[self.topo.cells]
+        F = np.einsum("eai,eqaJ->eqiJ", ue, self.topo.dNdX) + np.eye(3)
+        return float(np.min(np.linalg.det(F)))
+
+    # ------------------------------------------------------------------ energy
+    def energy(self, u: np.ndarray, p: np.ndarray, pressures=()) -> float:
+        """Π(u, p) without the follower-pressure work (non-conservative in general)."""
+        mat = self.problem.material
+        F, J, G = self.deformation(u)
+        W = mat.energy(F)  # (n_el, n_qp)
+        Pi = np.sum(self.topo.wdet * (W + p[:, None] * (J - 1.0)))
+        Pi -= 0.25 * mat.d1 * np.sum(p**2 * self.topo.vol)
+        x = self.problem.mesh.points + u
+        for tk in self.topo.truss_kernels:
+            Pi += tk.energy(x)
+        return float(Pi)
+
+    # ------------------------------------------------------------------ residual and tangent
+    def evaluate(self, u: np.ndarray, p: np.ndarray, pressures: tuple[float, ...], need_tangent: bool = True):
+        """Residual R (n_dofs,) and tangent data (nnz,) on :attr:`pattern`.
+
+        Parameters
+        ----------
+        u : ndarray (n_nodes, 3)
+        p : ndarray (n_el,)
+        pressures : tuple of float
+            Follower-pressure magnitudes, one per ``problem.pressures``.
+        need_tangent : bool
+
+        Returns
+        -------
+        R : ndarray (n_dofs,)
+        data : ndarray (nnz,) or None
+        min_j : float
+        """
+        topo = self.topo
+        mat = self.problem.material
+        n_el = topo.n_el
+        F, J, G = self.deformation(u)
+        P_iso, A = mat.stress_tangent(F, G, J, need_tangent)  # (n_el,n_qp,3,3), (n_el,n_qp,3,3,3,3)
+        Gt = np.swapaxes(G, -1, -2)  # (n_el, n_qp, 3, 3) [i, J] = G_Ji
+        pJ = p[:, None] * J  # (n_el, n_qp)
+        P = P_iso + pJ[..., None, None] * Gt  # (n_el, n_qp, 3, 3)
+        w = topo.wdet  # (n_el, n_qp)
+        dN = topo.dNdX  # (n_el, n_qp, 10, 3)
+        Re = np.einsum("eq,eqiJ,eqaJ->eai", w, P, dN)  # (n_el, 10, 3)
+        R = np.zeros(self.pattern.n_dofs)
+        R[: 3 * topo.n_nodes] = np.bincount(topo.edofs.ravel(), Re.ravel(), minlength=3 * topo.n_nodes)
+        R[3 * topo.n_nodes:] = np.sum(w * (J - 1.0), axis=1) - 0.5 * mat.d1 * p * topo.vol
+
+        x = self.problem.mesh.points + u
+        pres_out = []
+        for pk, dofs, val in zip(topo.pressure_kernels, topo.face_dofs, pressures):
+            Rf, Kf = pk.evaluate(x, val, need_tangent)
+            R[: 3 * topo.n_nodes] += np.bincount(dofs.ravel(), Rf.ravel(), minlength=3 * topo.n_nodes)
+            pres_out.append(Kf)
+        truss_out = []
+        for tk, dofs in zip(topo.truss_kernels, topo.truss_dofs):
+            Rt, Kt = tk.evaluate(x, need_tangent)
+            R[: 3 * topo.n_nodes] += np.bincount(dofs.ravel(), Rt.ravel(), minlength=3 * topo.n_nodes)
+            truss_out.append(Kt)
+        min_j = float(J.min())
+        if not need_tangent:
+            return R, None, min_j
+
+        # volumetric geometric part added to the material tangent
+        A = A + pJ[..., None, None, None, None] * (
+            np.einsum("eqJi,eqLk->eqiJkL", G, G) - np.einsum("eqJk,eqLi->eqiJkL", G, G)
+        )  # (n_el, n_qp, 3, 3, 3, 3)
+        nq = w.shape[1]
+        # T[e,q,a,i,k,L] = Σ_J dN[a,J] A[i,J,k,L]
+        A2 = A.transpose(0, 1, 3, 2, 4, 5).reshape(n_el, nq, 3, 27)  # (n_el, n_qp, J, i·k·L)
+        T = np.matmul(dN, A2).reshape(n_el, nq, 10, 3, 3, 3)  # (n_el, n_qp, a, i, k, L)
+        dNw = dN * w[..., None, None]  # (n_el, n_qp, 10, 3)
+        Ke = np.matmul(T.reshape(n_el, nq, 90, 3), np.swapaxes(dNw, -1, -2))  # (n_el, n_qp, a·i·k, b)
+        Ke = Ke.sum(axis=1).reshape(n_el, 10, 3, 3, 10).transpose(0, 1, 2, 4, 3)  # (n_el, a, i, b, k)
+        Kup = np.einsum("eq,eqJi,eqaJ->eai", w * J, G, dN).reshape(n_el, 30)  # (n_el, 30)
+        Kpp = -0.5 * mat.d1 * topo.vol  # (n_el,)
+
+        pat = self.pattern
+        parts_idx = [pat.elem_uu.ravel(), pat.elem_up.ravel(), pat.elem_pu.ravel(), pat.elem_pp]
+        parts_val = [Ke.reshape(n_el, 30, 30).ravel(), Kup.ravel(), Kup.ravel(), Kpp]
+        for pos, Kf in zip(topo.pressure_pos, pres_out):
+            parts_idx.append(pos.ravel())
+            parts_val.append(Kf.ravel())
+        for pos, Kt in zip(topo.truss_pos, truss_out):
+            parts_idx.append(pos.ravel())
+            parts_val.append(Kt.ravel())
+        data = np.bincount(np.concatenate(parts_idx), np.concatenate(parts_val), minlength=pat.nnz)
+        return R, data, min_j

@@ -1,0 +1,185 @@
+"""The boundary-value problem: mesh, material, constraints and load definitions.
+
+Load *magnitudes* (pressures, prescribed displacement values) are not part of a
+:class:`Problem`; they live in :class:`fem.loads.LoadState`, so one problem (and its
+sparsity pattern and factorisation analysis) serves a whole load path.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from fem.material import IsochoricI1Material
+from fem.mesh import TetMesh
+
+
+class ProblemError(ValueError):
+    """Inconsistent problem definition (names the field and the offending value)."""
+
+
+@dataclass(frozen=True)
+class Dirichlet:
+    """Prescribed displacement components on a node set.
+
+    Parameters
+    ----------
+    nodes : ndarray (k,) int
+        Node indices.
+    components : tuple of int
+        Which of x=0, y=1, z=2 are prescribed (the others stay free).
+    name : str
+        Label for reports.
+    """
+
+    nodes: np.ndarray
+    components: tuple[int, ...] = (0, 1, 2)
+    name: str = "dirichlet"
+
+    def __post_init__(self) -> None:
+        nodes = np.unique(np.asarray(self.nodes, dtype=np.int64).ravel())
+        object.__setattr__(self, "nodes", nodes)
+        comps = tuple(int(c) for c in self.components)
+        if not comps or any(c not in (0, 1, 2) for c in comps) or len(set(comps)) != len(comps):
+            raise ProblemError(f"Dirichlet({self.name}).components={self.components!r}: allowed distinct values in (0, 1, 2)")
+        object.__setattr__(self, "components", comps)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """Shape of the value array a load state supplies: (n_nodes, n_components)."""
+        return (len(self.nodes), len(self.components))
+
+    def dofs(self) -> np.ndarray:
+        """Global displacement DOF indices (3·node + component), shape (k, n_comp)."""
+        return 3 * self.nodes[:, None] + np.asarray(self.components)[None, :]
+
+
+@dataclass(frozen=True)
+class FollowerPressure:
+    """A pressure that follows the deforming surface (traction t = −p n da).
+
+    Parameters
+    ----------
+    faces : ndarray (n_f, 6) int
+        6-node triangles (corners a, b, c, then mid-edges ab, bc, ca) ordered so
+        that (b − a) × (c − a) points out of the solid. A positive pressure pushes
+        into the solid, like the gas in an inflated cavity.
+    name : str
+    """
+
+    faces: np.ndarray
+    name: str = "pressure"
+
+    def __post_init__(self) -> None:
+        f = np.ascontiguousarray(self.faces, dtype=np.int64)
+        if f.ndim != 2 or f.shape[1] != 6:
+            raise ProblemError(f"FollowerPressure({self.name}).faces: shape {f.shape}, expected (n_faces, 6)")
+        object.__setattr__(self, "faces", f)
+
+
+@dataclass(frozen=True)
+class EmbeddedTrusses:
+    """Truss fibres embedded in the host tets (no nodes of their own).
+
+    Each fibre point is interpolated from its host element, x = Σ N_a(ξ) x_a. The
+    segments are linear elastic in Green–Lagrange/2nd Piola–Kirchhoff form,
+    S = E·E_GL, stored energy ½ E A L0 E_GL² per segment.
+
+    Parameters
+    ----------
+    host_elements : ndarray (n_pts,) int
+    local_coords : ndarray (n_pts, 3)
+        ξ of each point in its host element.
+    segments : ndarray (n_seg, 2) int
+        Pairs of point indices.
+    youngs_modulus : float
+        MPa, > 0.
+    area : float
+        mm², > 0.
+    """
+
+    host_elements: np.ndarray
+    local_coords: np.ndarray
+    segments: np.ndarray
+    youngs_modulus: float
+    area: float
+    name: str = "fibres"
+
+    def __post_init__(self) -> None:
+        he = np.ascontiguousarray(self.host_elements, dtype=np.int64).ravel()
+        xi = np.ascontiguousarray(self.local_coords, dtype=np.float64).reshape(-1, 3)
+        seg = np.ascontiguousarray(self.segments, dtype=np.int64).reshape(-1, 2)
+        if len(he) != len(xi):
+            raise ProblemError(
+                f"EmbeddedTrusses({self.name}): {len(he)} host_elements but {len(xi)} local_coords"
+            )
+        if seg.size and (seg.min() < 0 or seg.max() >= len(he)):
+            raise ProblemError(f"EmbeddedTrusses({self.name}).segments: index outside [0, {len(he) - 1}]")
+        if not (self.youngs_modulus > 0):
+            raise ProblemError(f"EmbeddedTrusses({self.name}).youngs_modulus={self.youngs_modulus!r} must be > 0 MPa")
+        if not (self.area > 0):
+            raise ProblemError(f"EmbeddedTrusses({self.name}).area={self.area!r} must be > 0 mm^2")
+        object.__setattr__(self, "host_elements", he)
+        object.__setattr__(self, "local_coords", xi)
+        object.__setattr__(self, "segments", seg)
+
+
+@dataclass(frozen=True)
+class Problem:
+    """Mesh + material + constraints + load definitions (magnitudes excluded).
+
+    Parameters
+    ----------
+    mesh : TetMesh
+    material : IsochoricI1Material
+    dirichlet : tuple of Dirichlet
+        Their DOFs must not overlap.
+    pressures : tuple of FollowerPressure
+    trusses : tuple of EmbeddedTrusses
+    quadrature_degree : int
+        Degree of the tet rule (2 → 4 points, as C3D10 in Abaqus/CalculiX).
+    """
+
+    mesh: TetMesh
+    material: IsochoricI1Material
+    dirichlet: tuple[Dirichlet, ...] = ()
+    pressures: tuple[FollowerPressure, ...] = ()
+    trusses: tuple[EmbeddedTrusses, ...] = ()
+    quadrature_degree: int = 2
+    face_quadrature_degree: int = 4
+    _cache: dict = field(default_factory=dict, repr=False, compare=False, hash=False)
+
+    def __post_init__(self) -> None:
+        n = self.mesh.n_nodes
+        for d in self.dirichlet:
+            if d.nodes.size and (d.nodes.min() < 0 or d.nodes.max() >= n):
+                raise ProblemError(f"Dirichlet({d.name}).nodes outside [0, {n - 1}]")
+        for pr in self.pressures:
+            if pr.faces.size and (pr.faces.min() < 0 or pr.faces.max() >= n):
+                raise ProblemError(f"FollowerPressure({pr.name}).faces: node index outside [0, {n - 1}]")
+        for tr in self.trusses:
+            if tr.host_elements.size and (tr.host_elements.min() < 0 or tr.host_elements.max() >= self.mesh.n_elements):
+                raise ProblemError(f"EmbeddedTrusses({tr.name}).host_elements outside [0, {self.mesh.n_elements - 1}]")
+        if self.dirichlet:
+            all_dofs = np.concatenate([d.dofs().ravel() for d in self.dirichlet])
+            if len(np.unique(all_dofs)) != len(all_dofs):
+                raise ProblemError("Problem.dirichlet: two Dirichlet sets prescribe the same DOF")
+        if self.quadrature_degree < 2:
+            raise ProblemError(f"Problem.quadrature_degree={self.quadrature_degree} must be >= 2")
+
+    @property
+    def n_u(self) -> int:
+        """Number of displacement DOFs (3 per node)."""
+        return 3 * self.mesh.n_nodes
+
+    @property
+    def n_dofs(self) -> int:
+        """Displacement DOFs plus one pressure per element."""
+        return self.n_u + self.mesh.n_elements
+
+    def constrained_dofs(self) -> np.ndarray:
+        """Sorted prescribed displacement DOFs."""
+        if not self.dirichlet:
+            return np.zeros(0, dtype=np.int64)
+        return np.sort(np.concatenate([d.dofs().ravel() for d in self.dirichlet]))

@@ -1,0 +1,351 @@
+"""Newton–Raphson with line search and automatic load stepping with cut-backs.
+
+Loads (pressures, prescribed displacements) are interpolated linearly between two
+:class:`fem.loads.LoadState` along a load parameter s ∈ [0, 1]. Each requested
+fraction is reached by one or more increments; an increment that diverges, inverts
+an element or exceeds the iteration limit is retried from the last converged state
+with half the step (cut-back); easy increments let the step grow. The first
+iteration of an increment applies the prescribed-displacement increment through the
+tangent (a consistent linear predictor), so the previous converged state is the warm
+start.
+
+Convergence of an increment needs both (Wriggers 2008, §5.1; Abaqus' criteria):
+  * residual: ‖R_u,free‖ ≤ rtol · F_ref + atol (F_ref = the larger of the first
+    residual of the increment and the current reaction/load norm) and
+    ‖R_p‖ ≤ vtol · V (volume constraint);
+  * energy: |Δx · R| ≤ etol · |Δx₀ · R₀| (first iteration of the increment).
+A failed path raises :class:`SolveFailed` carrying the report; a non-converged or
+non-finite state is never returned.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from fem.assembly import Assembler, InvertedElements
+from fem.linsolve import LinearSolverError, make_solver
+from fem.loads import LoadState
+from fem.problem import Problem
+from fem.state import State
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class SolveOptions:
+    """Newton and stepping controls.
+
+    Parameters
+    ----------
+    rtol : float
+        Relative residual tolerance (0, 1).
+    atol : float
+        Absolute residual floor [N].
+    etol : float
+        Relative energy-norm tolerance.
+    vtol : float
+        Volume-constraint tolerance relative to the mesh volume.
+    max_iterations : int
+        Newton iterations per increment before a cut-back.
+    initial_step, min_step, max_step : float
+        Increment sizes as fractions of the whole path.
+    max_cutbacks : int
+        Cut-backs allowed over the whole path.
+    line_search : bool
+        Backtracking on the residual norm (and on inverted elements).
+    linear_solver : str
+        'auto' | 'pardiso' | 'superlu'.
+    """
+
+    rtol: float = 1e-8
+    atol: float = 1e-12
+    etol: float = 1e-14
+    vtol: float = 1e-10
+    max_iterations: int = 20
+    initial_step: float = 1.0
+    min_step: float = 1e-4
+    max_step: float = 1.0
+    max_cutbacks: int = 20
+    line_search: bool = True
+    linear_solver: str = "auto"
+
+    def __post_init__(self) -> None:
+        checks = [("rtol", self.rtol, 0.0, 1.0), ("atol", self.atol, 0.0, 1e6), ("etol", self.etol, 0.0, 1.0),
+                  ("vtol", self.vtol, 0.0, 1.0), ("max_iterations", self.max_iterations, 1, 1000),
+                  ("initial_step", self.initial_step, 1e-9, 1.0), ("min_step", self.min_step, 1e-12, 1.0),
+                  ("max_step", self.max_step, 1e-9, 1.0), ("max_cutbacks", self.max_cutbacks, 0, 1000)]
+        for name, v, lo, hi in checks:
+            if not (lo <= v <= hi):
+                raise ValueError(f"SolveOptions.{name}={v!r} outside the allowed range [{lo}, {hi}]")
+
+
+@dataclass
+class IncrementReport:
+    """One increment: load parameter interval, iterations and residual history."""
+
+    s_start: float
+    s_end: float
+    converged: bool
+    iterations: int = 0
+    residuals: list = field(default_factory=list)
+    energies: list = field(default_factory=list)
+    min_j: float = float("nan")
+    reason: str = ""
+
+
+@dataclass
+class StepReport:
+    """Everything that happened while reaching one requested fraction of the load path."""
+
+    fraction: float
+    increments: list = field(default_factory=list)
+    n_cutbacks: int = 0
+    min_j: float = float("nan")
+    time_assembly: float = 0.0
+    time_factorize: float = 0.0
+    time_solve: float = 0.0
+    time_total: float = 0.0
+    linear_solver: str = ""
+
+    @property
+    def iterations(self) -> int:
+        return sum(i.iterations for i in self.increments)
+
+    @property
+    def n_increments(self) -> int:
+        return sum(1 for i in self.increments if i.converged)
+
+    def as_dict(self) -> dict:
+        d = asdict(self)
+        d["iterations"] = self.iterations
+        d["n_increments"] = self.n_increments
+        return d
+
+    def summary(self) -> str:
+        return (f"s={self.fraction:.4g}: {self.n_increments} increments, {self.iterations} iterations, "
+                f"{self.n_cutbacks} cut-backs, min J={self.min_j:.4g}")
+
+
+class SolveFailed(RuntimeError):
+    """The load path could not be followed; ``report`` holds the step reports so far."""
+
+    def __init__(self, message: str, reports: list[StepReport], last: IncrementReport | None = None):
+        super().__init__(message)
+        self.reports = reports
+        self.last = last
+
+
+class _Constraint:
+    """Elimination of prescribed DOFs by zeroing rows/columns (unit diagonal).
+
+    Keeping the full pattern lets every Dirichlet set share one sparsity pattern and
+    one PARDISO analysis.
+    """
+
+    def __init__(self, problem: Problem, pattern) -> None:
+        self.dofs = problem.constrained_dofs()
+        n = pattern.n_dofs
+        self.is_c = np.zeros(n, dtype=bool)
+        self.is_c[self.dofs] = True
+        rows = np.repeat(np.arange(n), np.diff(pattern.indptr))
+        self.zero_mask = self.is_c[rows] | self.is_c[pattern.indices]
+        self.diag_pos = pattern.diag[self.dofs]
+        self.free_u = ~self.is_c[: problem.n_u]
+        self.n_u = problem.n_u
+
+    def apply(self, data: np.ndarray) -> np.ndarray:
+        d = data.copy()
+        d[self.zero_mask] = 0.0
+        d[self.diag_pos] = 1.0
+        return d
+
+
+def _norms(R: np.ndarray, con: _Constraint):
+    ru = R[: con.n_u][con.free_u]
+    return float(np.linalg.norm(ru)), float(np.linalg.norm(R[con.n_u:])), float(np.linalg.norm(R[: con.n_u][~con.free_u]))
+
+
+def solve_path(problem: Problem, state0: State, load0: LoadState, load1: LoadState,
+               fractions=(1.0,), options: SolveOptions = SolveOptions(), callback=None):
+    """Follow the load path load0 → load1 from ``state0`` and return the states at ``fractions``.
+
+    Parameters
+    ----------
+    problem : Problem
+    state0 : State
+        Converged state under ``load0`` (its prescribed DOFs are overwritten by load0's values).
+    load0, load1 : LoadState
+    fractions : sequence of float
+        Increasing values in (0, 1] at which states are returned (and ``callback`` called).
+    options : SolveOptions
+    callback : callable(fraction, State) or None
+
+    Returns
+    -------
+    states : list of State
+    reports : list of StepReport
+
+    Raises
+    ------
+    SolveFailed
+        When an increment cannot converge within the cut-back limits.
+    """
+    fr = [float(f) for f in fractions]
+    if not fr or any(not (0.0 < f <= 1.0) for f in fr) or any(b <= a for a, b in zip(fr, fr[1:])):
+        raise ValueError(f"solve_path: fractions={fractions!r} must be increasing values in (0, 1]")
+    load0 = load0.check(problem)
+    load1 = load1.check(problem)
+    asm = Assembler(problem)
+    pat = asm.pattern
+    con = _Constraint(problem, pat)
+    skey = ("linear_solver", options.linear_solver, id(pat))
+    solver = problem._cache.get(skey)
+    if solver is None:
+        solver = make_solver(options.linear_solver)
+        problem._cache[skey] = solver
+    vol = float(asm.topo.vol.sum())
+
+    x = state0.as_vector().astype(float)
+    cd, cv = load0.prescribed_vector(problem)
+    x[cd] = cv
+    s = 0.0
+    ds = min(options.initial_step, options.max_step)
+    states, reports = [], []
+    n_cut_total = 0
+    for target in fr:
+        rep = StepReport(fraction=target, linear_solver=getattr(solver, "name", "?"))
+        t_start = time.perf_counter()
+        while s < target - 1e-12:
+            s_new = min(target, s + ds)
+            if target - s_new < 0.05 * ds:  # avoid a sliver increment
+                s_new = target
+            lo_, ln_ = load0.interpolate(load1, s), load0.interpolate(load1, s_new)
+            x_new, inc = _increment(asm, con, solver, x, lo_, ln_, options, vol, rep)
+            inc.s_start, inc.s_end = s, s_new
+            rep.increments.append(inc)
+            if inc.converged:
+                x = x_new
+                s = s_new
+                rep.min_j = inc.min_j if np.isnan(rep.min_j) else min(rep.min_j, inc.min_j)
+                if inc.iterations <= 4:
+                    ds = min(options.max_step, ds * 1.5)
+            else:
+                rep.n_cutbacks += 1
+                n_cut_total += 1
+                ds = (s_new - s) * 0.5
+                logger.debug("cut-back at s=%.4g: %s; new step %.3g", s, inc.reason, ds)
+                if ds < options.min_step or n_cut_total > options.max_cutbacks:
+                    rep.time_total = time.perf_counter() - t_start
+                    reports.append(rep)
+                    raise SolveFailed(
+                        f"load path failed at s={s:.4g} (step {ds:.3g}, {n_cut_total} cut-backs): {inc.reason}",
+                        reports, inc)
+        rep.time_total = time.perf_counter() - t_start
+        reports.append(rep)
+        st = State.from_vector(x, problem.mesh.n_nodes)
+        states.append(st)
+        if callback is not None:
+            callback(target, st)
+    return states, reports
+
+
+def _increment(asm: Assembler, con: _Constraint, solver, x0, load_old: LoadState, load_new: LoadState,
+               opts: SolveOptions, vol: float, rep: StepReport):
+    """Newton iterations for one increment. Returns (x, IncrementReport)."""
+    prob = asm.problem
+    n_u, n_nodes = prob.n_u, prob.mesh.n_nodes
+    inc = IncrementReport(0.0, 0.0, False)
+    cd, cv_new = load_new.prescribed_vector(prob)
+    x = x0.copy()
+    du_c = np.zeros(len(x))
+    du_c[cd] = cv_new - x0[cd]
+    pres = load_new.pressures
+
+    def evaluate(xv, tangent):
+        t = time.perf_counter()
+        try:
+            out = asm.evaluate(xv[:n_u].reshape(n_nodes, 3), xv[n_u:], pres, tangent)
+        finally:
+            rep.time_assembly += time.perf_counter() - t
+        return out
+
+    try:
+        R, data, min_j = evaluate(x, True)
+    except InvertedElements as exc:
+        inc.reason = f"start state: {exc}"
+        return x0, inc
+    ru0, _, rc0 = _norms(R, con)
+    f_ref = max(ru0, rc0, 1e-300)
+    e0 = None
+    for it in range(1, opts.max_iterations + 1):
+        inc.iterations = it
+        # linear system  K Δx = −R (with the prescribed increment on the first iteration)
+        rhs = -R
+        if it == 1 and np.any(du_c):
+            rhs = rhs - pat_matvec(asm, data, du_c)
+        rhs = rhs.copy()
+        rhs[con.dofs] = du_c[con.dofs] if it == 1 else 0.0
+        t = time.perf_counter()
+        try:
+            solver.factorize(asm.pattern.matrix(con.apply(data)))
+            rep.time_factorize += time.perf_counter() - t
+            t = time.perf_counter()
+            dx = solver.solve(rhs)
+            rep.time_solve += time.perf_counter() - t
+        except (LinearSolverError, RuntimeError, ValueError) as exc:
+            inc.reason = f"linear solve failed: {exc}"
+            return x0, inc
+        if not np.all(np.isfinite(dx)):
+            inc.reason = "non-finite Newton update"
+            return x0, inc
+        energy = abs(float(np.dot(dx, np.where(con.is_c, 0.0, R))))
+        if e0 is None:
+            e0 = max(energy, 1e-300)
+        # line search on the residual norm (free part), backtracking on inversion
+        rn0 = _norms(R, con)[0]
+        alpha = 1.0
+        accepted = False
+        for _ls in range(8):
+            x_try = x + alpha * dx
+            if it == 1 and alpha < 1.0:
+                x_try[con.dofs] = x[con.dofs] + dx[con.dofs]  # keep the prescribed values exact
+            try:
+                R_try, data_try, mj = evaluate(x_try, True)
+            except InvertedElements:
+                if not opts.line_search:
+                    break
+                alpha *= 0.5
+                continue
+            rn_try = _norms(R_try, con)[0]
+            if (not opts.line_search) or it == 1 or rn_try <= rn0 * (1.0 - 1e-4 * alpha) or alpha < 0.06:
+                accepted = True
+                break
+            alpha *= 0.5
+        if not accepted:
+            inc.reason = f"iteration {it}: inverted elements / no descent in line search"
+            return x0, inc
+        x, R, data, min_j = x_try, R_try, data_try, mj
+        ru, rp, rc = _norms(R, con)
+        f_ref = max(f_ref, rc)
+        inc.residuals.append(ru)
+        inc.energies.append(energy / e0)
+        inc.min_j = min_j
+        res_ok = ru <= opts.rtol * f_ref + opts.atol and rp <= opts.vtol * vol
+        en_ok = energy / e0 <= opts.etol or energy <= 1e-30
+        if res_ok and (en_ok or ru <= 1e-3 * opts.rtol * f_ref + opts.atol):
+            inc.converged = True
+            return x, inc
+        if it >= 3 and len(inc.residuals) >= 3 and inc.residuals[-1] > 1e3 * inc.residuals[0]:
+            inc.reason = f"iteration {it}: residual diverging ({inc.residuals[-1]:.3g})"
+            return x0, inc
+    inc.reason = f"no convergence in {opts.max_iterations} iterations (residual {inc.residuals[-1]:.3g}, ref {f_ref:.3g})"
+    return x0, inc
+
+
+def pat_matvec(asm: Assembler, data: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """K v with the unconstrained tangent data."""
+    return asm.pattern.matrix(data) @ v

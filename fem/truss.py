@@ -1,0 +1,84 @@
+"""Embedded truss fibres: segments between points interpolated from host tets.
+
+Segment s joins fibre points i and j with reference and current chord vectors
+X = X_j − X_i, x = x_j − x_i (x_k = Σ_a N_a(ξ_k) x_a over the host's 10 nodes).
+Green–Lagrange strain and St Venant–Kirchhoff energy (Bonet & Wood 2008, §7.2)::
+
+    E   = (x·x − X·X) / (2 L0²),   L0 = |X|
+    Ψ   = ½ E_f A L0 E²
+    ∂Ψ/∂x = (E_f A / L0) E x =: f (force on j, −f on i)
+    ∂²Ψ/∂x∂x = (E_f A / L0) [E I + x ⊗ x / L0²]
+
+Nodal quantities follow from the interpolation weights w = (−N(ξ_i), +N(ξ_j)) over
+the 20 host nodes of the segment.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from fem import element
+
+
+class TrussKernel:
+    """Vectorised embedded-truss forces/tangent.
+
+    Parameters
+    ----------
+    points_ref : ndarray (n_nodes, 3)
+        Reference node coordinates of the host mesh.
+    cells : ndarray (n_el, 10)
+    host_elements, local_coords, segments, youngs_modulus, area :
+        See :class:`fem.problem.EmbeddedTrusses`.
+    """
+
+    def __init__(self, points_ref, cells, host_elements, local_coords, segments, youngs_modulus, area):
+        seg = np.asarray(segments, dtype=np.int64)
+        Nq = element.shape_functions(np.asarray(local_coords, float))  # (n_pts, 10)
+        hosts = np.asarray(cells)[np.asarray(host_elements)]  # (n_pts, 10)
+        self.nodes = np.concatenate([hosts[seg[:, 0]], hosts[seg[:, 1]]], axis=1)  # (n_seg, 20)
+        self.w = np.concatenate([-Nq[seg[:, 0]], Nq[seg[:, 1]]], axis=1)  # (n_seg, 20)
+        X = np.einsum("sa,sai->si", self.w, points_ref[self.nodes])  # (n_seg, 3)
+        self.L0 = np.linalg.norm(X, axis=1)  # (n_seg,)
+        if np.any(self.L0 <= 1e-12 * max(1.0, float(self.L0.max(initial=1.0)))):
+            raise ValueError("EmbeddedTrusses: a segment has zero reference length")
+        self.X = X
+        self.EA = float(youngs_modulus) * float(area)
+
+    def chords(self, x: np.ndarray) -> np.ndarray:
+        """Current chord vectors, shape (n_seg, 3)."""
+        return np.einsum("sa,sai->si", self.w, x[self.nodes])  # (n_seg, 3)
+
+    def strain(self, x: np.ndarray) -> np.ndarray:
+        """Green–Lagrange strain of each segment, shape (n_seg,)."""
+        c = self.chords(x)
+        return (np.einsum("si,si->s", c, c) - self.L0**2) / (2.0 * self.L0**2)
+
+    def axial_force(self, x: np.ndarray) -> np.ndarray:
+        """Current axial (Cauchy) force N = S A |x| / L0 of each segment, shape (n_seg,)."""
+        c = self.chords(x)
+        lam = np.linalg.norm(c, axis=1) / self.L0
+        return self.EA * self.strain(x) * lam
+
+    def energy(self, x: np.ndarray) -> float:
+        """Stored energy Σ ½ E_f A L0 E²."""
+        return float(0.5 * self.EA * np.sum(self.L0 * self.strain(x) ** 2))
+
+    def evaluate(self, x: np.ndarray, need_tangent: bool = True):
+        """Nodal residual and tangent blocks.
+
+        Returns
+        -------
+        R : ndarray (n_seg, 20, 3)
+        K : ndarray (n_seg, 20, 3, 20, 3) or None
+        """
+        c = self.chords(x)  # (n_seg, 3)
+        E = (np.einsum("si,si->s", c, c) - self.L0**2) / (2.0 * self.L0**2)  # (n_seg,)
+        k = self.EA / self.L0  # (n_seg,)
+        f = (k * E)[:, None] * c  # (n_seg, 3)
+        R = self.w[:, :, None] * f[:, None, :]  # (n_seg, 20, 3)
+        if not need_tangent:
+            return R, None
+        kmat = k[:, None, None] * (E[:, None, None] * np.eye(3) + np.einsum("si,sk->sik", c, c) / self.L0[:, None, None] ** 2)
+        K = np.einsum("sa,sb,sik->saibk", self.w, self.w, kmat)  # (n_seg, 20, 3, 20, 3)
+        return R, K
