@@ -27,7 +27,7 @@ import numpy as np
 from fem import element
 from fem.pressure import PressureKernel
 from fem.problem import Problem
-from fem.quadrature import tet_rule
+from fem.quadrature import tet_rule, tri_rule
 from fem.sparsity import Pattern, build_pattern
 from fem.truss import TrussKernel
 
@@ -73,6 +73,17 @@ class Topology:
             TrussKernel(mesh.points, mesh.cells, t.host_elements, t.local_coords, t.segments, t.youngs_modulus, t.area)
             for t in problem.trusses
         ]
+        self.traction_forces = []  # per DeadTraction: (dofs (n_f*18,), weights (n_f, 6)) with f = weights ⊗ t0
+        for dt in problem.tractions:
+            rule = tri_rule(problem.face_quadrature_degree)
+            Nf = element.tri6_shape_functions(rule.points)  # (n_qp, 6)
+            dNf = element.tri6_shape_gradients(rule.points)  # (n_qp, 6, 2)
+            Xf = mesh.points[dt.faces]  # (n_f, 6, 3)
+            a1 = np.einsum("qa,fai->fqi", dNf[:, :, 0], Xf)  # (n_f, n_qp, 3)
+            a2 = np.einsum("qa,fai->fqi", dNf[:, :, 1], Xf)
+            dA = np.linalg.norm(np.cross(a1, a2), axis=-1)  # (n_f, n_qp)
+            wts = np.einsum("q,qa,fq->fa", rule.weights, Nf, dA)  # (n_f, 6)  ∫ N_a dA
+            self.traction_forces.append((dt.faces, wts))
         groups = [pk.faces for pk in self.pressure_kernels] + [tk.nodes for tk in self.truss_kernels]
         self.pattern: Pattern = build_pattern(mesh.n_nodes, mesh.cells, groups)
         pat = self.pattern
@@ -163,7 +174,8 @@ class Assembler:
         return float(Pi)
 
     # ------------------------------------------------------------------ residual and tangent
-    def evaluate(self, u: np.ndarray, p: np.ndarray, pressures: tuple[float, ...], need_tangent: bool = True):
+    def evaluate(self, u: np.ndarray, p: np.ndarray, pressures: tuple[float, ...], need_tangent: bool = True,
+                 tractions: tuple = ()):
         """Residual R (n_dofs,) and tangent data (nnz,) on :attr:`pattern`.
 
         Parameters
@@ -173,6 +185,8 @@ class Assembler:
         pressures : tuple of float
             Follower-pressure magnitudes, one per ``problem.pressures``.
         need_tangent : bool
+        tractions : tuple of (3,) arrays
+            Dead traction vectors, one per ``problem.tractions`` (dead loads add nothing to the tangent).
 
         Returns
         -------
@@ -201,6 +215,10 @@ class Assembler:
             Rf, Kf = pk.evaluate(x, val, need_tangent)
             R[: 3 * topo.n_nodes] += np.bincount(dofs.ravel(), Rf.ravel(), minlength=3 * topo.n_nodes)
             pres_out.append(Kf)
+        for (faces, wts), t0 in zip(topo.traction_forces, tractions):
+            fa = wts[:, :, None] * np.asarray(t0, float)[None, None, :]  # (n_f, 6, 3)
+            R[: 3 * topo.n_nodes] -= np.bincount((3 * faces[:, :, None] + np.arange(3)).ravel(), fa.ravel(),
+                                                 minlength=3 * topo.n_nodes)
         truss_out = []
         for tk, dofs in zip(topo.truss_kernels, topo.truss_dofs):
             Rt, Kt = tk.evaluate(x, need_tangent)

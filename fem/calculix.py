@@ -588,8 +588,10 @@ def run_ccx(
     if rc != 0:
         problems.append(f"exit code {rc}")
     if "*ERROR" in log_text:
-        line = next(ln for ln in log_text.splitlines() if "*ERROR" in ln)
-        problems.append(f"reported {line.strip()!r}")
+        lines = log_text.splitlines()
+        k = next(i for i, ln in enumerate(lines) if "*ERROR" in ln)
+        msg = " ".join(ln.strip() for ln in lines[k : k + 2] if ln.strip())
+        problems.append(f"reported {msg!r}")
     if "Job finished" not in log_text:
         problems.append("no 'Job finished' in the log")
     if not abs(t_end - 1.0) < 1e-6:

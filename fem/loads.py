@@ -19,14 +19,18 @@ class LoadState:
         One magnitude [MPa] per ``Problem.pressures`` entry.
     dirichlet_values : tuple of ndarray
         One (k, n_comp) array [mm] per ``Problem.dirichlet`` entry (a scalar broadcasts).
+    tractions : tuple of array-like (3,)
+        One traction vector [MPa] per ``Problem.tractions`` entry (empty = all zero).
     """
 
     pressures: tuple[float, ...] = ()
     dirichlet_values: tuple = ()
+    tractions: tuple = ()
 
     @classmethod
     def zero(cls, problem) -> "LoadState":
-        return cls(tuple(0.0 for _ in problem.pressures), tuple(np.zeros(d.shape) for d in problem.dirichlet))
+        return cls(tuple(0.0 for _ in problem.pressures), tuple(np.zeros(d.shape) for d in problem.dirichlet),
+                   tuple(np.zeros(3) for _ in problem.tractions))
 
     def check(self, problem) -> "LoadState":
         """Validate against ``problem`` and return a copy with full-shape arrays."""
@@ -46,16 +50,21 @@ class LoadState:
                 raise ProblemError(
                     f"LoadState.dirichlet_values[{d.name}]: shape {np.shape(v)} does not broadcast to {d.shape}"
                 ) from None
+        tr = self.tractions if self.tractions else tuple(np.zeros(3) for _ in problem.tractions)
+        if len(tr) != len(problem.tractions):
+            raise ProblemError(f"LoadState.tractions: {len(tr)} vectors for {len(problem.tractions)} traction sets")
+        tr = tuple(np.broadcast_to(np.asarray(t, float), (3,)).copy() for t in tr)
         for k, p in enumerate(self.pressures):
             if not np.isfinite(p):
                 raise ProblemError(f"LoadState.pressures[{k}]={p!r} must be finite")
-        return LoadState(tuple(float(p) for p in self.pressures), tuple(vals))
+        return LoadState(tuple(float(p) for p in self.pressures), tuple(vals), tr)
 
     def interpolate(self, other: "LoadState", s: float) -> "LoadState":
         """(1 − s)·self + s·other."""
         return LoadState(
             tuple((1 - s) * a + s * b for a, b in zip(self.pressures, other.pressures)),
             tuple((1 - s) * np.asarray(a) + s * np.asarray(b) for a, b in zip(self.dirichlet_values, other.dirichlet_values)),
+            tuple((1 - s) * np.asarray(a) + s * np.asarray(b) for a, b in zip(self.tractions, other.tractions)),
         )
 
     def prescribed_vector(self, problem) -> tuple[np.ndarray, np.ndarray]:

@@ -79,6 +79,30 @@ class FollowerPressure:
 
 
 @dataclass(frozen=True)
+class DeadTraction:
+    """A dead (configuration-independent) traction on reference boundary faces.
+
+    The load state supplies the traction vector t0 [MPa, force per reference area];
+    consistent nodal forces f_a = ∫ N_a t0 dA (reference area).
+
+    Parameters
+    ----------
+    faces : ndarray (n_f, 6) int
+        6-node triangles (any orientation; only the area is used).
+    name : str
+    """
+
+    faces: np.ndarray
+    name: str = "traction"
+
+    def __post_init__(self) -> None:
+        f = np.ascontiguousarray(self.faces, dtype=np.int64)
+        if f.ndim != 2 or f.shape[1] != 6:
+            raise ProblemError(f"DeadTraction({self.name}).faces: shape {f.shape}, expected (n_faces, 6)")
+        object.__setattr__(self, "faces", f)
+
+
+@dataclass(frozen=True)
 class EmbeddedTrusses:
     """Truss fibres embedded in the host tets (no nodes of their own).
 
@@ -137,6 +161,7 @@ class Problem:
         Their DOFs must not overlap.
     pressures : tuple of FollowerPressure
     trusses : tuple of EmbeddedTrusses
+    tractions : tuple of DeadTraction
     quadrature_degree : int
         Degree of the tet rule (2 → 4 points, as C3D10 in Abaqus/CalculiX).
     """
@@ -146,6 +171,7 @@ class Problem:
     dirichlet: tuple[Dirichlet, ...] = ()
     pressures: tuple[FollowerPressure, ...] = ()
     trusses: tuple[EmbeddedTrusses, ...] = ()
+    tractions: tuple[DeadTraction, ...] = ()
     quadrature_degree: int = 2
     face_quadrature_degree: int = 4
     _cache: dict = field(default_factory=dict, repr=False, compare=False, hash=False)
@@ -158,6 +184,9 @@ class Problem:
         for pr in self.pressures:
             if pr.faces.size and (pr.faces.min() < 0 or pr.faces.max() >= n):
                 raise ProblemError(f"FollowerPressure({pr.name}).faces: node index outside [0, {n - 1}]")
+        for dt in self.tractions:
+            if dt.faces.size and (dt.faces.min() < 0 or dt.faces.max() >= n):
+                raise ProblemError(f"DeadTraction({dt.name}).faces: node index outside [0, {n - 1}]")
         for tr in self.trusses:
             if tr.host_elements.size and (tr.host_elements.min() < 0 or tr.host_elements.max() >= self.mesh.n_elements):
                 raise ProblemError(f"EmbeddedTrusses({tr.name}).host_elements outside [0, {self.mesh.n_elements - 1}]")

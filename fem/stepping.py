@@ -268,7 +268,7 @@ def _increment(asm: Assembler, con: _Constraint, solver, x0, load_old: LoadState
     def evaluate(xv, tangent):
         t = time.perf_counter()
         try:
-            out = asm.evaluate(xv[:n_u].reshape(n_nodes, 3), xv[n_u:], pres, tangent)
+            out = asm.evaluate(xv[:n_u].reshape(n_nodes, 3), xv[n_u:], pres, tangent, load_new.tractions)
         finally:
             rep.time_assembly += time.perf_counter() - t
         return out
