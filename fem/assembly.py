@@ -12,7 +12,7 @@ Stationarity gives (G = F⁻¹, ∂J/∂F = J Gᵀ)::
 
 For D1 > 0 eliminating p_e gives p_e = 2(J̄_e − 1)/D1 with J̄_e the element mean of
 J, i.e. the energy (1/D1)(J̄ − 1)² of a mean-dilatation element; D1 = 0 enforces
-∫_e (J − 1) = 0. The P2/P0 pair does not lock (tests/test_fem_locking.py).
+∫_e (J − 1) = 0. The P2/P0 pair does not lock (tests/test_fem_cook.py).
 Simo, Taylor & Pister (1985); Bonet & Wood (2008) §8.6.
 
 Tangent of the volumetric term: ∂(p J G_Ji)/∂F_kL = p J (G_Ji G_Lk − G_Jk G_Li).
@@ -105,6 +105,7 @@ def topology_key(problem: Problem) -> tuple:
         id(problem.mesh),
         tuple(id(p.faces) for p in problem.pressures),
         tuple(id(t.segments) for t in problem.trusses),
+        tuple(id(t.faces) for t in problem.tractions),
         problem.quadrature_degree,
         problem.face_quadrature_degree,
     )
@@ -122,7 +123,7 @@ def topology_for(problem: Problem) -> Topology:
         topo = Topology(problem)
         # keep referenced arrays alive so the id()-based key stays valid
         problem._cache[key] = topo
-        problem._cache[key + ("refs",)] = (problem.mesh, problem.pressures, problem.trusses)
+        problem._cache[key + ("refs",)] = (problem.mesh, problem.pressures, problem.trusses, problem.tractions)
     return topo
 
 

@@ -29,9 +29,32 @@ Tolerances
 ----------
 CalculiX's default Newton tolerances (``R_n = 5e-3`` of the average force) are far too
 loose for a reference solution. :class:`CcxCase` tightens ``*CONTROLS,
-PARAMETERS=FIELD`` and uses fixed increments (``*STATIC, DIRECT``); the iteration
-limits of ``*CONTROLS, PARAMETERS=TIME INCREMENTATION`` are raised so that
-round-off-level residual noise does not trigger CalculiX's divergence checks.
+PARAMETERS=FIELD`` and by default uses fixed increments (``*STATIC, DIRECT``), whose
+divergence checks (``*CONTROLS, PARAMETERS=TIME INCREMENTATION``) are postponed so that
+round-off-level residual noise cannot abort the step. A ``DIRECT`` increment cannot be
+cut back: hard problems need more increments or ``CcxCase(direct=False)`` (automatic
+incrementation with cut-backs, increment at most ``1 / n_increments``).
+
+CalculiX quirks found while pinning this driver (CalculiX 2.20, Debian build)
+---------------------------------------------------------------------------
+* Convergence (``checkconvergence.c``): an increment converges after >= 2 iterations
+  when ``r_max <= R_n q`` and either ``c_max <= C_n du_max`` or an estimate of the next
+  correction is small or ``c_max < 1e-8`` *absolute* (length units). The average force
+  ``q`` is computed, not seeded, when ``q0`` is left blank (CalculiX's own default 0).
+* ``.dat`` values have 7 significant digits (``1.234567E-02``); the ASCII ``.frd``
+  only 6, so results are parsed from the ``.dat`` file. Three-digit exponents lose
+  their ``E`` (``1.234567-100``), which :func:`parse_dat` handles.
+* ``RF`` at unconstrained DOFs is the residual force (round-off, not zero). Loads on
+  fully constrained nodes never appear in ``RF``; a model with no free DOF is not
+  solved at all (zero output).
+* ``*NODE PRINT/FILE, FREQUENCY=k`` still writes the end of the step.
+* Failures: exit code 201 with ``*ERROR: solution seems to diverge`` (DIRECT) or
+  ``increment size smaller than minimum``; exit code 255 when SPOOLES finds the
+  matrix singular after a diverged iteration (``spooles.out``).
+* CalculiX factors a *symmetric* system even with follower pressure: under
+  compressive pressure Newton converges only linearly and a DIRECT step may
+  diverge where a consistent tangent would not; use more increments or
+  ``direct=False`` there.
 """
 
 from __future__ import annotations
@@ -112,7 +135,9 @@ class CcxCase:
         1..4 (S1..S4 = ``fem.element.FACES[label - 1]``) or a single int for all,
         ``value`` the final pressure (positive pushes into the solid). Ramped linearly.
     n_increments : int
-        Number of fixed, equal load increments (``*STATIC, DIRECT``), >= 1.
+        Number of equal load increments, >= 1. With ``direct=True`` exactly these
+        (``*STATIC, DIRECT``); otherwise the initial and largest increment is
+        ``1 / n_increments`` and CalculiX may cut back.
     residual_tol : float
         ``R_n``: converged when the largest residual force is below this fraction of
         the average nodal force (CalculiX default 5e-3), in (0, 1).
@@ -123,6 +148,14 @@ class CcxCase:
         Newton iterations allowed per increment (CalculiX ``I_C``, default 16), >= 4.
     print_reactions : bool
         Also print and parse nodal reaction forces ``RF``.
+    direct : bool
+        Fixed increments (default, reproducible reference). CalculiX cannot cut back a
+        ``DIRECT`` increment, so a hard problem (large shear of a nearly incompressible
+        block, say) needs enough increments or ``direct=False``: automatic
+        incrementation with increment ``<= 1 / n_increments``, cutbacks down to
+        ``min_increment`` and CalculiX's default divergence checks.
+    min_increment : float
+        Smallest increment (fraction of the step) for ``direct=False``, in (0, 1].
     """
 
     points: np.ndarray
@@ -136,6 +169,8 @@ class CcxCase:
     correction_tol: float = 1e-8
     max_iterations: int = 40
     print_reactions: bool = True
+    direct: bool = True
+    min_increment: float = 1e-5
 
     def __post_init__(self) -> None:
         pts = np.ascontiguousarray(self.points, dtype=np.float64)
@@ -166,6 +201,8 @@ class CcxCase:
             v = getattr(self, name)
             if not (0.0 < v < 1.0):
                 raise ValueError(f"CcxCase.{name}: {v!r}, expected a value in (0, 1)")
+        if not (0.0 < self.min_increment <= 1.0):
+            raise ValueError(f"CcxCase.min_increment: {self.min_increment!r}, expected a value in (0, 1]")
         if not (isinstance(self.max_iterations, (int, np.integer)) and self.max_iterations >= 4):
             raise ValueError(f"CcxCase.max_iterations: {self.max_iterations!r}, expected an int >= 4")
 
@@ -240,7 +277,10 @@ class CcxResult:
     n_increments : int
         Converged increments (from the ``.sta`` file).
     n_iterations : int
-        Total Newton iterations over all increments (from the ``.sta`` file).
+        Total Newton iterations over all attempts, including cut-back ones (from the
+        ``.sta`` file).
+    n_cutbacks : int
+        Increment attempts that were abandoned and retried smaller (``direct=False``).
     workdir : Path
         Directory with the deck (``<job>.inp``) and CalculiX's output.
     log_path : Path
@@ -255,6 +295,7 @@ class CcxResult:
     converged: bool
     n_increments: int
     n_iterations: int
+    n_cutbacks: int
     workdir: Path
     log_path: Path
     dat_path: Path
@@ -367,10 +408,16 @@ def write_deck(case: CcxCase, path: str | os.PathLike) -> Path:
         f.write("*MATERIAL, NAME=RUBBER\n*HYPERELASTIC, NEO HOOKE\n")
         f.write(f"{_fmt(case.c10)}, {_fmt(case.d1)}\n")
         f.write("*SOLID SECTION, ELSET=EALL, MATERIAL=RUBBER\n")
-        # INC: maximum number of increments; DIRECT uses exactly n_inc of them
-        f.write(f"*STEP, NLGEOM, INC={n_inc + 10}\n")
-        f.write("*STATIC, DIRECT\n")
-        f.write(f"{_fmt(dt)}, 1.0\n")
+        if case.direct:
+            # INC: maximum number of increments; DIRECT uses exactly n_inc of them
+            f.write(f"*STEP, NLGEOM, INC={n_inc + 10}\n")
+            f.write("*STATIC, DIRECT\n")
+            f.write(f"{_fmt(dt)}, 1.0\n")
+        else:
+            max_inc = n_inc + int(math.ceil(1.0 / case.min_increment)) + 10
+            f.write(f"*STEP, NLGEOM, INC={min(max_inc, 10**7)}\n")
+            f.write("*STATIC\n")
+            f.write(f"{_fmt(dt)}, 1.0, {_fmt(min(case.min_increment, dt))}, {_fmt(dt)}\n")
         # FIELD: R_n, C_n, q0, q_u, R_p, eps, C_eps, R_l (CalculiX manual, *CONTROLS).
         # q0 and q_u blank (read as 0): the average force is always computed, never seeded
         # with 0.01, which would accept any residual of a tiny-load problem. R_p (used
@@ -381,11 +428,17 @@ def write_deck(case: CcxCase, path: str | os.PathLike) -> Path:
             f"{_fmt(case.residual_tol)}, {_fmt(case.correction_tol)}, {_fmt(min(1e-8, case.residual_tol))}\n"
         )
         # TIME INCREMENTATION: I_0, I_R, I_P, I_C, I_L, I_G, I_S, I_A, I_J, I_T
-        # late divergence/log-convergence checks so round-off noise near a tight
-        # tolerance does not abort a fixed-increment (DIRECT) step
         it = int(case.max_iterations)
         f.write("*CONTROLS, PARAMETERS=TIME INCREMENTATION\n")
-        f.write(f"{it}, {it}, {it + 1}, {it}, 10, 4, 12, 5, 6, 3\n")
+        if case.direct:
+            # late divergence/log-convergence checks so round-off noise near a tight
+            # tolerance does not abort a fixed-increment (DIRECT) step, which cannot
+            # be cut back
+            f.write(f"{it}, {it}, {it + 1}, {it}, 10, 4, 0, 5, 0, 0\n")
+        else:
+            # CalculiX defaults (divergence check after 4, log check after 8) so that
+            # diverging increments are cut back early; I_P past I_C keeps R_n in force
+            f.write(f"4, 8, {it + 1}, {it}, 10, 4, 0, {20}, 0, 0\n")
         if case.boundary:
             f.write("*BOUNDARY\n")
             for i, (_, comp, value) in enumerate(case.boundary):
@@ -395,8 +448,10 @@ def write_deck(case: CcxCase, path: str | os.PathLike) -> Path:
             for i, (_, _, value) in enumerate(case.pressures):
                 f.write(f"SPRESS{i}, P, {_fmt(value)}\n")
         outputs = "U, RF" if case.print_reactions else "U"
-        f.write(f"*NODE PRINT, NSET=NALL, FREQUENCY={n_inc}\n{outputs}\n")
-        f.write(f"*NODE FILE, FREQUENCY={n_inc}\nU\n")
+        # output only at the end of the step (it is always written there)
+        freq = n_inc if case.direct else 10**6
+        f.write(f"*NODE PRINT, NSET=NALL, FREQUENCY={freq}\n{outputs}\n")
+        f.write(f"*NODE FILE, FREQUENCY={freq}\nU\n")
         f.write("*END STEP\n")
     logger.debug("wrote CalculiX deck %s (%d nodes, %d elements)", path, case.n_nodes, len(case.cells))
     return path
@@ -481,22 +536,32 @@ def parse_dat(path: str | os.PathLike, n_nodes: int) -> dict[str, tuple[float, n
     return out
 
 
-def _parse_sta(path: Path) -> tuple[int, int, float]:
-    """Converged increments, total iterations and final total time from a ``.sta`` file."""
-    n_inc = n_it = 0
+def _parse_sta(path: Path) -> tuple[int, int, int, float]:
+    """Parse a ``.sta`` file.
+
+    Returns converged increments, Newton iterations of all attempts, cut-back
+    attempts (``ATT`` marked ``U``) and the total time of the last converged increment.
+    """
+    n_inc = n_it = n_cut = 0
     t_end = 0.0
     if not path.exists():
-        return 0, 0, 0.0
+        return 0, 0, 0, 0.0
     for line in path.read_text(errors="replace").splitlines():
         parts = line.split()
-        if len(parts) >= 7 and all(p.isdigit() for p in parts[:4]):
+        if len(parts) < 7 or not (parts[0].isdigit() and parts[1].isdigit() and parts[3].isdigit()):
+            continue
+        if parts[2].isdigit():
             try:
                 t_end = _to_float(parts[4])
             except ValueError:
                 continue
             n_inc += 1
-            n_it += int(parts[3])
-    return n_inc, n_it, t_end
+        elif parts[2].rstrip("U").isdigit():
+            n_cut += 1
+        else:
+            continue
+        n_it += int(parts[3])
+    return n_inc, n_it, n_cut, t_end
 
 
 def _tail(path: Path, n_lines: int = 30) -> str:
@@ -513,6 +578,7 @@ def run_ccx(
     timeout: float | None = None,
     job: str = "job",
     raise_on_failure: bool = True,
+    cleanup: bool = False,
 ) -> CcxResult:
     """Write the deck of ``case``, run CalculiX and read the final nodal results.
 
@@ -531,6 +597,9 @@ def run_ccx(
     raise_on_failure : bool
         If True (default) raise :class:`CcxError` when CalculiX fails or does not
         converge; if False return a result with ``converged=False`` and NaN fields.
+    cleanup : bool
+        Delete ``workdir`` after a converged run (for benchmarks running many
+        solves; the paths in the result then no longer exist). Failed runs are kept.
 
     Returns
     -------
@@ -583,7 +652,7 @@ def run_ccx(
     wall = time.perf_counter() - t0
 
     log_text = log_path.read_text(errors="replace")
-    n_inc, n_it, t_end = _parse_sta(wd / f"{job}.sta")
+    n_inc, n_it, n_cut, t_end = _parse_sta(wd / f"{job}.sta")
     problems = []
     if rc != 0:
         problems.append(f"exit code {rc}")
@@ -618,15 +687,29 @@ def run_ccx(
 
     converged = not problems
     if not converged:
+        spooles = wd / "spooles.out"
+        if spooles.exists() and spooles.read_text(errors="replace").strip():
+            problems.append(f"spooles.out: {spooles.read_text(errors='replace').strip()[:200]!r}")
         msg = f"run_ccx: CalculiX did not converge or failed: {'; '.join(problems)}"
+        if case.direct:
+            msg += (
+                f". A DIRECT increment cannot be cut back: raise n_increments "
+                f"(now {case.n_increments}) or use CcxCase(direct=False)"
+            )
         if raise_on_failure:
             raise CcxError(msg, wd, _tail(log_path))
         logger.warning("%s (workdir %s)", msg, wd)
         disp = np.full((n, 3), np.nan)
         reac = np.full((n, 3), np.nan) if case.print_reactions else None
     else:
-        logger.info("CalculiX finished in %.2f s: %d increments, %d iterations", wall, n_inc, n_it)
+        logger.info(
+            "CalculiX finished in %.2f s: %d increments, %d iterations, %d cut-backs",
+            wall, n_inc, n_it, n_cut,
+        )
+        if cleanup:
+            shutil.rmtree(wd, ignore_errors=True)
     return CcxResult(
         displacements=disp, reactions=reac, wall_time=wall, converged=converged,
-        n_increments=n_inc, n_iterations=n_it, workdir=wd, log_path=log_path, dat_path=dat_path,
+        n_increments=n_inc, n_iterations=n_it, n_cutbacks=n_cut,
+        workdir=wd, log_path=log_path, dat_path=dat_path,
     )

@@ -64,7 +64,7 @@ class IsochoricI1Material:
             P = f' ∂Ī1/∂F,   A = f'' ∂Ī1/∂F ⊗ ∂Ī1/∂F + f' ∂²Ī1/∂F∂F
 
         (Holzapfel 2000, eqs. 6.80–6.90 written in F; checked against finite
-        differences in tests/test_fem_material.py.)
+        differences in tests/test_fem_tangent.py.)
 
         Parameters
         ----------

@@ -182,9 +182,12 @@ def locate_gauge(wm: WhiskerMesh, design: WhiskerDesign, n: int = 4) -> GaugeGeo
 
     pts, w, tangent = gauge_points(design.x_ss, design.e, design.r_outer, design.alpha_deg, n)
     centre = np.array([[design.x_ss + 0.5 * design.e, design.r_outer(design.x_ss + 0.5 * design.e), 0.0]])
-    loc = PointLocator(wm.mesh.points, wm.mesh.cells).locate(np.vstack([pts, centre]))
-    if not np.all(loc.inside):
-        raise ValueError(f"gauge points not inside the mesh (residuals {loc.residual})")
+    # Points on the exact cone lie up to the P2 surface-interpolation error outside the
+    # mesh; a host whose local coordinates are slightly outside (barycentric >= -0.05)
+    # with an exact inverse map is the right host (the field extends smoothly).
+    loc = PointLocator(wm.mesh.points, wm.mesh.cells).locate(np.vstack([pts, centre]), tol=0.05)
+    if not np.all(loc.inside) or np.any(loc.residual > 1e-8 * (1.0 + design.D)):
+        raise ValueError(f"gauge points not located in the mesh (inside {loc.inside}, residuals {loc.residual})")
     elems, xi = loc.host_elements, loc.local_coords
     return GaugeGeometry(elems[:n], xi[:n], w, tangent, int(elems[n]))
 
@@ -319,7 +322,9 @@ def run_scene(spec: SceneSpec, wm: WhiskerMesh | None = None, keep_states: bool 
     t = time.perf_counter()
     at_tip = spec.contact_ratio >= 1.0
     band = contact_band(wm, u1, spec.contact_ratio * length_q, spec.band_width, at_tip)
-    prob2 = make_problem(wm, spec, band)
+    # same mesh, faces and fibres: replace() shares the topology cache (sparsity
+    # pattern, PARDISO analysis) with the pressurise problem
+    prob2 = replace(prob1, dirichlet=make_problem(wm, spec, band).dirichlet)
     uy0 = u1[band, 1:2]  # (k, 1)
     pq = (spec.Q,) if spec.Q > 0 else ()
     load0 = LoadState(pq, (zeros_base, uy0))

@@ -1,0 +1,181 @@
+"""Tests of the compensation solvers (SPEC §7-8, issue 8), with the beam model as the response stand-in."""
+
+from __future__ import annotations
+
+import csv
+import json
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+from geometry.design import WhiskerDesign
+from whisker_opt import beam
+from whisker_opt import compensation as comp
+from whisker_opt.beam import BeamModel, BeamResponse, BeamSensitivity
+
+
+@dataclass(frozen=True)
+class KnownTarget:
+    """A response whose 'intact' target is the trimmed design at a known pressure Q*.
+
+    Optionally non-linear in δ, ε = S(Q) δ / (1 + c δ), to check the solver does not rely on linearity.
+    """
+
+    trim: float
+    Q_star: float
+    c: float = 0.0
+
+    def __call__(self, design, Q, deltas):
+        deltas = np.asarray(deltas, dtype=float)
+        if design.trim == 0.0:
+            design, Q = design.trimmed(self.trim), self.Q_star
+        return beam.sensitivity(design, 1.0, Q) * deltas / (1.0 + self.c * deltas)
+
+
+# ----------------------------------------------------------------------------- measures
+def test_recovery_rate_and_error_hand_numbers():
+    # ε_o = 1.0, ε_b = 1.5, ε_c = 1.05: 10 % of the gap left
+    assert comp.recovery_rate(1.0, 1.5, 1.05) == pytest.approx(90.0)
+    assert comp.compensation_error(1.0, 1.5, 1.05) == pytest.approx(10.0)
+    # overshoot: ε_c = 0.9 → |−0.1/0.5| = 20 %
+    assert comp.recovery_rate(1.0, 1.5, 0.9) == pytest.approx(80.0)
+    assert comp.compensation_error(1.0, 1.5, 0.9) == pytest.approx(20.0)
+    # worse than uncompensated
+    assert comp.recovery_rate(2.0, 3.0, 4.0) == pytest.approx(-100.0)
+    assert comp.compensation_error(2.0, 3.0, 4.0) == pytest.approx(200.0)
+    assert np.isnan(comp.recovery_rate(1.0, 1.0, 1.2))
+    assert np.isnan(comp.compensation_error(1.0, 1.0, 1.2))
+
+
+def test_curve_measures_scalars():
+    o = np.array([1.0, 2.0, 3.0])
+    b = np.array([1.2, 2.6, 3.4])  # mean 2.4 vs 2.0; last 3.4 vs 3
+    c = np.array([1.1, 1.9, 3.1])  # mean 2.0333..; last 3.1
+    rec, err = comp.curve_measures(o, b, c, "mean")
+    assert rec == pytest.approx((1 - (0.1 / 3) / 0.4) * 100)  # 91.666...
+    assert err == pytest.approx((0.1 / 3) / 0.4 * 100)
+    rec, err = comp.curve_measures(o, b, c, "last")
+    assert rec == pytest.approx((1 - 0.1 / 0.4) * 100) and err == pytest.approx(25.0)
+    rec, err = comp.curve_measures(o, b, c, "gap")  # gaps: before 1.2/3 = 0.4, after 0.3/3 = 0.1
+    assert rec == pytest.approx(75.0) and err == pytest.approx(25.0)
+    assert comp.mean_gap(b, o) == pytest.approx(0.4)
+    with pytest.raises(ValueError, match="scalar = 'max'"):
+        comp.curve_measures(o, b, c, "max")
+
+
+# ----------------------------------------------------------------------------- analytic
+def test_analytic_compensation_default_design():
+    """Default design intact at Q_i = 0.2, trimmed by 5 mm: a root in (0, Q_i) matching the target."""
+    d = WhiskerDesign()
+    res = comp.analytic_compensation(d, 0.2, 5.0)
+    assert res.root_found
+    assert 0.0 < res.Q < 0.2
+    s_t = beam.sensitivity(d, 1.0, 0.2)
+    assert res.target_sensitivity == pytest.approx(s_t, rel=1e-14)
+    assert beam.sensitivity(d.trimmed(5.0), 1.0, res.Q) == pytest.approx(s_t, rel=1e-10)
+    # the trim raises ε/δ at Q_i, venting to Q = 0 drops it below the target
+    s0, s1 = res.sensitivity_range
+    assert s0 < s_t < s1
+    assert res.Q == pytest.approx(0.0209067, abs=2e-6)  # reported figure (default BeamModel)
+    # consistency: larger trims need lower pressure; no trim needs Q_i
+    q3 = comp.analytic_compensation(d, 0.2, 3.0).Q
+    assert res.Q < q3 < 0.2
+    assert comp.analytic_compensation(d, 0.2, 1e-9).Q == pytest.approx(0.2, abs=1e-6)
+
+
+def test_analytic_compensation_clips_when_out_of_range():
+    res = comp.analytic_compensation(WhiskerDesign(), 0.2, 8.0)
+    assert not res.root_found
+    assert res.Q == 0.0
+    assert "clipped" in res.message and "no Q" in res.message
+    assert res.sensitivity == pytest.approx(res.sensitivity_range[0])
+
+
+def test_analytic_compensation_bad_input():
+    with pytest.raises(ValueError, match=r"Q_i = 0"):
+        comp.analytic_compensation(WhiskerDesign(), 0.0, 5.0)
+    with pytest.raises(ValueError, match=r"trim = -1"):
+        comp.analytic_compensation(WhiskerDesign(), 0.2, -1.0)
+    with pytest.raises(ValueError, match="tip_clearance"):
+        comp.analytic_compensation(WhiskerDesign(), 0.2, 52.0)  # cut reaches the chamber
+
+
+# ----------------------------------------------------------------------------- response-based
+@pytest.mark.parametrize("method, c", [("bounded", 0.0), ("bounded", 0.15), ("root", 0.15)])
+def test_fe_compensation_recovers_known_pressure(method, c):
+    q_star, trim = 0.0731, 4.0
+    r = comp.fe_compensation(WhiskerDesign(), 0.2, trim, KnownTarget(trim, q_star, c), method=method, xatol=1e-7)
+    assert abs(r.Q - q_star) < 1e-4
+    assert r.at_bound is None
+    assert r.recovery_rate > 99.9
+    assert r.compensation_error == pytest.approx(100.0 - r.recovery_rate, abs=1e-9)
+    assert r.gap_after < 1e-3 * r.gap_before
+
+
+def test_fe_compensation_on_beam_matches_analytic():
+    d = WhiskerDesign()
+    qa = comp.analytic_compensation(d, 0.2, 5.0).Q
+    r = comp.fe_compensation(d, 0.2, 5.0, BeamResponse(), xatol=1e-7)
+    assert abs(r.Q - qa) < 1e-5
+    assert r.eps_target.shape == comp.DEFAULT_DELTAS.shape
+    np.testing.assert_allclose(r.eps_broken, beam.sensitivity(d.trimmed(5.0), 1.0, 0.2) * r.deltas, rtol=1e-12)
+    # the measures on the returned curves, by hand
+    so, sb, sc = r.eps_target.mean(), r.eps_broken.mean(), r.eps_compensated.mean()
+    assert r.recovery_rate == pytest.approx((1 - abs((sc - so) / (sb - so))) * 100, rel=1e-12)
+
+
+def test_fe_compensation_clipped_and_trivial():
+    d = WhiskerDesign()
+    r = comp.fe_compensation(d, 0.2, 8.0, BeamResponse(), method="root")
+    assert r.Q == 0.0 and r.at_bound == "lower"
+    assert 0.0 < r.recovery_rate < 100.0
+    r0 = comp.fe_compensation(d, 0.2, 0.0, BeamResponse())
+    assert r0.Q == 0.2 and r0.gap_after == 0.0 and np.isnan(r0.recovery_rate)
+    with pytest.raises(ValueError, match="method = 'newton'"):
+        comp.fe_compensation(d, 0.2, 5.0, BeamResponse(), method="newton")
+
+
+# ----------------------------------------------------------------------------- table
+def test_compensation_table_monotone_and_written(tmp_path):
+    d = WhiskerDesign()
+    table = comp.compensation_table(d, 0.2, 7.0, BeamResponse(), step=2.0, method="root", xatol=1e-7,
+                                    analytic_model=BeamModel())
+    np.testing.assert_allclose(table.trims, [0.0, 2.0, 4.0, 6.0, 7.0])
+    q = table.pressures
+    assert q[0] == 0.2
+    assert table.is_monotone()
+    assert np.all(np.diff(q[:3]) < 0)  # strictly decreasing while the range allows
+    assert table.rows[-1].at_bound == "lower" and q[-1] == 0.0
+    np.testing.assert_allclose(q, table.column("Q_analytic"), atol=1e-6)
+    paths = comp.write_table(tmp_path / "comp", table)
+    rows = list(csv.DictReader(paths["csv"].open()))
+    assert len(rows) == 5 and float(rows[2]["Q_MPa"]) == pytest.approx(q[2])
+    assert rows[-1]["at_bound"] == "lower"
+    meta = json.loads(paths["json"].read_text())
+    assert meta["Q_i_MPa"] == 0.2 and meta["monotone"] is True
+    assert paths["png"].stat().st_size > 1000
+
+
+def test_compensation_table_refuses_cut_into_chamber():
+    with pytest.raises(ValueError, match="tip_clearance"):
+        comp.compensation_table(WhiskerDesign(), 0.2, 55.0, BeamResponse())
+
+
+# ----------------------------------------------------------------------------- comparison
+def test_compare_sensitivity(tmp_path):
+    d = WhiskerDesign()
+    a, q = [0.45, 0.7, 1.0], [0.0, 0.2]
+    same = comp.compare_sensitivity(d, BeamSensitivity(), a_values=a, Q_values=q)
+    assert same.beam.shape == (3, 2)
+    assert same.max_abs_relative_difference < 1e-12
+
+    def fe_high(design, ai, qj):
+        return 1.1 * beam.sensitivity(design, ai, qj)
+
+    cmp = comp.compare_sensitivity(d, fe_high, a_values=a, Q_values=q)
+    np.testing.assert_allclose(cmp.relative_difference, 1 / 1.1 - 1, rtol=1e-10)
+    paths = comp.write_comparison(tmp_path, cmp)
+    rows = list(csv.DictReader(paths["csv"].open()))
+    assert len(rows) == 6 and float(rows[0]["rel_diff"]) == pytest.approx(1 / 1.1 - 1)
+    assert paths["png"].stat().st_size > 1000

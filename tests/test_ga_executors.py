@@ -1,0 +1,110 @@
+"""Executors: same results with serial, processes and dask; timeouts, exceptions and crashes recorded."""
+
+from __future__ import annotations
+
+import pickle
+
+import pytest
+
+from whisker_opt.executors import DaskExecutor, ProcessExecutor, SerialExecutor, make_executor
+from whisker_opt.ga_config import ExecutorConfig, OptimiserConfig
+from whisker_opt.runner import run_optimisation
+from whisker_opt.testfitness import AnalyticFitness, FailureRegion
+
+GOOD = {"alpha": 3.0, "l": 12.0, "t": 4.0, "Q_i": 0.05}
+
+
+def _cfg(kind: str, **executor) -> OptimiserConfig:
+    return OptimiserConfig.model_validate(
+        {
+            "ga": {"population": 12},
+            "stopping": {"max_generations": 4, "target_fp": 0.0, "stall_generations": 100},
+            "executor": {"kind": kind, "n_workers": 2, **executor},
+        }
+    )
+
+
+EV = AnalyticFitness(
+    optimum=(4.0, 12.0, 4.0, 0.05),
+    failures=(FailureRegion("alpha", 5.2, "invalid_geometry"), FailureRegion("t", 5.6, "raise")),
+)
+
+
+def _fingerprint(summary):
+    return summary.population, summary.fitness, summary.best
+
+
+def test_serial_processes_and_dask_give_identical_runs(tmp_path):
+    results = {}
+    for kind, extra in [("serial", {}), ("processes", {}), ("dask", {"dask_processes": True})]:
+        s = run_optimisation(_cfg(kind, **extra), tmp_path / kind, EV, seed=21, progress=False)
+        results[kind] = s
+    ref = _fingerprint(results["serial"])
+    assert results["serial"].n_failures > 0  # failures travel through every executor the same way
+    for kind in ("processes", "dask"):
+        assert _fingerprint(results[kind]) == ref, kind
+        assert results[kind].n_evaluations == results["serial"].n_evaluations
+        assert results[kind].n_cache_hits == results["serial"].n_cache_hits
+
+
+def test_dask_threads_localcluster_matches_serial(tmp_path):
+    a = run_optimisation(_cfg("serial"), tmp_path / "a", EV, seed=4, progress=False)
+    b = run_optimisation(_cfg("dask", dask_processes=False), tmp_path / "b", EV, seed=4, progress=False)
+    assert _fingerprint(a) == _fingerprint(b)
+
+
+def test_process_pool_timeout_crash_and_exception_are_recorded_and_pool_recovers():
+    ev = AnalyticFitness(
+        failures=(
+            FailureRegion("alpha", 5.8, "raise"),
+            FailureRegion("t", 5.8, "hang"),
+            FailureRegion("l", 14.9, "crash"),
+        ),
+        hang_s=30.0,
+    )
+    genes = [
+        GOOD,
+        {**GOOD, "alpha": 5.9},
+        {**GOOD, "t": 5.9},
+        {**GOOD, "l": 14.95},
+        {**GOOD, "alpha": 3.5},
+    ]
+    with ProcessExecutor(ev, n_workers=2, timeout_s=0.5) as ex:
+        out = ex.map(genes, [1, 2, 3, 4, 5])
+        assert [o.status for o in out] == ["ok", "error", "timeout", "error", "ok"]
+        assert out[0].f1 == pytest.approx(ev.f1(GOOD))
+        assert out[1].reason.startswith("RuntimeError: deliberate failure") and "traceback" in out[1].extra
+        assert "exceeded 0.5 s" in out[2].reason
+        assert "worker process died (exit code 3)" in out[3].reason
+        again = ex.map([GOOD] * 3, [1, 1, 1])  # replaced workers keep serving
+        assert [o.status for o in again] == ["ok"] * 3
+        assert all(o.timings["eval_s"] >= 0 for o in out + again)
+
+
+def test_serial_timeout_uses_alarm_and_run_continues():
+    ev = AnalyticFitness(failures=(FailureRegion("t", 5.8, "hang"),), hang_s=30.0)
+    with SerialExecutor(ev, timeout_s=0.3) as ex:
+        out = ex.map([{**GOOD, "t": 5.9}, GOOD], [1, 2])
+    assert [o.status for o in out] == ["timeout", "ok"]
+    assert out[0].timings["eval_s"] < 5.0
+
+
+def test_dask_timeout_and_exception():
+    ev = AnalyticFitness(failures=(FailureRegion("t", 5.8, "hang"), FailureRegion("alpha", 5.8, "raise")), hang_s=2.0)
+    with DaskExecutor(ev, n_workers=2, processes=False, timeout_s=0.3) as ex:
+        out = ex.map([{**GOOD, "t": 5.9}, {**GOOD, "alpha": 5.9}, GOOD], [1, 2, 3])
+    assert [o.status for o in out] == ["timeout", "error", "ok"]
+
+
+def test_unpicklable_evaluator_is_refused_up_front():
+    with pytest.raises(TypeError, match="cannot be pickled"):
+        ProcessExecutor(lambda g: None)
+    cfg = ExecutorConfig(kind="serial")
+    with make_executor(cfg, lambda g: None) as ex:  # serial needs no pickling
+        assert ex.kind == "serial"
+
+
+def test_test_fitness_is_picklable():
+    ev = AnalyticFitness(failures=(FailureRegion("alpha", 5.0),), with_curves=True)
+    again = pickle.loads(pickle.dumps(ev))
+    assert again == ev and again(GOOD).f1 == ev(GOOD).f1

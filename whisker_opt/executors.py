@@ -1,0 +1,525 @@
+"""Where design evaluations run: in-process, in a local process pool, or on dask.
+
+Every executor exposes the same two methods (and is a context manager)::
+
+    outcomes = ex.map(genes_list, seeds)   # list[dict[str, float]], list[int] -> list[EvalOutcome]
+    ex.close()
+
+and guarantees, for every design, one :class:`~whisker_opt.outcome.EvalOutcome` in input
+order, whatever happens inside the evaluator:
+
+- an exception becomes status ``"error"`` with ``"<Type>: <message>"`` as reason and the
+  traceback in ``extra["traceback"]``; a worker process that dies (segfault, OOM kill)
+  becomes ``"error"`` too; the run never crashes because of one design;
+- an evaluation longer than ``timeout_s`` becomes status ``"timeout"``;
+- before each call, Python's ``random`` and NumPy's global RNG are seeded with the
+  design's seed (:func:`whisker_opt.evalcache.evaluation_seed`), so the evaluator's
+  randomness, if any, does not depend on the executor, the worker or the order;
+- the wall time of the call is added as ``timings["eval_s"]``.
+
+Timeouts
+    ``serial``: SIGALRM in the main thread (interrupts Python code; a C extension is
+    interrupted when it returns to Python). ``processes``: the parent kills the worker
+    process at the deadline and starts a fresh one, so even a hang inside C code (e.g. a
+    CAD boolean) is stopped. ``dask``: the task runs the evaluator in a helper thread and
+    gives up waiting at the deadline; the abandoned computation keeps its thread until it
+    returns (threads cannot be killed), so prefer ``processes`` for evaluations that may
+    hang forever.
+
+The ``processes`` pool is a small hand-written one (not ``ProcessPoolExecutor``) so that a
+timeout or a crash is attributed to the one design that caused it, and only that worker
+is replaced. Workers are started with the ``spawn`` method by default: the evaluator must
+be picklable and importable (a module-level class or function), which is checked up front.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import multiprocessing as mp
+import os
+import pickle
+import random
+import signal
+import threading
+import time
+import traceback
+from collections import deque
+from dataclasses import dataclass
+from multiprocessing.connection import wait as mp_wait
+from typing import Any, Callable, Iterator, Sequence
+
+from whisker_opt.ga_config import ExecutorConfig
+from whisker_opt.outcome import EvalOutcome
+
+logger = logging.getLogger(__name__)
+
+Evaluator = Callable[[dict[str, float]], EvalOutcome]
+
+_THREAD_ENV_VARS = ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")
+
+
+class _EvalTimeout(BaseException):
+    """Raised by the SIGALRM handler; a BaseException so ``except Exception`` in user code does not swallow it."""
+
+
+def _seed_globals(seed: int) -> None:
+    random.seed(seed)
+    try:
+        import numpy as np
+
+        np.random.seed(seed % 2**32)
+    except ImportError:  # pragma: no cover - numpy is a hard dependency
+        pass
+
+
+def _call_with_alarm(fn: Callable[[], Any], timeout_s: float) -> Any:
+    def _handler(signum, frame):  # noqa: ARG001
+        raise _EvalTimeout()
+
+    old = signal.signal(signal.SIGALRM, _handler)
+    signal.setitimer(signal.ITIMER_REAL, timeout_s)
+    try:
+        return fn()
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0.0)
+        signal.signal(signal.SIGALRM, old)
+
+
+def _call_with_thread(fn: Callable[[], Any], timeout_s: float) -> Any:
+    box: dict[str, Any] = {}
+
+    def _target() -> None:
+        try:
+            box["out"] = fn()
+        except BaseException as exc:  # noqa: BLE001 - re-raised in the caller
+            box["exc"] = exc
+
+    th = threading.Thread(target=_target, name="whisker-eval", daemon=True)
+    th.start()
+    th.join(timeout_s)
+    if th.is_alive():
+        logger.warning("evaluation abandoned after %.3g s; its thread keeps running until it returns", timeout_s)
+        raise _EvalTimeout()
+    if "exc" in box:
+        raise box["exc"]
+    return box["out"]
+
+
+def guarded_call(
+    evaluator: Evaluator,
+    genes: dict[str, float],
+    seed: int,
+    timeout_s: float | None = None,
+    timeout_mode: str = "none",
+) -> EvalOutcome:
+    """Evaluate one design; never raises for a problem inside the evaluator.
+
+    Parameters
+    ----------
+    evaluator : callable
+        ``evaluate(genes) -> EvalOutcome``.
+    genes : dict
+        Gene values by name.
+    seed : int
+        Seed of ``random`` and NumPy's global RNG for this call.
+    timeout_s : float or None
+        Wall-clock limit [s].
+    timeout_mode : {"none", "alarm", "thread"}
+        How the limit is enforced here ("none": enforced by the caller, or no limit).
+
+    Returns
+    -------
+    EvalOutcome
+        The evaluator's outcome (validated), or a ``"timeout"`` / ``"error"`` outcome;
+        ``timings["eval_s"]`` holds the wall time.
+    """
+    _seed_globals(seed)
+    t0 = time.perf_counter()
+
+    def _call() -> Any:
+        return evaluator(dict(genes))
+
+    try:
+        if timeout_s is not None and timeout_mode == "alarm":
+            out = _call_with_alarm(_call, timeout_s)
+        elif timeout_s is not None and timeout_mode == "thread":
+            out = _call_with_thread(_call, timeout_s)
+        else:
+            out = _call()
+        if not isinstance(out, EvalOutcome):
+            out = EvalOutcome.failure("error", f"evaluator returned {type(out).__name__}, not EvalOutcome")
+        out = out.validated()
+    except _EvalTimeout:
+        out = EvalOutcome.failure("timeout", f"evaluation exceeded {timeout_s:g} s")
+    except Exception as exc:  # noqa: BLE001 - any evaluator bug becomes a recorded failure
+        out = EvalOutcome.failure(
+            "error", f"{type(exc).__name__}: {exc}", extra={"traceback": traceback.format_exc()}
+        )
+    return out.with_timing(eval_s=time.perf_counter() - t0)
+
+
+@contextlib.contextmanager
+def _thread_env(n_threads: int) -> Iterator[None]:
+    """Temporarily set the BLAS/OpenMP thread variables (inherited by spawned children)."""
+    old = {k: os.environ.get(k) for k in _THREAD_ENV_VARS}
+    os.environ.update({k: str(n_threads) for k in _THREAD_ENV_VARS})
+    try:
+        yield
+    finally:
+        for k, v in old.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
+def _check_picklable(evaluator: Evaluator) -> None:
+    try:
+        pickle.dumps(evaluator)
+    except Exception as exc:  # noqa: BLE001
+        raise TypeError(
+            f"the evaluator {evaluator!r} cannot be pickled for worker processes "
+            f"({type(exc).__name__}: {exc}); use a module-level class or function"
+        ) from None
+
+
+class _BaseExecutor:
+    """Context-manager plumbing shared by the executors."""
+
+    kind = "base"
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Release workers (idempotent)."""
+
+    def map(self, genes_list: Sequence[dict[str, float]], seeds: Sequence[int]) -> list[EvalOutcome]:
+        raise NotImplementedError
+
+
+class SerialExecutor(_BaseExecutor):
+    """Evaluate in the calling process, one design after the other.
+
+    Parameters
+    ----------
+    evaluator : callable
+    timeout_s : float or None
+        Enforced with SIGALRM when called from the main thread, else with a helper thread.
+    """
+
+    kind = "serial"
+
+    def __init__(self, evaluator: Evaluator, timeout_s: float | None = None) -> None:
+        self.evaluator = evaluator
+        self.timeout_s = timeout_s
+
+    def map(self, genes_list: Sequence[dict[str, float]], seeds: Sequence[int]) -> list[EvalOutcome]:
+        """Evaluate each design in order; see the module docstring."""
+        main = threading.current_thread() is threading.main_thread() and hasattr(signal, "setitimer")
+        mode = "alarm" if main else "thread"
+        return [guarded_call(self.evaluator, g, s, self.timeout_s, mode) for g, s in zip(genes_list, seeds)]
+
+
+def _worker_main(conn, evaluator: Evaluator) -> None:
+    """Loop of a pool worker: receive (index, genes, seed), send (index, outcome); None stops."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is handled by the parent
+    try:
+        conn.send("ready")
+    except (BrokenPipeError, EOFError, OSError):
+        return
+    while True:
+        try:
+            msg = conn.recv()
+        except (EOFError, OSError):  # parent gone
+            return
+        if msg is None:
+            return
+        idx, genes, seed = msg
+        out = guarded_call(evaluator, genes, seed)
+        try:
+            conn.send((idx, out))
+        except (BrokenPipeError, EOFError, OSError):  # parent gone
+            return
+        except Exception as exc:  # noqa: BLE001 - e.g. an unpicklable extra
+            try:
+                conn.send((idx, EvalOutcome.failure("error", f"outcome could not be sent back: {exc}", out.timings)))
+            except Exception:  # noqa: BLE001
+                return
+
+
+@dataclass
+class _Worker:
+    proc: Any
+    conn: Any
+    task: tuple[int, float] | None = None  # (index, deadline)
+
+
+class ProcessExecutor(_BaseExecutor):
+    """A local pool of worker processes with per-evaluation hard timeouts.
+
+    Parameters
+    ----------
+    evaluator : callable
+        Picklable ``evaluate(genes) -> EvalOutcome``; sent once to each worker.
+    n_workers : int
+        Worker processes.
+    timeout_s : float or None
+        A worker busy for longer on one design is killed and replaced; the design gets
+        status ``"timeout"``.
+    start_method : str
+        ``multiprocessing`` start method ("spawn" is safe with threads in the parent).
+    threads_per_worker : int
+        OMP/MKL/OPENBLAS_NUM_THREADS of the workers.
+    start_timeout_s : float
+        A worker that does not report ready within this time (e.g. the evaluator cannot be
+        imported in a fresh interpreter) aborts with ``RuntimeError``: that is a set-up
+        problem, not a design failure.
+    """
+
+    kind = "processes"
+
+    def __init__(
+        self,
+        evaluator: Evaluator,
+        n_workers: int = 2,
+        timeout_s: float | None = None,
+        start_method: str = "spawn",
+        threads_per_worker: int = 1,
+        start_timeout_s: float = 120.0,
+    ) -> None:
+        _check_picklable(evaluator)
+        self.evaluator = evaluator
+        self.n_workers = int(n_workers)
+        self.timeout_s = timeout_s
+        self.threads_per_worker = int(threads_per_worker)
+        self._ctx = mp.get_context(start_method)
+        self.start_timeout_s = float(start_timeout_s)
+        self._workers: list[_Worker] = []
+        self._counter = 0
+
+    def _spawn(self) -> _Worker:
+        parent, child = self._ctx.Pipe(duplex=True)
+        self._counter += 1
+        proc = self._ctx.Process(
+            target=_worker_main, args=(child, self.evaluator), daemon=True, name=f"whisker-worker-{self._counter}"
+        )
+        with _thread_env(self.threads_per_worker):
+            proc.start()
+        child.close()
+        return _Worker(proc, parent)
+
+    def _await_ready(self, workers: Sequence[_Worker]) -> None:
+        """Wait for the start-up handshake; a worker that cannot start is an environment error."""
+        deadline = time.monotonic() + self.start_timeout_s
+        for w in workers:
+            ok = False
+            try:
+                if w.conn.poll(max(0.0, deadline - time.monotonic())):
+                    ok = w.conn.recv() == "ready"
+            except (EOFError, OSError):
+                ok = False
+            if not ok:
+                code = w.proc.exitcode
+                for v in workers:
+                    if v.proc.is_alive():
+                        v.proc.kill()
+                    if v in self._workers:
+                        self._workers.remove(v)
+                raise RuntimeError(
+                    f"worker process {w.proc.name} failed to start (exit code {code}); "
+                    "is the evaluator importable in a fresh interpreter (module-level, not __main__ of a "
+                    "script without an `if __name__ == '__main__'` guard)?"
+                )
+
+    def _grow(self, n: int) -> None:
+        new = [self._spawn() for _ in range(n)]
+        self._workers.extend(new)
+        self._await_ready(new)
+
+    def _retire(self, w: _Worker, kill: bool) -> None:
+        if kill and w.proc.is_alive():
+            w.proc.kill()
+        w.proc.join(5.0)
+        with contextlib.suppress(Exception):
+            w.conn.close()
+        self._workers.remove(w)
+
+    def _replace(self, w: _Worker, kill: bool) -> None:
+        self._retire(w, kill)
+        self._grow(1)
+
+    def map(self, genes_list: Sequence[dict[str, float]], seeds: Sequence[int]) -> list[EvalOutcome]:
+        """Evaluate the designs on the pool; results in input order."""
+        n = len(genes_list)
+        results: list[EvalOutcome | None] = [None] * n
+        missing = min(self.n_workers, max(n, 1)) - len(self._workers)
+        if missing > 0:
+            self._grow(missing)
+        pending = deque(range(n))
+        inf = float("inf")
+        while pending or any(w.task for w in self._workers):
+            for w in list(self._workers):
+                if w.task is None and pending:
+                    if not w.proc.is_alive():  # died while idle: not the next design's fault
+                        self._replace(w, kill=False)
+                        continue
+                    i = pending.popleft()
+                    try:
+                        w.conn.send((i, dict(genes_list[i]), int(seeds[i])))
+                    except (BrokenPipeError, OSError):
+                        pending.appendleft(i)
+                        self._replace(w, kill=True)
+                        continue
+                    deadline = time.monotonic() + self.timeout_s if self.timeout_s else inf
+                    w.task = (i, deadline)
+            busy = [w for w in self._workers if w.task]
+            if not busy:
+                continue
+            next_deadline = min(w.task[1] for w in busy)  # type: ignore[index]
+            wait_s = None if next_deadline == inf else max(0.0, next_deadline - time.monotonic())
+            mp_wait([w.conn for w in busy] + [w.proc.sentinel for w in busy], wait_s)
+            now = time.monotonic()
+            for w in busy:
+                i, deadline = w.task  # type: ignore[misc]
+                got = False
+                try:
+                    if w.conn.poll():
+                        idx, out = w.conn.recv()
+                        results[idx] = out
+                        w.task = None
+                        got = True
+                except (EOFError, OSError):
+                    pass
+                if got:
+                    continue
+                if not w.proc.is_alive():
+                    code = w.proc.exitcode
+                    logger.warning("worker %s died (exit code %s) evaluating design %d", w.proc.name, code, i)
+                    results[i] = EvalOutcome.failure(
+                        "error", f"worker process died (exit code {code})", timings={"eval_s": 0.0}
+                    )
+                    self._replace(w, kill=False)
+                elif now >= deadline:
+                    logger.warning("design %d exceeded %.3g s: killing worker %s", i, self.timeout_s, w.proc.name)
+                    results[i] = EvalOutcome.failure(
+                        "timeout", f"evaluation exceeded {self.timeout_s:g} s (worker killed)",
+                        timings={"eval_s": float(self.timeout_s)},  # type: ignore[arg-type]
+                    )
+                    self._replace(w, kill=True)
+        return results  # type: ignore[return-value]
+
+    def close(self) -> None:
+        """Stop the workers (politely, then by force)."""
+        for w in list(self._workers):
+            with contextlib.suppress(Exception):
+                w.conn.send(None)
+        for w in list(self._workers):
+            w.proc.join(2.0)
+            self._retire(w, kill=True)
+
+
+def _dask_task(evaluator: Evaluator, genes: dict[str, float], seed: int, timeout_s: float | None) -> EvalOutcome:
+    return guarded_call(evaluator, genes, seed, timeout_s, "thread")
+
+
+class DaskExecutor(_BaseExecutor):
+    """Evaluate on dask.distributed: a LocalCluster by default, or an existing scheduler.
+
+    Parameters
+    ----------
+    evaluator : callable
+        Picklable ``evaluate(genes) -> EvalOutcome``; must be importable on the workers.
+    n_workers : int
+        Workers of the LocalCluster (ignored with ``scheduler_address``).
+    scheduler_address : str or None
+        Connect to this scheduler instead of starting a LocalCluster.
+    processes : bool
+        LocalCluster workers are processes (True) or threads of this process (False).
+    threads_per_worker : int
+        BLAS/OpenMP threads of LocalCluster worker processes. Each worker runs one task
+        at a time (``nthreads=1``), so concurrent evaluations never share a global RNG.
+    timeout_s : float or None
+        Per-evaluation limit, enforced inside the task (see the module docstring).
+    """
+
+    kind = "dask"
+
+    def __init__(
+        self,
+        evaluator: Evaluator,
+        n_workers: int = 2,
+        scheduler_address: str | None = None,
+        processes: bool = True,
+        threads_per_worker: int = 1,
+        timeout_s: float | None = None,
+    ) -> None:
+        _check_picklable(evaluator)
+        try:
+            from distributed import Client, LocalCluster
+        except ImportError as exc:  # pragma: no cover - optional extra
+            raise ImportError("executor 'dask' needs dask[distributed]: pip install 'whisker-opt[dask]'") from exc
+        self.evaluator = evaluator
+        self.timeout_s = timeout_s
+        self._cluster = None
+        if scheduler_address:
+            self._client = Client(scheduler_address)
+        else:
+            kwargs: dict[str, Any] = {}
+            if processes:
+                kwargs["env"] = {k: str(threads_per_worker) for k in _THREAD_ENV_VARS}
+            self._cluster = LocalCluster(
+                n_workers=int(n_workers),
+                threads_per_worker=1,
+                processes=processes,
+                dashboard_address=None,
+                silence_logs=logging.ERROR,
+                **kwargs,
+            )
+            self._client = Client(self._cluster)
+        logger.info("dask executor: %s", self._client)
+
+    def map(self, genes_list: Sequence[dict[str, float]], seeds: Sequence[int]) -> list[EvalOutcome]:
+        """Submit every design, gather in input order; a lost task becomes ``"error"``."""
+        from distributed import wait
+
+        futures = [
+            self._client.submit(_dask_task, self.evaluator, dict(g), int(s), self.timeout_s, pure=False)
+            for g, s in zip(genes_list, seeds)
+        ]
+        wait(futures)
+        results: list[EvalOutcome] = []
+        for f in futures:
+            if f.status == "finished":
+                results.append(f.result())
+            else:
+                exc = f.exception() if f.status == "error" else f.status
+                results.append(EvalOutcome.failure("error", f"dask task {f.status}: {exc}", timings={"eval_s": 0.0}))
+            f.release()
+        return results
+
+    def close(self) -> None:
+        """Close the client and the LocalCluster, if any."""
+        with contextlib.suppress(Exception):
+            self._client.close()
+        if self._cluster is not None:
+            with contextlib.suppress(Exception):
+                self._cluster.close()
+            self._cluster = None
+
+
+def make_executor(cfg: ExecutorConfig, evaluator: Evaluator) -> _BaseExecutor:
+    """The executor described by ``cfg`` (use it as a context manager)."""
+    if cfg.kind == "serial":
+        return SerialExecutor(evaluator, cfg.timeout_s)
+    if cfg.kind == "processes":
+        return ProcessExecutor(evaluator, cfg.n_workers, cfg.timeout_s, cfg.start_method, cfg.threads_per_worker)
+    if cfg.kind == "dask":
+        return DaskExecutor(
+            evaluator, cfg.n_workers, cfg.scheduler_address, cfg.dask_processes, cfg.threads_per_worker, cfg.timeout_s
+        )
+    raise ValueError(f"executor.kind: unknown {cfg.kind!r}")  # pragma: no cover - validated by pydantic

@@ -1,0 +1,405 @@
+"""The generational GA of SPEC §6, written by hand on DEAP.
+
+Loop (one generation)::
+
+    g = 0:  draw the initial population (Latin hypercube or uniform in the gene box)
+    g > 0:  elites   = the n_elite best distinct individuals, copied unchanged
+            parents  = tournament selection (size 2) of population − n_elite
+            children = pairwise SBX (cxSimulatedBinaryBounded) with probability cx_prob,
+                       then polynomial mutation (mutPolynomialBounded, per-gene indpb)
+                       with probability mut_prob; genes are clamped to their bounds
+                       before each bounded operator (DEAP's operators return complex
+                       numbers for out-of-bound genes) and after
+            population = elites + children
+    evaluate the individuals whose fitness is invalid (cache first, then the executor),
+    update the hall of fame, record statistics, call the callbacks (progress, checkpoint),
+    stop when a rule fires.
+
+Fitness
+    DEAP fitness values are the pair (infeasible, F_p) with weights (−1, −1), compared
+    lexicographically: every failed design ranks below every feasible one, and feasible
+    designs rank by F_p (:mod:`whisker_opt.penalty`).
+
+Stopping rules (checked after every generation, first match wins)
+    ``target_fp``: the best design is feasible and its F_p <= ``target_fp``;
+    ``stall``: with b_g the best F_p after generation g and N = ``stall_generations``,
+    mean_{k=g−N+1..g} (b_{k−1} − b_k)/|b_{k−1}| <= ``stall_tol`` (needs g >= N);
+    ``max_generations``: g = ``max_generations`` (generation 0 is the initial population).
+
+Reproducibility
+    All GA randomness is drawn from Python's ``random`` (DEAP's operators use it) inside
+    :func:`_ga_rng`, which installs the GA's own RNG states (kept in :class:`GAState`,
+    with NumPy's) and saves them back, then restores the caller's. Nothing else — an
+    evaluator running in this process, dask, tqdm — can shift the GA's stream, so the
+    same seed gives the same run with any executor, and a run resumed from a checkpoint
+    continues the exact same stream.
+
+The DEAP ``creator`` classes are created once, at import of this module (guarded with
+``hasattr``), so that pickled individuals (checkpoints) load wherever this module is
+imported.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import math
+import random
+import time
+from dataclasses import dataclass, field
+from typing import Any, Callable, Iterator, Sequence
+
+import numpy as np
+from deap import base, creator, tools
+
+from whisker_opt.evalcache import EvalCache, evaluation_seed
+from whisker_opt.ga_config import GENE_NAMES, OptimiserConfig
+from whisker_opt.outcome import EvalOutcome
+from whisker_opt.penalty import PenaltyTerm, fitness_values, penalise, penalty_terms
+
+logger = logging.getLogger(__name__)
+
+if not hasattr(creator, "WhiskerFitness"):
+    creator.create("WhiskerFitness", base.Fitness, weights=(-1.0, -1.0))
+if not hasattr(creator, "WhiskerIndividual"):
+    creator.create("WhiskerIndividual", list, fitness=creator.WhiskerFitness, info=None)
+
+Individual = creator.WhiskerIndividual
+
+#: Names of the stopping rules, in order of precedence.
+STOP_RULES: tuple[str, ...] = ("target_fp", "stall", "max_generations")
+
+
+@dataclass
+class GAState:
+    """Everything a generation needs from the previous ones (checkpointed after each).
+
+    Attributes
+    ----------
+    seed : int
+        Master seed of the run.
+    generation : int
+        Last completed generation (−1 before the initial population is evaluated).
+    population : list of Individual
+        Current population; each individual has ``fitness.values = (infeasible, F_p)`` and
+        ``info`` (dict: eval_id, generation, f1, kappas, fp, status, reason).
+    hof : deap.tools.HallOfFame
+        Best distinct designs ever seen (``hof[0]`` is the best).
+    logbook : list of dict
+        Per-generation statistics (see :meth:`GeneticAlgorithm.generation_stats`).
+    records : list of dict
+        One row per evaluated individual (cache hits included, flagged).
+    cache : EvalCache
+        Outcomes by rounded genome.
+    rng_py, rng_np : tuple
+        States of Python's ``random`` and NumPy's global RNG, as the GA left them.
+    n_evaluations, n_cache_hits, n_failures : int
+        Evaluator calls, individuals served by the cache, failed individuals.
+    elapsed_s : float
+        Wall time of the completed generations, summed over sessions [s].
+    stop_reason : str or None
+        The stopping rule that fired (:data:`STOP_RULES`), None while running.
+    """
+
+    seed: int
+    generation: int
+    population: list
+    hof: Any
+    logbook: list[dict]
+    records: list[dict]
+    cache: EvalCache
+    rng_py: tuple
+    rng_np: tuple
+    n_evaluations: int = 0
+    n_cache_hits: int = 0
+    n_failures: int = 0
+    elapsed_s: float = 0.0
+    stop_reason: str | None = None
+    extra: dict = field(default_factory=dict)
+
+
+Callback = Callable[[GAState, dict], None]
+
+
+@contextlib.contextmanager
+def _ga_rng(state: GAState) -> Iterator[None]:
+    """Install the GA's RNG states in ``random`` / ``numpy.random``, save them back after."""
+    outer_py, outer_np = random.getstate(), np.random.get_state()
+    random.setstate(state.rng_py)
+    np.random.set_state(state.rng_np)
+    try:
+        yield
+    finally:
+        state.rng_py = random.getstate()
+        state.rng_np = np.random.get_state()
+        random.setstate(outer_py)
+        np.random.set_state(outer_np)
+
+
+def _invalidate(ind) -> None:
+    del ind.fitness.values
+    ind.info = None
+
+
+class GeneticAlgorithm:
+    """The GA of SPEC §6 on the genes [α, l, t, Q_i].
+
+    Parameters
+    ----------
+    cfg : OptimiserConfig
+        Genes, penalties, GA settings, stopping rules and cache settings.
+    seed : int
+        Master seed (GA streams and per-design evaluator seeds derive from it).
+    """
+
+    def __init__(self, cfg: OptimiserConfig, seed: int) -> None:
+        self.cfg = cfg
+        self.seed = int(seed)
+        self.names: tuple[str, ...] = GENE_NAMES
+        bounds = cfg.genes.bounds()
+        self.low = [float(lo) for lo, _ in bounds]
+        self.up = [float(hi) for _, hi in bounds]
+        self.terms: tuple[PenaltyTerm, ...] = penalty_terms(cfg)
+        ga = cfg.ga
+        tb = base.Toolbox()
+        tb.register("select", tools.selTournament, tournsize=ga.tournament)
+        tb.register("mate", tools.cxSimulatedBinaryBounded, eta=ga.eta_cx, low=self.low, up=self.up)
+        tb.register("mutate", tools.mutPolynomialBounded, eta=ga.eta_mut, low=self.low, up=self.up, indpb=ga.indpb)
+        self.toolbox = tb
+
+    # ------------------------------------------------------------------ state
+    def new_state(self) -> GAState:
+        """A fresh state: nothing evaluated, RNGs seeded with the master seed."""
+        return GAState(
+            seed=self.seed,
+            generation=-1,
+            population=[],
+            hof=tools.HallOfFame(self.cfg.ga.hall_of_fame),
+            logbook=[],
+            records=[],
+            cache=EvalCache(self.cfg.cache.decimals, self.cfg.cache.enabled, self.cfg.cache.cache_failures),
+            rng_py=random.Random(self.seed).getstate(),
+            rng_np=np.random.RandomState(self.seed % 2**32).get_state(),
+        )
+
+    def genes_of(self, ind: Sequence[float]) -> dict[str, float]:
+        """Gene values by name."""
+        return {n: float(x) for n, x in zip(self.names, ind)}
+
+    def clamp(self, ind) -> bool:
+        """Clamp every gene into its bounds, in place; True when something moved."""
+        moved = False
+        for i, (lo, hi) in enumerate(zip(self.low, self.up)):
+            x = ind[i]
+            y = min(max(float(x.real if isinstance(x, complex) else x), lo), hi)
+            if y != x:
+                ind[i] = y
+                moved = True
+        return moved
+
+    # ------------------------------------------------------------------ breeding
+    def initial_population(self) -> list:
+        """Initial individuals (uses the global ``random``; call inside :func:`_ga_rng`)."""
+        n = self.cfg.ga.population
+        cols = []
+        for lo, hi in zip(self.low, self.up):
+            if self.cfg.ga.init == "lhs":
+                strata = list(range(n))
+                random.shuffle(strata)
+                cols.append([lo + (hi - lo) * (s + random.random()) / n for s in strata])
+            else:
+                cols.append([random.uniform(lo, hi) for _ in range(n)])
+        pop = [Individual(list(row)) for row in zip(*cols)]
+        for ind in pop:
+            self.clamp(ind)
+        return pop
+
+    def elites(self, population: list) -> list:
+        """Clones of the ``n_elite`` best individuals with distinct genes."""
+        out, seen = [], set()
+        for ind in tools.selBest(population, len(population)):
+            if len(out) >= self.cfg.ga.n_elite:
+                break
+            key = tuple(ind)
+            if key in seen:
+                continue
+            seen.add(key)
+            out.append(self.toolbox.clone(ind))
+        return out
+
+    def breed(self, population: list) -> list:
+        """Next population: elites + varied tournament winners (call inside :func:`_ga_rng`)."""
+        ga = self.cfg.ga
+        tb = self.toolbox
+        elites = self.elites(population)
+        offspring = [tb.clone(ind) for ind in tb.select(population, len(population) - len(elites))]
+        for i in range(1, len(offspring), 2):
+            if random.random() < ga.cx_prob:
+                a, b = offspring[i - 1], offspring[i]
+                self.clamp(a)
+                self.clamp(b)
+                tb.mate(a, b)
+                _invalidate(a)
+                _invalidate(b)
+        for ind in offspring:
+            if random.random() < ga.mut_prob:
+                self.clamp(ind)
+                tb.mutate(ind)
+                _invalidate(ind)
+        for ind in offspring:
+            if self.clamp(ind) and ind.fitness.valid:  # pragma: no cover - operators clip already
+                _invalidate(ind)
+        return elites + offspring
+
+    # ------------------------------------------------------------------ evaluation
+    def evaluate(self, state: GAState, individuals: list, executor, generation: int) -> dict[str, int]:
+        """Give every individual with an invalid fitness its fitness, recording each one.
+
+        Designs found in the cache, or repeated within the batch, are not sent to the
+        executor (flagged ``cache_hit``). Returns counts for the statistics.
+        """
+        cache = state.cache
+        invalid = [ind for ind in individuals if not ind.fitness.valid]
+        keys = []
+        to_run: dict[Any, dict[str, float]] = {}
+        for j, ind in enumerate(invalid):
+            key = cache.key(ind) if cache.enabled else (j,)
+            keys.append(key)
+            if cache.get(key) is None and key not in to_run:
+                to_run[key] = self.genes_of(ind)
+        run_keys = list(to_run)
+        seeds = [evaluation_seed(self.seed, cache.key(to_run[k].values())) for k in run_keys]
+        outcomes: list[EvalOutcome] = executor.map([to_run[k] for k in run_keys], seeds) if run_keys else []
+        fresh = dict(zip(run_keys, outcomes))
+        for k, out in fresh.items():
+            cache.put(k, out)
+        first_use = set(fresh)
+        n_hits = n_fail = 0
+        for ind, key in zip(invalid, keys):
+            if key in first_use:
+                out, hit = fresh[key], False
+                first_use.discard(key)
+            else:
+                out = fresh[key] if key in fresh else cache.get(key)
+                hit = True
+                n_hits += 1
+            genes = self.genes_of(ind)
+            pen = penalise(out, genes, self.terms, self.cfg.failure_penalty)
+            ind.fitness.values = fitness_values(pen)
+            eval_id = len(state.records)
+            if not pen.feasible:
+                n_fail += 1
+            ind.info = {
+                "eval_id": eval_id,
+                "generation": generation,
+                "f1": pen.f1,
+                "kappas": dict(pen.kappas),
+                "fp": pen.fp,
+                "status": out.status,
+                "reason": out.reason,
+            }
+            rec: dict[str, Any] = {"eval_id": eval_id, "generation": generation, **genes, "f1": pen.f1}
+            for t in self.terms:
+                rec[t.column] = pen.kappas.get(t.gene)
+            rec.update(
+                F_p=pen.fp,
+                status=out.status,
+                reason=out.reason,
+                time_s=0.0 if hit else float(out.timings.get("eval_s", 0.0)),
+                cache_hit=hit,
+            )
+            state.records.append(rec)
+        state.n_evaluations += len(run_keys)
+        state.n_cache_hits += n_hits
+        state.n_failures += n_fail
+        return {"evals": len(run_keys), "cache_hits": n_hits, "n_failures": n_fail, "n_invalid": len(invalid)}
+
+    # ------------------------------------------------------------------ statistics / stopping
+    def generation_stats(self, state: GAState, generation: int, counts: dict[str, int], wall_s: float) -> dict:
+        """Statistics row of one generation (best = hall of fame best, mean over feasible)."""
+        pop = state.population
+        feas = [ind.fitness.values[1] for ind in pop if ind.fitness.values[0] == 0.0]
+        all_fp = [ind.fitness.values[1] for ind in pop]
+        best = state.hof[0]
+        row: dict[str, Any] = {
+            "generation": generation,
+            "evals": counts["evals"],
+            "cache_hits": counts["cache_hits"],
+            "n_failures": counts["n_failures"],
+            "n_feasible": len(feas),
+            "best_fp": best.fitness.values[1],
+            "best_feasible": best.fitness.values[0] == 0.0,
+            "best_f1": best.info["f1"] if best.info else None,
+            "min_fp": min(feas) if feas else min(all_fp),
+            "mean_fp": float(np.mean(feas)) if feas else math.nan,
+            "total_evals": state.n_evaluations,
+            "time_s": wall_s,
+        }
+        row.update({f"best_{n}": float(x) for n, x in zip(self.names, best)})
+        return row
+
+    def stop_reason(self, state: GAState) -> str | None:
+        """The first stopping rule that fires after the last generation, or None."""
+        st = self.cfg.stopping
+        last = state.logbook[-1]
+        if last["best_feasible"] and last["best_fp"] <= st.target_fp:
+            return "target_fp"
+        n = st.stall_generations
+        hist = [row["best_fp"] for row in state.logbook]
+        if len(hist) > n:
+            window = hist[-(n + 1):]
+            rel = [(a - b) / abs(a) if a != 0 else 0.0 for a, b in zip(window[:-1], window[1:])]
+            if float(np.mean(rel)) <= st.stall_tol:
+                return "stall"
+        if state.generation >= st.max_generations:
+            return "max_generations"
+        return None
+
+    # ------------------------------------------------------------------ loop
+    def run_generation(self, state: GAState, executor) -> dict:
+        """Breed (or draw) and evaluate one generation; returns its statistics row."""
+        t0 = time.perf_counter()
+        gen = state.generation + 1
+        with _ga_rng(state):
+            pop = self.initial_population() if gen == 0 else self.breed(state.population)
+        counts = self.evaluate(state, pop, executor, gen)
+        state.population = pop
+        state.hof.update(pop)
+        state.generation = gen
+        wall = time.perf_counter() - t0
+        state.elapsed_s += wall
+        row = self.generation_stats(state, gen, counts, wall)
+        row["elapsed_s"] = state.elapsed_s
+        state.logbook.append(row)
+        state.stop_reason = self.stop_reason(state)
+        logger.info(
+            "generation %d: best F_p=%.6g (%s), %d evals, %d cache hits, %d failures%s",
+            gen, row["best_fp"], "feasible" if row["best_feasible"] else "FAILED", counts["evals"],
+            counts["cache_hits"], counts["n_failures"], f", stop: {state.stop_reason}" if state.stop_reason else "",
+        )
+        return row
+
+    def run(self, state: GAState, executor, callbacks: Sequence[Callback] = ()) -> GAState:
+        """Run generations until a stopping rule fires; ``callbacks(state, row)`` after each."""
+        while state.stop_reason is None:
+            row = self.run_generation(state, executor)
+            for cb in callbacks:
+                cb(state, row)
+        return state
+
+
+def best_design(state: GAState) -> dict[str, Any]:
+    """The best design so far: genes, f1, κ_j, F_p, status and where it was found."""
+    best = state.hof[0]
+    info = dict(best.info or {})
+    return {
+        "genes": {n: float(x) for n, x in zip(GENE_NAMES, best)},
+        "feasible": best.fitness.values[0] == 0.0,
+        "F_p": best.fitness.values[1],
+        "f1": info.get("f1"),
+        "kappas": info.get("kappas", {}),
+        "status": info.get("status"),
+        "reason": info.get("reason", ""),
+        "eval_id": info.get("eval_id"),
+        "generation_found": info.get("generation"),
+    }

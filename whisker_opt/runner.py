@@ -1,0 +1,391 @@
+"""Run, resume and report an optimisation: the GA plus its results directory.
+
+The CLI commands ``run``, ``resume`` and ``report`` are thin wrappers around
+:func:`run_optimisation`, :func:`resume_optimisation` and :func:`report`. The evaluator is
+any picklable callable ``evaluate(genes: dict[str, float]) -> EvalOutcome`` (genes
+``alpha`` [deg], ``l`` [mm], ``t`` [mm], ``Q_i`` [MPa]); see :mod:`whisker_opt.outcome`.
+
+After every generation the runner writes, in this order, the checkpoint, then
+``evaluations.csv``, ``generations.csv`` and ``best.json`` (all atomic, see
+:mod:`whisker_opt.storage`); at the end the convergence plot and, when the best design's
+outcome carries its curves, ``best_curves.csv/png``.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections import Counter
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+from whisker_opt import storage
+from whisker_opt.checkpoint import has_checkpoint, load_checkpoint, remove_stale_temporaries, save_checkpoint
+from whisker_opt.executors import make_executor
+from whisker_opt.ga import GAState, GeneticAlgorithm, best_design
+from whisker_opt.ga_config import ExecutorConfig, OptimiserConfig
+from whisker_opt.outcome import EvalOutcome
+from whisker_opt.plots import plot_convergence
+
+logger = logging.getLogger(__name__)
+
+Evaluator = Callable[[dict[str, float]], EvalOutcome]
+
+
+@dataclass(frozen=True)
+class RunSummary:
+    """What a finished (or interrupted-and-resumed) run produced.
+
+    Attributes
+    ----------
+    run_dir : Path
+    seed : int
+    stop_reason : str
+        The stopping rule that fired (``target_fp``, ``stall`` or ``max_generations``).
+    generations : int
+        Index of the last generation (0 = initial population).
+    n_evaluations : int
+        Evaluator calls (cache hits excluded).
+    n_cache_hits : int
+        Individuals whose outcome came from the cache.
+    n_failures : int
+        Individuals whose evaluation failed (any status but ``ok``).
+    wall_time_s : float
+        Wall time of the generations, summed over sessions [s].
+    best : dict
+        :func:`whisker_opt.ga.best_design`: genes, feasible, F_p, f1, kappas, status, ...
+    population : tuple of tuple of float
+        Final population's genes [α, l, t, Q_i].
+    fitness : tuple of tuple of float
+        Final population's fitness values (infeasible flag, F_p).
+    """
+
+    run_dir: Path
+    seed: int
+    stop_reason: str
+    generations: int
+    n_evaluations: int
+    n_cache_hits: int
+    n_failures: int
+    wall_time_s: float
+    best: dict[str, Any]
+    population: tuple[tuple[float, ...], ...]
+    fitness: tuple[tuple[float, ...], ...]
+
+
+def _summary(run_dir: Path, state: GAState) -> RunSummary:
+    return RunSummary(
+        run_dir=Path(run_dir),
+        seed=state.seed,
+        stop_reason=str(state.stop_reason),
+        generations=state.generation,
+        n_evaluations=state.n_evaluations,
+        n_cache_hits=state.n_cache_hits,
+        n_failures=state.n_failures,
+        wall_time_s=state.elapsed_s,
+        best=best_design(state),
+        population=tuple(tuple(float(x) for x in ind) for ind in state.population),
+        fitness=tuple(tuple(ind.fitness.values) for ind in state.population),
+    )
+
+
+class _RunWriter:
+    """Per-generation callback that keeps the run directory in step with the GA state."""
+
+    def __init__(self, run_dir: Path, ga: GeneticAlgorithm, config: dict[str, Any]) -> None:
+        self.run_dir = Path(run_dir)
+        self.ga = ga
+        self.config = config
+        self.eval_cols = storage.evaluation_columns(ga.names, [t.column for t in ga.terms])
+        self.gen_cols = storage.generation_columns(ga.names)
+
+    def __call__(self, state: GAState, row: dict | None = None) -> None:
+        save_checkpoint(self.run_dir, state, self.config)
+        self.write_tables(state)
+
+    def write_tables(self, state: GAState) -> None:
+        storage.write_evaluations(self.run_dir, state.records, self.eval_cols)
+        storage.write_generations(self.run_dir, state.logbook, self.gen_cols)
+        storage.write_best(self.run_dir, _best_json(state))
+
+    def finish(self, state: GAState) -> None:
+        self.write_tables(state)
+        write_plots(self.run_dir, state, self.ga.cfg)
+
+
+def _best_json(state: GAState) -> dict[str, Any]:
+    return {
+        **best_design(state),
+        "seed": state.seed,
+        "stop_reason": state.stop_reason,
+        "generations": state.generation,
+        "n_evaluations": state.n_evaluations,
+        "n_cache_hits": state.n_cache_hits,
+        "n_failures": state.n_failures,
+        "wall_time_s": state.elapsed_s,
+    }
+
+
+def _best_outcome(state: GAState) -> EvalOutcome | None:
+    if not state.hof:
+        return None
+    return state.cache.get(state.cache.key(state.hof[0]))
+
+
+def write_plots(run_dir: Path, state: GAState, cfg: OptimiserConfig) -> list[Path]:
+    """Convergence plot, and the best design's curves when its outcome holds them."""
+    out: list[Path] = []
+    if not state.logbook:
+        return out
+    lb = state.logbook
+    out.append(
+        plot_convergence(
+            Path(run_dir) / "convergence.png",
+            [r["generation"] for r in lb],
+            [r["best_fp"] for r in lb],
+            [r["mean_fp"] for r in lb],
+            [r["best_feasible"] for r in lb],
+            cfg.stopping.target_fp,
+            title=f"GA convergence ({state.stop_reason or 'running'})",
+        )
+    )
+    best_out = _best_outcome(state)
+    if best_out is not None and all(k in best_out.extra for k in ("delta", "eps_i", "eps_c")):
+        b = best_design(state)
+        g = b["genes"]
+        title = (
+            f"best: α={g['alpha']:.3f}°, l={g['l']:.2f}, t={g['t']:.2f} mm, Q_i={g['Q_i']:.4f} MPa, "
+            f"f1={b['f1']:.3g}"
+        )
+        out.append(
+            storage.write_best_curves(
+                run_dir, best_out.extra["delta"], best_out.extra["eps_i"], best_out.extra["eps_c"], title
+            )
+        )
+    return out
+
+
+class _Progress:
+    """tqdm bar over generations: best F_p, evaluations/s, failures, ETA."""
+
+    def __init__(self, total: int, initial: int, enabled: bool) -> None:
+        from tqdm.auto import tqdm
+
+        self.bar = tqdm(total=total, initial=initial, unit="gen", desc="GA", disable=not enabled, dynamic_ncols=True)
+
+    def __call__(self, state: GAState, row: dict) -> None:
+        rate = state.n_evaluations / state.elapsed_s if state.elapsed_s > 0 else math.nan
+        self.bar.set_postfix_str(
+            f"gen {state.generation} best F_p {row['best_fp']:.4g} {rate:.2f} evals/s "
+            f"fail {state.n_failures} hits {state.n_cache_hits}",
+            refresh=False,
+        )
+        self.bar.update(1)
+
+    def close(self) -> None:
+        self.bar.close()
+
+
+def _drive(
+    ga: GeneticAlgorithm,
+    state: GAState,
+    run_dir: Path,
+    evaluator: Evaluator,
+    exec_cfg: ExecutorConfig,
+    config: dict[str, Any],
+    progress: bool,
+    callbacks: Sequence[Callable[[GAState, dict], None]],
+) -> RunSummary:
+    writer = _RunWriter(run_dir, ga, config)
+    if state.stop_reason is None:
+        bar = _Progress(ga.cfg.stopping.max_generations + 1, state.generation + 1, progress)
+        try:
+            with make_executor(exec_cfg, evaluator) as ex:
+                ga.run(state, ex, callbacks=[writer, bar, *callbacks])
+        finally:
+            bar.close()
+    writer.finish(state)
+    logger.info(
+        "run %s finished: %s after generation %d, %d evaluations, %d cache hits, %d failures, best F_p=%.6g",
+        run_dir, state.stop_reason, state.generation, state.n_evaluations, state.n_cache_hits,
+        state.n_failures, state.hof[0].fitness.values[1],
+    )
+    return _summary(run_dir, state)
+
+
+def run_optimisation(
+    cfg_opt: OptimiserConfig,
+    run_dir: Path,
+    evaluator: Evaluator,
+    seed: int,
+    progress: bool = True,
+    callbacks: Sequence[Callable[[GAState, dict], None]] = (),
+) -> RunSummary:
+    """Run the GA from scratch, writing results and a checkpoint per generation into ``run_dir``.
+
+    Parameters
+    ----------
+    cfg_opt : OptimiserConfig
+        The validated ``optimiser`` section.
+    run_dir : Path
+        Results directory (created if needed; may already hold the lead's ``config.yaml``)
+        that must not hold a checkpoint yet.
+    evaluator : callable
+        Picklable ``evaluate(genes) -> EvalOutcome``.
+    seed : int
+        Master seed (e.g. ``cfg_opt.resolve_seed(cfg.seed)``).
+    progress : bool
+        Show the tqdm progress bar (stderr).
+    callbacks : sequence of callable
+        Extra ``callback(state, row)`` after each generation (after the checkpoint).
+
+    Returns
+    -------
+    RunSummary
+
+    Raises
+    ------
+    FileExistsError
+        ``run_dir`` already holds a checkpoint (use :func:`resume_optimisation`).
+    """
+    run_dir = Path(run_dir)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    if has_checkpoint(run_dir):
+        raise FileExistsError(f"{run_dir} already holds a run (checkpoint.pkl); resume it instead")
+    config = cfg_opt.model_dump(mode="json")
+    storage.write_json(run_dir / storage.OPTIMISER_JSON, {"seed": int(seed), "optimiser": config})
+    storage.write_environment(run_dir, seed)
+    ga = GeneticAlgorithm(cfg_opt, seed)
+    return _drive(ga, ga.new_state(), run_dir, evaluator, cfg_opt.executor, config, progress, callbacks)
+
+
+def _load_run(run_dir: Path) -> tuple[GAState | None, OptimiserConfig, dict[str, Any], int]:
+    """(state or None, config, config dict, seed) of a run directory."""
+    run_dir = Path(run_dir)
+    if has_checkpoint(run_dir):
+        state, config = load_checkpoint(run_dir)
+        return state, OptimiserConfig.model_validate(config), config, state.seed
+    meta_path = run_dir / storage.OPTIMISER_JSON
+    if not meta_path.is_file():
+        raise FileNotFoundError(f"{run_dir}: not a run directory (no checkpoint.pkl nor {storage.OPTIMISER_JSON})")
+    import json
+
+    meta = json.loads(meta_path.read_text())
+    return None, OptimiserConfig.model_validate(meta["optimiser"]), meta["optimiser"], int(meta["seed"])
+
+
+def resume_optimisation(
+    run_dir: Path,
+    evaluator: Evaluator,
+    progress: bool = True,
+    executor: ExecutorConfig | None = None,
+    callbacks: Sequence[Callable[[GAState, dict], None]] = (),
+) -> RunSummary:
+    """Continue a run from its last checkpoint; the result equals an uninterrupted run.
+
+    Parameters
+    ----------
+    run_dir : Path
+        Directory written by :func:`run_optimisation`. A run killed before its first
+        checkpoint restarts from generation 0 with the stored seed.
+    evaluator : callable
+        The same evaluator as the original run.
+    progress : bool
+        Show the progress bar.
+    executor : ExecutorConfig, optional
+        Evaluate on another back end than the stored one (results do not depend on it).
+    callbacks : sequence of callable
+        Extra per-generation callbacks.
+
+    Returns
+    -------
+    RunSummary
+        A finished run is not run again; its summary is returned (and its files rewritten).
+    """
+    run_dir = Path(run_dir)
+    n_tmp = remove_stale_temporaries(run_dir)
+    if n_tmp:
+        logger.info("removed %d temporary file(s) left by the interrupted run", n_tmp)
+    state, cfg, config, seed = _load_run(run_dir)
+    ga = GeneticAlgorithm(cfg, seed)
+    if state is None:
+        state = ga.new_state()
+    else:
+        _RunWriter(run_dir, ga, config).write_tables(state)
+        logger.info("resuming %s after generation %d", run_dir, state.generation)
+    return _drive(ga, state, run_dir, evaluator, executor or cfg.executor, config, progress, callbacks)
+
+
+def _fmt(x: Any, spec: str = ".6g") -> str:
+    if x is None:
+        return "-"
+    if isinstance(x, float):
+        return format(x, spec)
+    return str(x)
+
+
+def report(run_dir: Path, max_rows: int = 60) -> str:
+    """Summary table of a run (text), rebuilding its plots.
+
+    Parameters
+    ----------
+    run_dir : Path
+        A run directory with a checkpoint.
+    max_rows : int
+        Generations shown in full up to this many; beyond, the first and last halves.
+
+    Returns
+    -------
+    str
+        Multi-line text: run facts, best design, hall of fame and per-generation table.
+    """
+    run_dir = Path(run_dir)
+    state, cfg, _, seed = _load_run(run_dir)
+    if state is None or state.generation < 0:
+        return f"{run_dir}: no generation completed yet"
+    write_plots(run_dir, state, cfg)
+    ga = GeneticAlgorithm(cfg, seed)
+    b = best_design(state)
+    statuses = Counter(r["status"] for r in state.records if r["status"] != "ok")
+    rate = state.n_evaluations / state.elapsed_s if state.elapsed_s > 0 else math.nan
+    lines = [
+        f"run            {run_dir}",
+        f"seed           {seed}",
+        f"status         {'finished: ' + state.stop_reason if state.stop_reason else 'interrupted (resume it)'}",
+        f"generations    {state.generation} (+ initial population), population {cfg.ga.population}",
+        f"evaluations    {state.n_evaluations} solved, {state.n_cache_hits} cache hits, "
+        f"{state.n_failures} failed" + (f" ({', '.join(f'{k} {v}' for k, v in sorted(statuses.items()))})" if statuses else ""),
+        f"GA time        {state.elapsed_s:.1f} s of breeding + evaluation ({rate:.3g} evaluations/s)",
+        "",
+        "best design",
+    ]
+    for name in ga.names:
+        lines.append(f"  {name:<6} {b['genes'][name]:.6g}")
+    lines.append(f"  f1     {_fmt(b['f1'])}")
+    for t in ga.terms:
+        lines.append(f"  κ_{t.gene:<4} {_fmt(b['kappas'].get(t.gene))}  (C = {t.weight:g}, prefer {t.prefer})")
+    lines.append(f"  F_p    {_fmt(b['F_p'])}  ({b['status']}, generation {b['generation_found']}, eval {b['eval_id']})")
+    lines += ["", "hall of fame", "  rank " + "".join(f"{n:>11}" for n in ga.names) + f"{'f1':>13}{'F_p':>13}  status"]
+    for k, ind in enumerate(state.hof[:10]):
+        info = ind.info or {}
+        lines.append(
+            f"  {k + 1:>4} " + "".join(f"{x:>11.5g}" for x in ind)
+            + f"{_fmt(info.get('f1'), '.5g'):>13}{ind.fitness.values[1]:>13.5g}  {info.get('status', '-')}"
+        )
+    lines += ["", "generations", f"  {'gen':>4}{'evals':>7}{'hits':>6}{'fail':>6}{'best F_p':>13}{'mean F_p':>13}{'time s':>9}"]
+    rows = state.logbook
+    if len(rows) > max_rows:
+        half = max_rows // 2
+        shown: list[dict | None] = [*rows[:half], None, *rows[-half:]]
+    else:
+        shown = list(rows)
+    for r in shown:
+        if r is None:
+            lines.append("   ...")
+            continue
+        lines.append(
+            f"  {r['generation']:>4}{r['evals']:>7}{r['cache_hits']:>6}{r['n_failures']:>6}"
+            f"{r['best_fp']:>13.5g}{_fmt(r['mean_fp'], '.5g'):>13}{r['time_s']:>9.2f}"
+        )
+    return "\n".join(lines)

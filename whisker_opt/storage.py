@@ -1,0 +1,197 @@
+"""Files of a run directory, every one written atomically (temp file + ``os.replace``).
+
+A run directory written by :func:`whisker_opt.runner.run_optimisation` holds::
+
+    optimiser.json     the resolved optimiser config and the seed (what resume needs)
+    environment.json   Python, platform, library versions, git commit, seed
+    checkpoint.pkl     GA state after the last completed generation (whisker_opt.checkpoint)
+    evaluations.csv    one row per evaluated individual: generation, genes, f1, κ_j, F_p,
+                       status, reason, time, cache_hit
+    generations.csv    one row per generation: evaluations, cache hits, failures, best /
+                       min / mean F_p, best genes, time
+    best.json          the best design (genes, f1, κ_j, F_p) and the run's counters
+    convergence.png    best and mean F_p per generation (log scale)
+    best_curves.csv/.png  ε_i(δ) and ε_c(δ) of the best design, when known
+
+(the lead's CLI adds ``config.yaml``, the full run file, and the best design's VTU meshes).
+The CSV and JSON files are rewritten whole after every generation from the checkpointed
+state, so they are always consistent with the checkpoint after a resume.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import logging
+import math
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+from importlib import metadata
+from pathlib import Path
+from typing import Any, Iterable, Sequence
+
+logger = logging.getLogger(__name__)
+
+EVALUATIONS_CSV = "evaluations.csv"
+GENERATIONS_CSV = "generations.csv"
+BEST_JSON = "best.json"
+ENVIRONMENT_JSON = "environment.json"
+OPTIMISER_JSON = "optimiser.json"
+BEST_CURVES_CSV = "best_curves.csv"
+
+_LIBRARIES = (
+    "numpy", "scipy", "deap", "pydantic", "PyYAML", "tqdm", "matplotlib", "dask", "distributed",
+    "cadquery", "pytetwild", "pypardiso", "meshio", "pyvista", "whisker-opt",
+)
+
+
+def atomic_write_bytes(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` atomically (temp file in the same folder, fsync, os.replace)."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.chmod(tmp, 0o644)  # mkstemp creates 0600; results are ordinary readable files
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
+def atomic_write_text(path: Path, text: str) -> None:
+    """Write text (UTF-8) atomically."""
+    atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def _jsonable(obj: Any) -> Any:
+    """Replace non-finite floats by None (strict JSON), recursively; tuples become lists."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if hasattr(obj, "item") and callable(obj.item):  # numpy scalar
+        return _jsonable(obj.item())
+    return obj
+
+
+def write_json(path: Path, obj: Any) -> None:
+    """Write strict JSON (NaN/inf as null) atomically."""
+    atomic_write_text(path, json.dumps(_jsonable(obj), indent=2, allow_nan=False) + "\n")
+
+
+def _cell(v: Any) -> Any:
+    if v is None:
+        return ""
+    if isinstance(v, float):
+        return repr(v) if math.isfinite(v) else ("nan" if math.isnan(v) else repr(v))
+    return v
+
+
+def write_csv(path: Path, columns: Sequence[str], rows: Iterable[dict[str, Any]]) -> None:
+    """Write dictionaries as CSV columns (missing keys empty; floats at full precision), atomically."""
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(columns)
+    for row in rows:
+        w.writerow([_cell(row.get(c)) for c in columns])
+    atomic_write_text(path, buf.getvalue())
+
+
+def read_csv(path: Path) -> list[dict[str, str]]:
+    """Rows of a CSV file as dictionaries of strings."""
+    with Path(path).open(newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+def evaluation_columns(gene_names: Sequence[str], kappa_columns: Sequence[str]) -> list[str]:
+    """Columns of ``evaluations.csv``."""
+    return (
+        ["eval_id", "generation", *gene_names, "f1", *kappa_columns, "F_p", "status", "reason", "time_s", "cache_hit"]
+    )
+
+
+def generation_columns(gene_names: Sequence[str]) -> list[str]:
+    """Columns of ``generations.csv``."""
+    return [
+        "generation", "evals", "cache_hits", "n_failures", "n_feasible", "best_fp", "best_feasible", "best_f1",
+        "min_fp", "mean_fp", *[f"best_{g}" for g in gene_names], "total_evals", "time_s", "elapsed_s",
+    ]
+
+
+def write_evaluations(run_dir: Path, records: Sequence[dict], columns: Sequence[str]) -> None:
+    """``evaluations.csv``: every evaluation so far."""
+    write_csv(Path(run_dir) / EVALUATIONS_CSV, columns, records)
+
+
+def write_generations(run_dir: Path, logbook: Sequence[dict], columns: Sequence[str]) -> None:
+    """``generations.csv``: per-generation statistics so far."""
+    write_csv(Path(run_dir) / GENERATIONS_CSV, columns, logbook)
+
+
+def _git_commit() -> str | None:
+    here = Path(__file__).resolve().parent
+    try:
+        out = subprocess.run(
+            ["git", "rev-parse", "HEAD"], cwd=here, capture_output=True, text=True, timeout=5, check=True
+        )
+        return out.stdout.strip() or None
+    except Exception:  # noqa: BLE001 - not a git checkout, or no git
+        return None
+
+
+def environment_info(seed: int) -> dict[str, Any]:
+    """Python, platform, library versions (installed distributions), git commit and seed."""
+    versions: dict[str, str | None] = {}
+    for lib in _LIBRARIES:
+        try:
+            versions[lib] = metadata.version(lib)
+        except metadata.PackageNotFoundError:
+            versions[lib] = None
+    return {
+        "python": sys.version,
+        "implementation": platform.python_implementation(),
+        "platform": platform.platform(),
+        "machine": platform.machine(),
+        "processor": platform.processor(),
+        "cpu_count": os.cpu_count(),
+        "libraries": versions,
+        "git_commit": _git_commit(),
+        "seed": int(seed),
+        "written_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+    }
+
+
+def write_environment(run_dir: Path, seed: int) -> None:
+    """``environment.json``."""
+    write_json(Path(run_dir) / ENVIRONMENT_JSON, environment_info(seed))
+
+
+def write_best(run_dir: Path, best: dict[str, Any]) -> None:
+    """``best.json``."""
+    write_json(Path(run_dir) / BEST_JSON, best)
+
+
+def write_best_curves(run_dir: Path, delta: Sequence[float], eps_i: Sequence[float], eps_c: Sequence[float],
+                      title: str = "best design") -> Path:
+    """``best_curves.csv`` (delta_mm, eps_i, eps_c) and ``best_curves.png``; returns the CSV path."""
+    from whisker_opt.plots import plot_curves
+
+    run_dir = Path(run_dir)
+    rows = [{"delta_mm": float(d), "eps_i": float(a), "eps_c": float(b)} for d, a, b in zip(delta, eps_i, eps_c)]
+    path = run_dir / BEST_CURVES_CSV
+    write_csv(path, ["delta_mm", "eps_i", "eps_c"], rows)
+    plot_curves(run_dir / "best_curves.png", delta, eps_i, eps_c, title)
+    return path

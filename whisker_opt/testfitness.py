@@ -1,0 +1,124 @@
+"""A cheap analytic stand-in for the FE evaluator, with a known optimum.
+
+Used by the GA tests and to demonstrate the executors without FE solves:
+
+    f1(x) = offset + scale · Σ_i w_i ((x_i − x*_i)/(hi_i − lo_i))²,
+
+a bowl whose minimum f1 = offset lies at x* inside the gene box. With ``offset = 0`` the
+penalised optimum is x* too, since every κ_j is proportional to f1 (F_p(x*) = 0).
+
+Failure regions make designs with ``genes[gene] > above`` fail on purpose, to test that
+failures are recorded, graded and never ranked best:
+
+- a failure status (``"invalid_geometry"``, ``"mesh_failed"``, ``"solve_failed"``, ...):
+  returned with ``extra["violation"] = genes[gene] − above``;
+- ``"raise"``: the evaluator raises ``RuntimeError`` (the executor records ``"error"``);
+- ``"nan"``: returns status ``"ok"`` with ``f1 = NaN`` (must become ``"error"``);
+- ``"hang"``: sleeps ``hang_s`` seconds before answering (to test timeouts);
+- ``"crash"``: the process exits at once (only for the ``processes`` executor!).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from whisker_opt.ga_config import GENE_NAMES, GenesConfig
+from whisker_opt.outcome import FAILURE_STATUSES, EvalOutcome
+
+_DEFAULT_BOUNDS = GenesConfig().bounds()
+
+
+@dataclass(frozen=True)
+class FailureRegion:
+    """Designs with ``genes[gene] > above`` fail with ``kind`` (see the module docstring)."""
+
+    gene: str
+    above: float
+    kind: str = "invalid_geometry"
+
+    def __post_init__(self) -> None:
+        allowed = FAILURE_STATUSES + ("raise", "nan", "hang", "crash")
+        if self.kind not in allowed:
+            raise ValueError(f"FailureRegion.kind: {self.kind!r} not in {allowed}")
+        if self.gene not in GENE_NAMES:
+            raise ValueError(f"FailureRegion.gene: {self.gene!r} not in {GENE_NAMES}")
+
+
+@dataclass(frozen=True)
+class AnalyticFitness:
+    """Picklable analytic evaluator ``evaluate(genes) -> EvalOutcome``.
+
+    Parameters
+    ----------
+    optimum : tuple of float
+        x* = (α [deg], l [mm], t [mm], Q_i [MPa]).
+    bounds : tuple of (lo, hi)
+        Normalisation of each gene (default: the SPEC §6 box).
+    weights : tuple of float
+        w_i.
+    scale : float
+        Bowl depth [-].
+    offset : float
+        f1 at the optimum [-].
+    failures : tuple of FailureRegion
+        Deliberate failures.
+    sleep_s : float
+        Sleep per evaluation [s], to emulate a slow solver.
+    hang_s : float
+        Sleep of a ``"hang"`` failure region [s].
+    with_curves : bool
+        Add small response curves (``delta``, ``eps_i``, ``eps_c``) to ``extra``, built so
+        that the mean of |ε_i − ε_c| over δ > 0 equals f1.
+    """
+
+    optimum: tuple[float, ...] = (3.0, 12.0, 4.0, 0.05)
+    bounds: tuple[tuple[float, float], ...] = _DEFAULT_BOUNDS
+    weights: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0)
+    scale: float = 0.01
+    offset: float = 0.0
+    failures: tuple[FailureRegion, ...] = ()
+    sleep_s: float = 0.0
+    hang_s: float = 30.0
+    with_curves: bool = False
+
+    def f1(self, genes: dict[str, float]) -> float:
+        """The analytic objective (no failures, no sleep)."""
+        s = 0.0
+        for name, xs, (lo, hi), w in zip(GENE_NAMES, self.optimum, self.bounds, self.weights):
+            s += w * ((float(genes[name]) - xs) / (hi - lo)) ** 2
+        return self.offset + self.scale * s
+
+    def __call__(self, genes: dict[str, float]) -> EvalOutcome:
+        t0 = time.perf_counter()
+        if self.sleep_s > 0:
+            time.sleep(self.sleep_s)
+        for region in self.failures:
+            x = float(genes[region.gene])
+            if x > region.above:
+                if region.kind == "raise":
+                    raise RuntimeError(f"deliberate failure: {region.gene}={x:.6g} > {region.above:g}")
+                if region.kind == "nan":
+                    return EvalOutcome("ok", math.nan)
+                if region.kind == "crash":
+                    os._exit(3)
+                if region.kind == "hang":
+                    time.sleep(self.hang_s)
+                    continue
+                return EvalOutcome.failure(
+                    region.kind,
+                    f"deliberate {region.kind}: {region.gene}={x:.6g} > {region.above:g}",
+                    timings={"model_s": time.perf_counter() - t0},
+                    extra={"violation": x - region.above},
+                )
+        f1 = self.f1(genes)
+        extra = {}
+        if self.with_curves:
+            delta = np.linspace(0.0, 5.0, 11)
+            k = 1e-3 * (1.0 + float(genes["Q_i"]))
+            extra = {"delta": delta.tolist(), "eps_i": (k * delta).tolist(), "eps_c": ((k + f1 / 2.75) * delta).tolist()}
+        return EvalOutcome.success(f1, timings={"model_s": time.perf_counter() - t0}, extra=extra)
