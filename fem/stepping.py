@@ -59,11 +59,17 @@ class SolveOptions:
         Backtracking on the residual norm (and on inverted elements).
     linear_solver : str
         'auto' | 'pardiso' | 'superlu'.
+    reuse_tangent : float
+        0 = full Newton (factorise every iteration). r in (0, 1): modified Newton that
+        keeps the last factorisation, across iterations and increments, as long as each
+        iteration reduces the residual by at least the factor r; otherwise the tangent
+        is re-assembled and re-factorised. Fewer factorisations for mildly nonlinear
+        paths (the deflection step), same converged answer (same residual criteria).
     """
 
     rtol: float = 1e-8
     atol: float = 1e-12
-    etol: float = 1e-14
+    etol: float = 1e-12
     vtol: float = 1e-10
     max_iterations: int = 20
     initial_step: float = 1.0
@@ -72,12 +78,14 @@ class SolveOptions:
     max_cutbacks: int = 20
     line_search: bool = True
     linear_solver: str = "auto"
+    reuse_tangent: float = 0.0
 
     def __post_init__(self) -> None:
         checks = [("rtol", self.rtol, 0.0, 1.0), ("atol", self.atol, 0.0, 1e6), ("etol", self.etol, 0.0, 1.0),
                   ("vtol", self.vtol, 0.0, 1.0), ("max_iterations", self.max_iterations, 1, 1000),
                   ("initial_step", self.initial_step, 1e-9, 1.0), ("min_step", self.min_step, 1e-12, 1.0),
-                  ("max_step", self.max_step, 1e-9, 1.0), ("max_cutbacks", self.max_cutbacks, 0, 1000)]
+                  ("max_step", self.max_step, 1e-9, 1.0), ("max_cutbacks", self.max_cutbacks, 0, 1000),
+                  ("reuse_tangent", self.reuse_tangent, 0.0, 0.99)]
         for name, v, lo, hi in checks:
             if not (lo <= v <= hi):
                 raise ValueError(f"SolveOptions.{name}={v!r} outside the allowed range [{lo}, {hi}]")
@@ -208,6 +216,7 @@ def solve_path(problem: Problem, state0: State, load0: LoadState, load1: LoadSta
         solver = make_solver(options.linear_solver)
         problem._cache[skey] = solver
     vol = float(asm.topo.vol.sum())
+    fact = {"valid": False, "data": None}  # factorisation state (modified Newton)
 
     x = state0.as_vector().astype(float)
     cd, cv = load0.prescribed_vector(problem)
@@ -224,7 +233,7 @@ def solve_path(problem: Problem, state0: State, load0: LoadState, load1: LoadSta
             if target - s_new < 0.05 * ds:  # avoid a sliver increment
                 s_new = target
             lo_, ln_ = load0.interpolate(load1, s), load0.interpolate(load1, s_new)
-            x_new, inc = _increment(asm, con, solver, x, lo_, ln_, options, vol, rep)
+            x_new, inc = _increment(asm, con, solver, x, lo_, ln_, options, vol, rep, fact)
             inc.s_start, inc.s_end = s, s_new
             rep.increments.append(inc)
             if inc.converged:
@@ -254,7 +263,7 @@ def solve_path(problem: Problem, state0: State, load0: LoadState, load1: LoadSta
 
 
 def _increment(asm: Assembler, con: _Constraint, solver, x0, load_old: LoadState, load_new: LoadState,
-               opts: SolveOptions, vol: float, rep: StepReport):
+               opts: SolveOptions, vol: float, rep: StepReport, fact: dict | None = None):
     """Newton iterations for one increment. Returns (x, IncrementReport)."""
     prob = asm.problem
     n_u, n_nodes = prob.n_u, prob.mesh.n_nodes
@@ -273,31 +282,47 @@ def _increment(asm: Assembler, con: _Constraint, solver, x0, load_old: LoadState
             rep.time_assembly += time.perf_counter() - t
         return out
 
+    if fact is None:
+        fact = {"valid": False, "data": None}
+    modified = opts.reuse_tangent > 0
     try:
-        R, data, min_j = evaluate(x, True)
+        R, data, min_j = evaluate(x, not (modified and fact["valid"]))
     except InvertedElements as exc:
         inc.reason = f"start state: {exc}"
         return x0, inc
     ru0, _, rc0 = _norms(R, con)
     f_ref = max(ru0, rc0, 1e-300)
     e0 = None
+    ratio = 0.0
+    ru_prev = ru0
     for it in range(1, opts.max_iterations + 1):
         inc.iterations = it
+        refactor = (not modified) or (not fact["valid"]) or ratio > opts.reuse_tangent
+        if refactor and data is None:
+            try:
+                R, data, min_j = evaluate(x, True)
+            except InvertedElements as exc:  # pragma: no cover - x was evaluated before
+                inc.reason = f"iteration {it}: {exc}"
+                fact["valid"] = False
+                return x0, inc
         # linear system  K Δx = −R (with the prescribed increment on the first iteration)
         rhs = -R
         if it == 1 and np.any(du_c):
-            rhs = rhs - pat_matvec(asm, data, du_c)
+            rhs = rhs - pat_matvec(asm, data if refactor else fact["data"], du_c)
         rhs = rhs.copy()
         rhs[con.dofs] = du_c[con.dofs] if it == 1 else 0.0
         t = time.perf_counter()
         try:
-            solver.factorize(asm.pattern.matrix(con.apply(data)))
-            rep.time_factorize += time.perf_counter() - t
+            if refactor:
+                solver.factorize(asm.pattern.matrix(con.apply(data)))
+                fact["valid"], fact["data"] = True, data
+                rep.time_factorize += time.perf_counter() - t
             t = time.perf_counter()
             dx = solver.solve(rhs)
             rep.time_solve += time.perf_counter() - t
         except (LinearSolverError, RuntimeError, ValueError) as exc:
             inc.reason = f"linear solve failed: {exc}"
+            fact["valid"] = False
             return x0, inc
         if not np.all(np.isfinite(dx)):
             inc.reason = "non-finite Newton update"
@@ -306,31 +331,44 @@ def _increment(asm: Assembler, con: _Constraint, solver, x0, load_old: LoadState
         # reference energy: the largest seen in this increment (the first iteration of a
         # displacement-driven increment has no free residual, so its energy is 0)
         e0 = max(energy, 1e-300) if e0 is None else max(e0, energy)
-        # line search on the residual norm (free part), backtracking on inversion
-        rn0 = _norms(R, con)[0]
+        # line search (Crisfield 1991, §9.3): accept the full step unless the directional
+        # derivative s(α) = Δx·R(x + αΔx) fails to drop below 0.8|s(0)|; then take the
+        # secant zero of s; always back off from inverted elements. The residual-norm
+        # backtracking it replaces stalled with stiff fibres (1e5 stiffness contrast).
+        free = ~con.is_c
+        s0 = float(np.dot(dx[free], R[free]))
         alpha = 1.0
         accepted = False
-        for _ls in range(8):
+        best = None
+        for _ls in range(10):
             x_try = x + alpha * dx
             if it == 1 and alpha < 1.0:
                 x_try[con.dofs] = x[con.dofs] + dx[con.dofs]  # keep the prescribed values exact
             try:
-                R_try, data_try, mj = evaluate(x_try, True)
+                R_try, data_try, mj = evaluate(x_try, not modified)
             except InvertedElements:
-                if not opts.line_search:
-                    break
                 alpha *= 0.5
+                if alpha < 1e-3:
+                    break
                 continue
-            rn_try = _norms(R_try, con)[0]
-            if (not opts.line_search) or it == 1 or rn_try <= rn0 * (1.0 - 1e-4 * alpha) or alpha < 0.06:
-                accepted = True
+            best = (x_try, R_try, data_try, mj)
+            accepted = True
+            if not opts.line_search or it == 1 or s0 >= 0:
                 break
-            alpha *= 0.5
+            s1 = float(np.dot(dx[free], R_try[free]))
+            if abs(s1) <= 0.8 * abs(s0) or _ls >= 2:
+                break
+            # secant zero of s(α) between 0 and α, kept in [0.1, 1] of the current α
+            alpha = alpha * min(1.0, max(0.1, s0 / (s0 - s1)))
         if not accepted:
-            inc.reason = f"iteration {it}: inverted elements / no descent in line search"
+            inc.reason = f"iteration {it}: inverted elements along the whole Newton step"
+            fact["valid"] = False
             return x0, inc
+        x_try, R_try, data_try, mj = best
         x, R, data, min_j = x_try, R_try, data_try, mj
         ru, rp, rc = _norms(R, con)
+        ratio = ru / max(ru_prev, 1e-300)
+        ru_prev = ru
         f_ref = max(f_ref, rc)
         inc.residuals.append(ru)
         inc.energies.append(energy / e0)
@@ -345,7 +383,9 @@ def _increment(asm: Assembler, con: _Constraint, solver, x0, load_old: LoadState
             return x, inc
         if it >= 3 and len(inc.residuals) >= 3 and inc.residuals[-1] > 1e3 * inc.residuals[0]:
             inc.reason = f"iteration {it}: residual diverging ({inc.residuals[-1]:.3g})"
+            fact["valid"] = False
             return x0, inc
+    fact["valid"] = False
     inc.reason = f"no convergence in {opts.max_iterations} iterations (residual {inc.residuals[-1]:.3g}, ref {f_ref:.3g})"
     return x0, inc
 

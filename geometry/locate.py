@@ -12,7 +12,9 @@ For a query point q:
    for the best ``n_newton`` candidates; the host is the candidate whose converged
    xi is most inside the reference tet (largest minimum barycentric coordinate).
 
-A point is "found" when that minimum barycentric coordinate is >= ``-tol``.
+A point is "found" when that minimum barycentric coordinate is >= ``-tol``. Points not
+found are retried with 4 and 16 times as many candidates (stretched elements, e.g. of
+the swept mesh, can have their centroids far from points near their faces).
 """
 
 from __future__ import annotations
@@ -90,6 +92,19 @@ class PointLocator:
     def locate(self, q: np.ndarray, k: int = 24, n_newton: int = 4, tol: float = 1e-6) -> Location:
         """Locate points q, shape (n, 3) (see module docstring)."""
         q = np.atleast_2d(np.asarray(q, dtype=np.float64))
+        loc = self._locate(q, k, n_newton, tol)
+        for factor in (4, 16):
+            miss = np.nonzero(~loc.inside)[0]
+            if len(miss) == 0 or k >= len(self.cells):
+                break
+            k2 = min(len(self.cells), k * factor)
+            sub = self._locate(q[miss], k2, max(n_newton, 2 * factor), tol)
+            for f in ("host_elements", "local_coords", "inside", "residual"):
+                getattr(loc, f)[miss] = getattr(sub, f)
+        return loc
+
+    def _locate(self, q: np.ndarray, k: int, n_newton: int, tol: float) -> Location:
+        """One pass of :meth:`locate` with ``k`` candidates."""
         n_el = len(self.cells)
         k = min(k, n_el)
         _, cand = self.tree.query(q, k=k)

@@ -9,8 +9,12 @@
   region by region onto the design (:mod:`geometry.template`), tens of milliseconds,
   deterministic; raises :class:`TemplateError` when no template serves the sizing or
   the mapped mesh fails the quality gate;
+* ``method="swept"``: a structured swept mesh built directly for the design
+  (:mod:`geometry.swept`), deterministic, tens of milliseconds, with the same
+  structure as the shipped templates (which are swept meshes of reference designs);
 * ``method="auto"``: the template path when a template serves the sizing and the
-  mapped mesh passes the quality gate, else a fresh tetrahedralisation.
+  mapped mesh passes the quality gate, else the swept mesh if it passes the gate,
+  else a fresh tetrahedralisation.
 
 Both paths then upgrade to TET10 with the boundary on the exact surfaces
 (:mod:`geometry.quadratic`), tag node/face sets, locate the fibres
@@ -40,7 +44,7 @@ from geometry.tagging import locate_fibres, node_sets as _node_sets
 logger = logging.getLogger(__name__)
 
 FORMAT_VERSION = 1
-METHODS = ("auto", "fresh", "template")
+METHODS = ("auto", "fresh", "template", "swept")
 
 
 class TemplateError(RuntimeError):
@@ -59,25 +63,39 @@ class QualityGate:
         Smallest allowed TET10 ``min det J / max det J``.
     max_volume_error : float
         Largest allowed relative volume error.
-    min_wall_crossings : int
-        Smallest allowed count of elements crossed by a radial line through the wall.
+    min_wall_crossings : int or None
+        Smallest allowed count of elements crossed by a radial line through the wall;
+        None: the number of structured wall layers the sizing asks for,
+        ``max(1, round(wall_layers))`` (a radial line crosses at least one element per
+        layer; 3 for unstructured fTetWild meshes, where a layer is not defined).
     """
 
     min_radius_ratio: float = 0.08
     min_jacobian_ratio: float = 0.25
     max_volume_error: float = 0.005
-    min_wall_crossings: int = 3
+    min_wall_crossings: int | None = None
 
-    def failures(self, r: MeshReport) -> list[str]:
+    def required_crossings(self, sizing: MeshSizing | None = None, design: WhiskerDesign | None = None) -> int:
+        """The wall-crossing threshold (see ``min_wall_crossings``)."""
+        if self.min_wall_crossings is not None:
+            return int(self.min_wall_crossings)
+        if sizing is None:
+            return 1
+        if sizing.h_wall is not None and design is not None:
+            return max(1, round(design.t / sizing.h_wall))
+        return max(1, round(sizing.wall_layers))
+
+    def failures(self, r: MeshReport, sizing: MeshSizing | None = None, design: WhiskerDesign | None = None) -> list[str]:
         out = []
+        need = self.required_crossings(sizing, design)
         if r.quality_min < self.min_radius_ratio:
             out.append(f"radius ratio {r.quality_min:.3g} < {self.min_radius_ratio}")
         if r.jacobian_ratio_min < self.min_jacobian_ratio:
             out.append(f"Jacobian ratio {r.jacobian_ratio_min:.3g} < {self.min_jacobian_ratio}")
         if abs(r.volume_error) > self.max_volume_error:
             out.append(f"|volume error| {abs(r.volume_error):.3g} > {self.max_volume_error}")
-        if r.elements_through_wall < self.min_wall_crossings:
-            out.append(f"wall crossings {r.elements_through_wall} < {self.min_wall_crossings}")
+        if r.elements_through_wall < need:
+            out.append(f"wall crossings {r.elements_through_wall} < {need}")
         return out
 
 
@@ -204,10 +222,19 @@ def _template(design: WhiskerDesign, sizing: MeshSizing, gate: QualityGate) -> W
     pts, tets, face_class = tpl.map_template(found, design)
     qm = upgrade(design, pts, tets, face_class=face_class)
     wm = finish_mesh(design, sizing, qm, f"template:{found.name}", t0)
-    fails = gate.failures(wm.report)
+    fails = gate.failures(wm.report, sizing, design)
     if fails:
         raise TemplateError(f"mapped template {found.name} fails the quality gate: {'; '.join(fails)}")
     return wm
+
+
+def _swept(design: WhiskerDesign, sizing: MeshSizing) -> WhiskerMesh:
+    from geometry.swept import build_swept
+
+    t0 = time.perf_counter()
+    pts, tets = build_swept(design, sizing)
+    qm = upgrade(design, pts, tets)
+    return finish_mesh(design, sizing, qm, "swept", t0)
 
 
 def cache_path(cache_dir: str | Path, design: WhiskerDesign, sizing: MeshSizing, method: str) -> Path:
@@ -233,7 +260,7 @@ def build_mesh(
         Validated first: :class:`~geometry.design.InvalidDesignError` for impossible designs.
     sizing : MeshSizing, optional
         Default ``MeshSizing()``.
-    method : {'auto', 'fresh', 'template'}
+    method : {'auto', 'fresh', 'template', 'swept'}
     cache_dir : path, optional
         When given, meshes are stored as ``.npz`` keyed by (design, sizing, method) and
         reused.
@@ -265,12 +292,18 @@ def build_mesh(
         wm = _fresh(design, sizing, num_threads, timeout)
     elif method == "template":
         wm = _template(design, sizing, gate)
+    elif method == "swept":
+        wm = _swept(design, sizing)
     else:
         try:
             wm = _template(design, sizing, gate)
         except TemplateError as exc:
-            logger.info("template path not used (%s); meshing afresh", exc)
-            wm = _fresh(design, sizing, num_threads, timeout)
+            logger.info("template path not used (%s); building a swept mesh", exc)
+            wm = _swept(design, sizing)
+            fails = gate.failures(wm.report, sizing, design)
+            if fails:
+                logger.warning("swept mesh fails the quality gate (%s); meshing afresh", "; ".join(fails))
+                wm = _fresh(design, sizing, num_threads, timeout)
     logger.info(
         "mesh %s: %d nodes, %d elements, vol err %.2e, q_min %.3f, %s, %.2f s",
         design.describe(),

@@ -53,6 +53,11 @@ class MeshSizing:
         Largest edge length in the solid body/tip.
     grading : float
         Edge-length growth per mm of distance from the chamber end (dh/dx).
+    n_theta : int
+        Swept mesher (:mod:`geometry.swept`): angular sectors of the cross-section
+        (even, >= 6). Unused by fTetWild.
+    axial_factor : float
+        Swept mesher: axial layer size in the chamber, ``dz = axial_factor * h_wall``.
     epsilon : float
         fTetWild envelope (maximum surface deviation) relative to the bounding-box
         diagonal; boundary nodes are projected onto the exact surfaces afterwards.
@@ -64,8 +69,10 @@ class MeshSizing:
     h_wall: float | None = None
     h_cap: float | None = None
     cap_factor: float = 1.25
-    h_body: float = 4.0
-    grading: float = 0.35
+    h_body: float = 8.0
+    grading: float = 0.5
+    n_theta: int = 12
+    axial_factor: float = 1.33
     epsilon: float = 1e-3
     name: str = "default"
 
@@ -76,7 +83,10 @@ class MeshSizing:
             ("h_body", self.h_body, 0.05, 50.0),
             ("grading", self.grading, 0.0, 10.0),
             ("epsilon", self.epsilon, 1e-5, 1e-2),
+            ("axial_factor", self.axial_factor, 0.2, 10.0),
         ]
+        if not (isinstance(self.n_theta, int) and 6 <= self.n_theta <= 256 and self.n_theta % 2 == 0):
+            raise ValueError(f"MeshSizing.n_theta={self.n_theta!r} must be an even integer in [6, 256]")
         for opt in ("h_wall", "h_cap"):
             if getattr(self, opt) is not None:
                 checks.append((opt, getattr(self, opt), 0.05, 50.0))
@@ -87,11 +97,16 @@ class MeshSizing:
     # ------------------------------------------------------------------ presets
     @classmethod
     def preset(cls, name: str) -> "MeshSizing":
-        """Named presets: 'coarse' (fast GA screening), 'default', 'fine' (verification)."""
+        """Named presets: 'coarse' (fast GA screening), 'default', 'fine' (verification).
+
+        Element counts of the swept/template meshes of the default design (TET10):
+        coarse ~1.3k, default ~3.1k, fine ~9k (see /tmp notes and ``benchmarks``).
+        """
         presets = {
-            "coarse": cls(wall_layers=1.25, h_body=5.0, grading=0.5, name="coarse"),
+            "coarse": cls(wall_layers=1.0, cap_factor=1.0, n_theta=10, axial_factor=1.0, h_body=10.0,
+                          grading=0.5, name="coarse"),
             "default": cls(),
-            "fine": cls(wall_layers=3.0, h_body=3.0, grading=0.25, name="fine"),
+            "fine": cls(wall_layers=3.0, n_theta=16, axial_factor=1.2, h_body=5.0, grading=0.35, name="fine"),
         }
         if name not in presets:
             raise ValueError(f"MeshSizing.preset: name={name!r}, allowed {sorted(presets)}")

@@ -6,10 +6,11 @@ stored template instead. A template holds the linear mesh of a reference design 
 each boundary face. For a design N the vertices are moved by a continuous,
 piecewise-smooth map that takes every patch of T onto the same patch of N:
 
-*Axial*, piecewise linear per region (cap, chamber, body)::
+*Axial*, piecewise linear per region (cap, chamber split at the gauge window
+``x_ss .. x_ss + e``, body)::
 
     x' = x c'/c                                     0 <= x <= c
-    x' = c' + (x - c)(l' - c')/(l - c)               c <= x <= l
+    x' = c' + (x - c)(l' - c')/(l - c)               c <= x <= l   (per sub-interval)
     x' = l' + (x - l)(L'_N - l')/(L'_T - l)          l <= x <= L'_T
 
 *Radial*, at fixed angle, with the core radius
@@ -28,7 +29,9 @@ Templates are bucketed by wall thickness and cone angle (the two shape parameter
 that change element aspect ratios most: ``t'/t`` squeezes the wall radially and
 ``r_o(L')`` the tip), one set per templatable sizing preset; the nearest template is
 picked by ``|ln(t'/t)| + |ln(r'_tip/r_tip)| + 0.5 |ln((l'-c')/(l-c))|``.
-Regenerate them with ``python3 -m geometry.template`` (fTetWild, minutes).
+The shipped templates are structured swept meshes (:mod:`geometry.swept`; fTetWild
+templates can still be made with ``make_template(..., method="fresh")``).
+Regenerate them with ``python3 -m geometry.template`` (seconds).
 """
 
 from __future__ import annotations
@@ -54,7 +57,7 @@ TEMPLATE_DIR = Path(__file__).with_name("templates")
 TEMPLATE_ALPHAS = (3.3, 5.0)
 TEMPLATE_TS = (2.4, 3.6, 5.2)
 TEMPLATE_L_CHAMBER = 12.5
-TEMPLATE_PRESETS = ("coarse", "default")
+TEMPLATE_PRESETS = ("coarse", "default", "fine")
 
 
 @dataclass(frozen=True)
@@ -145,8 +148,19 @@ def _core_radius(d: WhiskerDesign, x: np.ndarray) -> np.ndarray:
 
 
 def map_axial(src: WhiskerDesign, dst: WhiskerDesign, x: np.ndarray) -> np.ndarray:
-    """Piecewise-linear axial map with knots (0, c, l, L') -> (0, c', l', L'')."""
-    return _pwl(x, [0.0, src.c, src.l, src.length], [0.0, dst.c, dst.l, dst.length])
+    """Piecewise-linear axial map with knots (0, c, [x_ss, x_ss + e,] l, L') -> (0, c', ..., L'').
+
+    The gauge knots are used when both designs have them strictly inside (c, l)
+    (:func:`geometry.swept.axial_knots`), so a gauge window made of whole element layers
+    stays one.
+    """
+    from geometry.swept import axial_knots
+
+    ks, kd = axial_knots(src), axial_knots(dst)
+    if len(ks) != len(kd):
+        ks = [0.0, src.c, src.l, src.length]
+        kd = [0.0, dst.c, dst.l, dst.length]
+    return _pwl(x, ks, kd)
 
 
 def _pwl(x: np.ndarray, xs: list[float], ys: list[float]) -> np.ndarray:
@@ -179,14 +193,22 @@ def map_template(tpl: Template, design: WhiskerDesign) -> tuple[np.ndarray, np.n
 
 
 # ---------------------------------------------------------------------- generation
-def make_template(design: WhiskerDesign, sizing: MeshSizing, num_threads: int = 0) -> Template:
-    """Tetrahedralise ``design`` afresh and keep the projected linear mesh as a template."""
+def make_template(design: WhiskerDesign, sizing: MeshSizing, num_threads: int = 0, method: str = "swept") -> Template:
+    """Mesh ``design`` (swept, or fTetWild with ``method="fresh"``) and keep the projected linear mesh."""
     from fem.mesh import boundary_faces, p1_to_p2
     from geometry import boundary as bd
     from geometry.quadratic import _project_safely
-    from geometry.tetrahedralize import tetrahedralize
 
-    pts, tets = tetrahedralize(design, sizing, num_threads=num_threads)
+    if method == "swept":
+        from geometry.swept import build_swept
+
+        pts, tets = build_swept(design, sizing)
+    elif method == "fresh":
+        from geometry.tetrahedralize import tetrahedralize
+
+        pts, tets = tetrahedralize(design, sizing, num_threads=num_threads)
+    else:
+        raise ValueError(f"make_template: method={method!r}, allowed ('swept', 'fresh')")
     pts, tets = _renumber(pts, tets)
     _, cells, _ = p1_to_p2(pts, tets)
     _, _, faces6 = boundary_faces(cells)

@@ -183,7 +183,167 @@ def _simulate_run(args: argparse.Namespace) -> int:
     return 0
 
 
+# ----------------------------------------------------------------------------- run / resume / report
+def evaluator_from_config(cfg: WhiskerConfig, keep_curves: bool = False):
+    """The GA's :class:`whisker_opt.evaluator.SceneEvaluator` for a config."""
+    from whisker_opt.evaluator import SceneEvaluator
+    from whisker_opt.ga_config import OptimiserConfig
+
+    opt = cfg.optimiser or OptimiserConfig()
+    base = scene_spec_from_config(cfg, design_from_config(cfg, 0.0), 0.0)
+    return SceneEvaluator(base, opt.delta_max, cfg.scene.delta_step, cfg.scene.gauge_variant, keep_curves)
+
+
+def _run_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("config", type=Path, help="YAML run file with an `optimiser` section")
+    p.add_argument("--out", type=Path, default=None, help="run directory (default: a new one under output.results_dir)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def _finish_best(run_dir: Path, cfg: WhiskerConfig, best_genes: dict | None) -> None:
+    """Re-run the best design with curves and deformed meshes (VTU) into ``run_dir/best``."""
+    if not best_genes:
+        return
+    import numpy as np
+
+    from fem.io import write_vtu
+    from whisker_opt.scene import run_scene
+    from whisker_opt.storage import write_best_curves
+
+    ev = evaluator_from_config(cfg, keep_curves=True)
+    try:
+        intact, trimmed = ev.specs(best_genes)
+    except Exception as exc:  # the best of a run where every design failed
+        logger.warning("best design cannot be re-run: %s", exc)
+        return
+    out = run_dir / "best"
+    out.mkdir(exist_ok=True)
+    delta = ev.samples()
+    curves = {}
+    for name, spec in (("intact", intact), ("trimmed", trimmed)):
+        res = run_scene(spec, keep_states=True)
+        curves[name] = res.curve(delta, cfg.scene.gauge_variant)
+        for state_name, st in res.states.items():
+            write_vtu(out / f"{name}_{state_name}.vtu", res.mesh.mesh, point_data={"displacement": st.u},
+                      cell_data={"pressure": st.p})
+    write_best_curves(run_dir, np.concatenate([[0.0], delta]), np.concatenate([[0.0], curves["intact"]]),
+                      np.concatenate([[0.0], curves["trimmed"]]),
+                      f"best design {', '.join(f'{k}={v:.4g}' for k, v in best_genes.items())}")
+
+
+def _run_run(args: argparse.Namespace) -> int:
+    from whisker_opt.runner import run_optimisation
+    from whisker_opt.ga_config import OptimiserConfig
+
+    cfg = load_config(args.config)
+    opt = cfg.optimiser or OptimiserConfig()
+    ev = evaluator_from_config(cfg)
+    run_dir = args.out or new_run_dir(cfg, args.config, "run")
+    run_dir.mkdir(parents=True, exist_ok=True)
+    if not (run_dir / "config.yaml").exists():
+        (run_dir / "config.yaml").write_text(dump_config(cfg))
+    summary = run_optimisation(opt, run_dir, ev, opt.resolve_seed(cfg.seed), progress=not args.no_progress)
+    _finish_best(run_dir, cfg, summary.best.get("genes") if isinstance(summary.best, dict) else None)
+    from whisker_opt.runner import report
+
+    print(report(run_dir))
+    print(f"written to {run_dir}")
+    return 0
+
+
+def _resume_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("run_dir", type=Path, help="run directory written by `whisker-opt run`")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def _resume_run(args: argparse.Namespace) -> int:
+    from whisker_opt.runner import report, resume_optimisation
+
+    cfg_path = args.run_dir / "config.yaml"
+    if not cfg_path.is_file():
+        raise FileNotFoundError(f"{cfg_path}: not found; is {args.run_dir} a run directory?")
+    cfg = load_config(cfg_path)
+    summary = resume_optimisation(args.run_dir, evaluator_from_config(cfg), progress=not args.no_progress)
+    if not (args.run_dir / "best").is_dir():
+        _finish_best(args.run_dir, cfg, summary.best.get("genes") if isinstance(summary.best, dict) else None)
+    print(report(args.run_dir))
+    return 0
+
+
+def _report_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("run_dir", type=Path, help="run directory written by `whisker-opt run`")
+
+
+def _report_run(args: argparse.Namespace) -> int:
+    from whisker_opt.runner import report
+
+    if not args.run_dir.is_dir():
+        raise FileNotFoundError(f"{args.run_dir}: no such run directory")
+    print(report(args.run_dir))
+    return 0
+
+
+# ----------------------------------------------------------------------------- compensate
+def _compensate_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("config", type=Path, help="YAML run file (design, scene.Q = Q_i, optimiser.delta_max = largest trim)")
+    p.add_argument("--step", type=float, default=1.0, help="trim step of the table [mm]")
+    p.add_argument("--out", type=Path, default=None, help="output directory")
+
+
+def _compensate_run(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from whisker_opt.beam import BeamModel
+    from whisker_opt.compensation import compensation_table, write_table
+    from whisker_opt.ga_config import OptimiserConfig
+    from whisker_opt.scene import SceneRunner
+
+    cfg = load_config(args.config)
+    opt = cfg.optimiser or OptimiserConfig()
+    if cfg.scene.Q <= 0:
+        raise ConfigError(f"{args.config}: scene.Q: the intact pressure Q_i must be > 0 for compensation (got {cfg.scene.Q})")
+    runner = SceneRunner()
+    design = design_from_config(cfg, 0.0)
+
+    def response(d, Q, deltas):
+        res = runner.run(scene_spec_from_config(cfg, d, float(Q)))
+        return res.curve(np.asarray(deltas), cfg.scene.gauge_variant)
+
+    out = args.out or new_run_dir(cfg, args.config, "compensate")
+    table = compensation_table(design, cfg.scene.Q, opt.delta_max, response, step=args.step,
+                               deltas=np.linspace(cfg.scene.delta_max / 10, cfg.scene.delta_max, 10),
+                               method="root", analytic_model=BeamModel(calibration=cfg.scene.calibration))
+    paths = write_table(out, table)
+    print((out / "compensation_table.csv").read_text())
+    print(f"written to {out} ({', '.join(str(p) for p in paths.values())})")
+    return 0
+
+
+def _view_command():
+    from whisker_opt.viewer import VIEW_COMMAND
+
+    return VIEW_COMMAND
+
+
+def _view_args(p: argparse.ArgumentParser) -> None:
+    try:
+        add = _view_command()[1]
+    except ImportError as exc:  # pyvista missing: the command explains itself when run
+        p.add_argument("path", type=Path, help=f"run directory or VTU (viewer unavailable: {exc})")
+        return
+    add(p)
+
+
+def _view_run(args: argparse.Namespace) -> int:
+    return _view_command()[2](args)
+
+
 REGISTRY: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None], Callable[[argparse.Namespace], int]]] = {
     "mesh": ("build and mesh a design; write the mesh and a quality report", _mesh_args, _mesh_run),
     "simulate": ("run one scene or the intact/trimmed pair; write the curve, reports and meshes", _simulate_args, _simulate_run),
+    "run": ("run the GA optimisation of a config; write a results directory", _run_args, _run_run),
+    "resume": ("continue an interrupted run from its last checkpoint", _resume_args, _resume_run),
+    "report": ("print a run's summary table and rebuild its plots", _report_args, _report_run),
+    "compensate": ("FE compensation table: vent pressure per trim, recovery rates, plot", _compensate_args, _compensate_run),
+    "view": ("view result meshes with pyvista (or save a screenshot off-screen)", _view_args, _view_run),
 }

@@ -23,6 +23,7 @@ import yaml
 from pydantic import Field, ValidationError, model_validator
 
 from whisker_opt.config_base import StrictModel
+from whisker_opt.ga_config import OptimiserConfig
 
 
 class ConfigError(ValueError):
@@ -108,17 +109,9 @@ class WhiskerConfig(StrictModel):
     material: MaterialConfig = MaterialConfig()
     scene: SceneConfig = SceneConfig()
     fidelity: FidelityConfig = FidelityConfig()
-    optimiser: dict[str, Any] | None = Field(None, description="GA section, see whisker_opt.ga_config")
+    optimiser: OptimiserConfig | None = Field(None, description="GA section, see whisker_opt.ga_config")
     output: OutputConfig = OutputConfig()
     seed: int = Field(0, ge=0, le=2**32 - 1, description="master random seed [-]")
-
-    @model_validator(mode="after")
-    def _check_optimiser(self) -> "WhiskerConfig":
-        if self.optimiser is not None:
-            from whisker_opt.ga_config import OptimiserConfig
-
-            OptimiserConfig.model_validate(self.optimiser)
-        return self
 
 
 def format_validation_error(err: ValidationError, source: str = "config") -> str:

@@ -15,28 +15,22 @@ from whisker_opt.config import FidelityConfig
 
 @dataclass(frozen=True)
 class Preset:
-    """Mesh sizing and load stepping of one preset.
+    """Load stepping of one preset (its mesh sizing is ``MeshSizing.preset(name)``).
 
     Attributes
     ----------
-    wall_layers : float
-        Target element edge lengths through the chamber wall (h_wall = t / wall_layers).
-    h_body : float
-        Largest element edge in the solid body [mm].
     n_pressure_steps, n_deflection_steps : int
         Solved (reported) load levels of the pressurise and deflect steps.
     """
 
-    wall_layers: float
-    h_body: float
     n_pressure_steps: int
     n_deflection_steps: int
 
 
 PRESETS: dict[str, Preset] = {
-    "coarse": Preset(wall_layers=1.0, h_body=6.0, n_pressure_steps=2, n_deflection_steps=3),
-    "default": Preset(wall_layers=2.0, h_body=4.0, n_pressure_steps=2, n_deflection_steps=4),
-    "fine": Preset(wall_layers=3.0, h_body=3.0, n_pressure_steps=4, n_deflection_steps=8),
+    "coarse": Preset(n_pressure_steps=1, n_deflection_steps=4),
+    "default": Preset(n_pressure_steps=1, n_deflection_steps=5),
+    "fine": Preset(n_pressure_steps=2, n_deflection_steps=10),
 }
 
 
@@ -51,11 +45,16 @@ def resolve(cfg: FidelityConfig) -> Preset:
 
 
 def mesh_sizing(cfg: FidelityConfig, design=None) -> MeshSizing:
-    """The :class:`geometry.sizing.MeshSizing` of a fidelity config (``design`` unused, kept for symmetry)."""
-    p = PRESETS[cfg.preset]
-    kw = dict(wall_layers=p.wall_layers, h_body=p.h_body, name=cfg.preset)
+    """The :class:`geometry.sizing.MeshSizing` of a fidelity config.
+
+    The preset's own sizing (:meth:`MeshSizing.preset`, which the shipped template
+    meshes reproduce) with the config's ``h_wall``/``h_body`` overrides applied
+    (an absolute ``h_wall`` disables templates: the mesh is made afresh).
+    """
+    sizing = MeshSizing.preset(cfg.preset)
+    kw = {}
     if cfg.h_body is not None:
         kw["h_body"] = cfg.h_body
     if cfg.h_wall is not None:
         kw["h_wall"] = cfg.h_wall
-    return MeshSizing(**kw)
+    return replace(sizing, **kw) if kw else sizing

@@ -85,7 +85,7 @@ class SceneSpec:
     n_deflection_steps: int = 5
     sizing: MeshSizing = field(default_factory=MeshSizing)
     mesh_method: str = "auto"
-    solve_options: SolveOptions = field(default_factory=SolveOptions)
+    solve_options: SolveOptions = field(default_factory=lambda: SolveOptions(reuse_tangent=0.3))
 
     def __post_init__(self) -> None:
         checks = [

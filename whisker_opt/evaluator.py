@@ -1,0 +1,129 @@
+"""The GA's fitness: one design evaluation = intact scene at Q_i + trimmed, vented scene.
+
+f1 (SPEC §6) is the mean over the deflection samples δ_k = k·Δδ (k = 1 … δ_max/Δδ,
+Δδ = 0.01 mm by default) of |ε_i(δ_k) − ε_c(δ_k)|, both curves interpolated from the
+solved increments (:meth:`whisker_opt.scene.SceneResult.curve`). Failures are
+classified (invalid geometry, mesh failure, unconverged solve, other error) and
+returned as :class:`whisker_opt.outcome.EvalOutcome`; nothing raises into the GA.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from whisker_opt.outcome import EvalOutcome
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class SceneEvaluator:
+    """Picklable evaluator ``genes -> EvalOutcome`` for the GA.
+
+    Parameters
+    ----------
+    base_spec : whisker_opt.scene.SceneSpec
+        Scene settings (material, contact, fidelity); its design supplies every
+        non-gene geometric parameter.
+    delta_max_trim : float
+        Trim Δmax of the compensated whisker [mm].
+    delta_step : float
+        Deflection sampling of f1 [mm].
+    gauge_variant : str
+        'line' or 'centroid'.
+    keep_curves : bool
+        Attach the sampled curves to the outcome's ``extra`` (for the best design only:
+        they are large).
+    """
+
+    base_spec: object
+    delta_max_trim: float
+    delta_step: float = 0.01
+    gauge_variant: str = "line"
+    keep_curves: bool = False
+
+    def specs(self, genes: dict) -> tuple:
+        """(intact, trimmed) SceneSpecs of a genome (designs validated)."""
+        d0 = replace(self.base_spec.design, alpha_deg=float(genes["alpha"]), l=float(genes["l"]),
+                     t=float(genes["t"]), trim=0.0)
+        d0.validate()
+        dc = replace(d0, trim=float(self.delta_max_trim))
+        dc.validate()
+        intact = replace(self.base_spec, design=d0, Q=float(genes["Q_i"]))
+        trimmed = replace(self.base_spec, design=dc, Q=0.0)
+        return intact, trimmed
+
+    def samples(self) -> np.ndarray:
+        """Deflections at which f1 samples the curves: Δδ, 2Δδ, …, δ_max."""
+        dm = self.base_spec.delta_max
+        n = int(round(dm / self.delta_step))
+        return np.arange(1, n + 1) * (dm / n)
+
+    def __call__(self, genes: dict) -> EvalOutcome:
+        from fem.stepping import SolveFailed
+        from geometry.design import InvalidDesignError
+        from whisker_opt.scene import run_scene
+
+        t0 = time.perf_counter()
+        timings: dict[str, float] = {}
+        try:
+            intact, trimmed = self.specs(genes)
+        except InvalidDesignError as exc:
+            return EvalOutcome.failure("invalid_geometry", str(exc), {"total": time.perf_counter() - t0},
+                                       {"violation": _violation(genes, self.base_spec.design)})
+        results = {}
+        for name, spec in (("intact", intact), ("trimmed", trimmed)):
+            t = time.perf_counter()
+            try:
+                results[name] = run_scene(spec)
+            except SolveFailed as exc:
+                return EvalOutcome.failure("solve_failed", f"{name}: {exc}", {"total": time.perf_counter() - t0})
+            except InvalidDesignError as exc:
+                return EvalOutcome.failure("invalid_geometry", f"{name}: {exc}", {"total": time.perf_counter() - t0},
+                                           {"violation": _violation(genes, self.base_spec.design)})
+            except Exception as exc:  # meshing (TemplateError, fTetWild), location, linear solver
+                kind = "mesh_failed" if _is_mesh_error(exc) else "error"
+                logger.warning("design %s: %s scene failed: %s", genes, name, exc)
+                return EvalOutcome.failure(kind, f"{name}: {type(exc).__name__}: {exc}",
+                                           {"total": time.perf_counter() - t0})
+            timings[name] = time.perf_counter() - t
+            for k, v in results[name].timings.items():
+                timings[f"{name}_{k}"] = v
+        delta = self.samples()
+        eps_i = results["intact"].curve(delta, self.gauge_variant)
+        eps_c = results["trimmed"].curve(delta, self.gauge_variant)
+        f1 = float(np.mean(np.abs(eps_i - eps_c)))
+        timings["total"] = time.perf_counter() - t0
+        extra = {
+            "delta_l": results["intact"].delta_l,
+            "eps_i_max": float(eps_i[-1]),
+            "eps_c_max": float(eps_c[-1]),
+            "iterations": int(sum(r.iterations for res in results.values() for r in res.reports)),
+        }
+        if self.keep_curves:
+            extra.update(delta=delta.tolist(), eps_i=eps_i.tolist(), eps_c=eps_c.tolist())
+        return EvalOutcome.success(f1, timings, extra)
+
+
+def _is_mesh_error(exc: BaseException) -> bool:
+    name = type(exc).__name__
+    mod = type(exc).__module__ or ""
+    return "Template" in name or "Mesh" in name or mod.startswith("geometry") or "tetwild" in mod.lower()
+
+
+def _violation(genes: dict, design) -> float:
+    """A distance (mm) into the infeasible region: how much wall/tip material is missing.
+
+    Uses the worst of: r_i(l) ≤ 0 (cavity radius at the chamber end), the tip radius
+    r_o(L − Δ) ≤ 0; 1.0 if neither explains the refusal.
+    """
+    try:
+        d = replace(design, alpha_deg=float(genes["alpha"]), l=float(genes["l"]), t=float(genes["t"]))
+        worst = max(-(d.r_outer(d.l) - d.t), -d.r_outer(d.L))
+        return float(max(worst, 0.0) + 1.0)
+    except Exception:  # pragma: no cover - defensive
+        return 1.0
