@@ -167,8 +167,11 @@ class Assembler:
         mat = self.problem.material
         F, J, G = self.deformation(u)
         W = mat.energy(F)  # (n_el, n_qp)
-        Pi = np.sum(self.topo.wdet * (W + p[:, None] * (J - 1.0)))
-        Pi -= 0.25 * mat.d1 * np.sum(p**2 * self.topo.vol)
+        if self.problem.formulation == "displacement":
+            Pi = np.sum(self.topo.wdet * (W + (J - 1.0) ** 2 / mat.d1)) + 0.5 * np.sum(p**2)
+        else:
+            Pi = np.sum(self.topo.wdet * (W + p[:, None] * (J - 1.0)))
+            Pi -= 0.25 * mat.d1 * np.sum(p**2 * self.topo.vol)
         x = self.problem.mesh.points + u
         for tk in self.topo.truss_kernels:
             Pi += tk.energy(x)
@@ -201,14 +204,20 @@ class Assembler:
         F, J, G = self.deformation(u)
         P_iso, A = mat.stress_tangent(F, G, J, need_tangent)  # (n_el,n_qp,3,3), (n_el,n_qp,3,3,3,3)
         Gt = np.swapaxes(G, -1, -2)  # (n_el, n_qp, 3, 3) [i, J] = G_Ji
-        pJ = p[:, None] * J  # (n_el, n_qp)
+        disp = self.problem.formulation == "displacement"
+        # pressure at the quadrature points: element unknown (mixed) or 2(J − 1)/D1 (displacement)
+        pq = 2.0 * (J - 1.0) / mat.d1 if disp else np.broadcast_to(p[:, None], J.shape)  # (n_el, n_qp)
+        pJ = pq * J  # (n_el, n_qp)
         P = P_iso + pJ[..., None, None] * Gt  # (n_el, n_qp, 3, 3)
         w = topo.wdet  # (n_el, n_qp)
         dN = topo.dNdX  # (n_el, n_qp, 10, 3)
         Re = np.einsum("eq,eqiJ,eqaJ->eai", w, P, dN)  # (n_el, 10, 3)
         R = np.zeros(self.pattern.n_dofs)
         R[: 3 * topo.n_nodes] = np.bincount(topo.edofs.ravel(), Re.ravel(), minlength=3 * topo.n_nodes)
-        R[3 * topo.n_nodes:] = np.sum(w * (J - 1.0), axis=1) - 0.5 * mat.d1 * p * topo.vol
+        if disp:  # inert element pressures: R_p = p, K_pp = 1
+            R[3 * topo.n_nodes:] = p
+        else:
+            R[3 * topo.n_nodes:] = np.sum(w * (J - 1.0), axis=1) - 0.5 * mat.d1 * p * topo.vol
 
         x = self.problem.mesh.points + u
         pres_out = []
@@ -233,6 +242,8 @@ class Assembler:
         A = A + pJ[..., None, None, None, None] * (
             np.einsum("eqJi,eqLk->eqiJkL", G, G) - np.einsum("eqJk,eqLi->eqiJkL", G, G)
         )  # (n_el, n_qp, 3, 3, 3, 3)
+        if disp:  # ∂p_q/∂F = (2/D1) J Gᵀ  →  + (2/D1) J² G_Ji G_Lk
+            A = A + ((2.0 / mat.d1) * J**2)[..., None, None, None, None] * np.einsum("eqJi,eqLk->eqiJkL", G, G)
         nq = w.shape[1]
         # T[e,q,a,i,k,L] = Σ_J dN[a,J] A[i,J,k,L]
         A2 = A.transpose(0, 1, 3, 2, 4, 5).reshape(n_el, nq, 3, 27)  # (n_el, n_qp, J, i·k·L)
@@ -242,6 +253,9 @@ class Assembler:
         Ke = Ke.sum(axis=1).reshape(n_el, 10, 3, 3, 10).transpose(0, 1, 2, 4, 3)  # (n_el, a, i, b, k)
         Kup = np.einsum("eq,eqJi,eqaJ->eai", w * J, G, dN).reshape(n_el, 30)  # (n_el, 30)
         Kpp = -0.5 * mat.d1 * topo.vol  # (n_el,)
+        if disp:
+            Kup = np.zeros_like(Kup)
+            Kpp = np.ones(n_el)
 
         pat = self.pattern
         parts_idx = [pat.elem_uu.ravel(), pat.elem_up.ravel(), pat.elem_pu.ravel(), pat.elem_pp]

@@ -164,6 +164,12 @@ class Problem:
     tractions : tuple of DeadTraction
     quadrature_degree : int
         Degree of the tet rule (2 → 4 points, as C3D10 in Abaqus/CalculiX).
+    face_quadrature_degree : int
+        Degree of the triangle rule for loaded faces.
+    formulation : {'mixed', 'displacement'}
+        'mixed' (default): P2/P0 u–p, locking-free, D1 ≥ 0. 'displacement': the
+        volumetric energy (1/D1)(J − 1)² at every quadrature point (standard C3D10, as
+        CalculiX; locks as D1 → 0; needs D1 > 0); element pressures are then inert.
     """
 
     mesh: TetMesh
@@ -174,6 +180,7 @@ class Problem:
     tractions: tuple[DeadTraction, ...] = ()
     quadrature_degree: int = 2
     face_quadrature_degree: int = 4
+    formulation: str = "mixed"
     _cache: dict = field(default_factory=dict, repr=False, compare=False, hash=False)
 
     def __post_init__(self) -> None:
@@ -194,6 +201,10 @@ class Problem:
             all_dofs = np.concatenate([d.dofs().ravel() for d in self.dirichlet])
             if len(np.unique(all_dofs)) != len(all_dofs):
                 raise ProblemError("Problem.dirichlet: two Dirichlet sets prescribe the same DOF")
+        if self.formulation not in ("mixed", "displacement"):
+            raise ProblemError(f"Problem.formulation={self.formulation!r}: allowed 'mixed', 'displacement'")
+        if self.formulation == "displacement" and not self.material.d1 > 0:
+            raise ProblemError(f"Problem.formulation='displacement' needs material.d1 > 0 (got {self.material.d1})")
         if self.quadrature_degree < 2:
             raise ProblemError(f"Problem.quadrature_degree={self.quadrature_degree} must be >= 2")
 

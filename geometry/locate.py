@@ -13,8 +13,10 @@ For a query point q:
    xi is most inside the reference tet (largest minimum barycentric coordinate).
 
 A point is "found" when that minimum barycentric coordinate is >= ``-tol``. Points not
-found are retried with 4 and 16 times as many candidates (stretched elements, e.g. of
-the swept mesh, can have their centroids far from points near their faces).
+found, or found only within the tolerance (slightly negative barycentric coordinate),
+are retried with 4 and 16 times as many candidates and Newton starts (stretched or
+curved elements, e.g. of the swept mesh, can have their centroids far from points near
+their faces, and a straight-tet guess may rank the true host low).
 """
 
 from __future__ import annotations
@@ -94,13 +96,18 @@ class PointLocator:
         q = np.atleast_2d(np.asarray(q, dtype=np.float64))
         loc = self._locate(q, k, n_newton, tol)
         for factor in (4, 16):
-            miss = np.nonzero(~loc.inside)[0]
+            lam = _min_bary(loc.local_coords)
+            miss = np.nonzero(~loc.inside | (lam < -1e-12))[0]  # not found, or only nearly inside
             if len(miss) == 0 or k >= len(self.cells):
                 break
             k2 = min(len(self.cells), k * factor)
-            sub = self._locate(q[miss], k2, max(n_newton, 2 * factor), tol)
+            sub = self._locate(q[miss], k2, max(n_newton, 4 * factor), tol)
+            better = (sub.inside & ~loc.inside[miss]) | (
+                (sub.inside == loc.inside[miss]) & (_min_bary(sub.local_coords) > lam[miss])
+            )
+            idx = miss[better]
             for f in ("host_elements", "local_coords", "inside", "residual"):
-                getattr(loc, f)[miss] = getattr(sub, f)
+                getattr(loc, f)[idx] = getattr(sub, f)[better]
         return loc
 
     def _locate(self, q: np.ndarray, k: int, n_newton: int, tol: float) -> Location:
@@ -129,3 +136,8 @@ class PointLocator:
             inside=lam[r, best] >= -tol,
             residual=res[r, best],
         )
+
+
+def _min_bary(xi: np.ndarray) -> np.ndarray:
+    """Smallest barycentric coordinate ``min(1 - sum xi, xi_1, xi_2, xi_3)``, shape (n,)."""
+    return np.minimum(1.0 - xi.sum(axis=1), xi.min(axis=1))

@@ -220,7 +220,7 @@ def _template(design: WhiskerDesign, sizing: MeshSizing, gate: QualityGate) -> W
             f"available: {tpl.available_sizings()}"
         )
     pts, tets, face_class = tpl.map_template(found, design)
-    qm = upgrade(design, pts, tets, face_class=face_class)
+    qm = upgrade(design, pts, tets, face_class=face_class, cylindrical=found.structured)
     wm = finish_mesh(design, sizing, qm, f"template:{found.name}", t0)
     fails = gate.failures(wm.report, sizing, design)
     if fails:
@@ -233,7 +233,7 @@ def _swept(design: WhiskerDesign, sizing: MeshSizing) -> WhiskerMesh:
 
     t0 = time.perf_counter()
     pts, tets = build_swept(design, sizing)
-    qm = upgrade(design, pts, tets)
+    qm = upgrade(design, pts, tets, cylindrical=True)
     return finish_mesh(design, sizing, qm, "swept", t0)
 
 

@@ -11,6 +11,20 @@ Steps (see :mod:`geometry.boundary` for the patches):
    nothing (the midpoint of two points of a plane lies in it);
 5. undo step 4 for any element whose isoparametric Jacobian ``det(dX/dxi)`` would not
    stay positive at its nodes and degree-2 quadrature points.
+
+With ``cylindrical=True`` (structured swept meshes and templates mapped from them,
+:mod:`geometry.swept`), step 3 places the mid-edge node of every edge whose two ends
+lie in the *wall region* ``r >= r_core(x)`` (the wall rings of the swept section, see
+:func:`geometry.swept.core_radius`) at the midpoint in cylindrical coordinates::
+
+    x_m = (x_a + x_b)/2,   r_m = (r_a + r_b)/2,   theta_m = theta_a + wrap(theta_b - theta_a)/2
+
+so element edges follow the circles of the section instead of their chords. Boundary
+edges on the cones then lie on the exact surfaces (``r_o`` and ``r_i`` are linear in x),
+and the elements of a thin wall are not pinched by the chord-to-arc offset of their
+boundary edges (with straight interiors the offset, ``r (1 - cos(pi / n_theta))``, can
+approach the layer thickness ``t / n_wall`` and flatten the Jacobian). Edges with an end
+inside the core disc stay straight (the polar map is singular on the axis).
 """
 
 from __future__ import annotations
@@ -86,6 +100,7 @@ def upgrade(
     points1: np.ndarray,
     tets4: np.ndarray,
     face_class: np.ndarray | None = None,
+    cylindrical: bool = False,
 ) -> QuadraticMesh:
     """Build the boundary-conforming TET10 mesh (see module docstring).
 
@@ -98,6 +113,8 @@ def upgrade(
     face_class : ndarray, shape (n_f,), optional
         Patch ids of the boundary faces in :func:`fem.mesh.boundary_faces` order; by
         default classified geometrically.
+    cylindrical : bool
+        Cylindrical mid-edge nodes in the wall region (module docstring).
 
     Returns
     -------
@@ -116,6 +133,8 @@ def upgrade(
     pts, n_unproj = _project_safely(design, pts, tets4, tris, face_class)
     n_v = len(pts)
     mid = 0.5 * (pts[edges[:, 0]] + pts[edges[:, 1]])
+    if cylindrical:
+        mid = cylindrical_midpoints(design, pts, edges, mid)
     points = np.vstack([pts, mid])
     straight = points.copy()
     for patch in bd.CONE_PATCHES:
@@ -129,3 +148,29 @@ def upgrade(
         points[nodes] = straight[nodes]
         logger.warning("%d elements: curved mid-edge nodes reverted to straight (Jacobian <= 0)", len(bad))
     return QuadraticMesh(points, cells, felem, flocal, faces6, face_class, n_unproj, len(bad))
+
+
+def cylindrical_midpoints(d: WhiskerDesign, pts: np.ndarray, edges: np.ndarray, mid: np.ndarray) -> np.ndarray:
+    """Replace straight midpoints of wall-region edges by cylindrical ones (module docstring).
+
+    Parameters
+    ----------
+    pts : ndarray, shape (n_v, 3)
+    edges : ndarray, shape (n_e, 2)
+    mid : ndarray, shape (n_e, 3)
+        Straight midpoints.
+
+    Returns
+    -------
+    ndarray, shape (n_e, 3)
+    """
+    from geometry.swept import core_radius
+
+    x, r, th = bd.to_meridian(pts)
+    in_wall = r >= core_radius(d, x) * (1.0 - 1e-7)  # (n_v,)
+    sel = in_wall[edges[:, 0]] & in_wall[edges[:, 1]]
+    a, b = edges[sel, 0], edges[sel, 1]
+    dth = np.angle(np.exp(1j * (th[b] - th[a])))  # wrapped to (-pi, pi]
+    out = mid.copy()
+    out[sel] = bd.from_meridian(0.5 * (x[a] + x[b]), 0.5 * (r[a] + r[b]), th[a] + 0.5 * dth)
+    return out

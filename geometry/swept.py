@@ -23,7 +23,9 @@ swept mesh maps exactly onto the swept mesh of another design).
 number of layers, at least two, when ``c < x_ss`` and ``x_ss + e < l``); the cap gets
 ``round(c / h_cap)`` layers, each chamber interval ``round(length / dz)`` with
 ``dz = axial_factor * h_wall``; the body is graded, layer size
-``h(s) = min(h_body, dz + grading * s)`` at distance ``s`` from the chamber end.
+``h(s) = min(h_body, dz + grading * s, max(dz, 1.5 r_o))`` at distance ``s`` from the
+chamber end (the last bound keeps the elements of a slender tip from getting long and
+thin).
 
 *Elements*: every triangle of the section times every axial layer is a prism (core
 triangles are left out over ``[c, l]``: the cavity); each prism is split into three
@@ -135,7 +137,9 @@ def cross_section(n_theta: int, n_wall: int) -> CrossSection:
     )
 
 
-def _core_radius(d: WhiskerDesign, x: np.ndarray) -> np.ndarray:
+def core_radius(d: WhiskerDesign, x: np.ndarray) -> np.ndarray:
+    """``r_core(x)``: ``r_i(x)`` on [c, l], ``rho_c r_o(x)`` (cap), ``rho_l r_o(x)`` (body)."""
+    x = np.asarray(x, dtype=float)
     ro = d.r_outer(x)
     rho_c = d.r_inner(d.c) / d.r_outer(d.c)
     rho_l = d.r_inner(d.l) / d.r_outer(d.l)
@@ -151,7 +155,13 @@ def axial_knots(d: WhiskerDesign) -> list[float]:
 
 
 def axial_stations(
-    d: WhiskerDesign, h_cap: float, dz: float, h_body: float, grading: float, min_gauge_layers: int = 2
+    d: WhiskerDesign,
+    h_cap: float,
+    dz: float,
+    h_body: float,
+    grading: float,
+    min_gauge_layers: int = 2,
+    radius_factor: float = 1.5,
 ) -> np.ndarray:
     """Axial node positions (see module docstring), shape (n_z + 1,), increasing."""
     knots = axial_knots(d)
@@ -166,7 +176,7 @@ def axial_stations(
     Lb = d.length - d.l
     hb = max(h_body, dz)
     s = np.linspace(0.0, Lb, 2001)
-    h = np.minimum(hb, dz + grading * s)
+    h = np.minimum(np.minimum(hb, dz + grading * s), np.maximum(dz, radius_factor * d.r_outer(d.l + s)))
     N = np.concatenate([[0.0], np.cumsum(0.5 * (1.0 / h[1:] + 1.0 / h[:-1]) * np.diff(s))])
     n = max(1, round(N[-1]))
     xb = d.l + np.interp(np.linspace(0.0, N[-1], n + 1), N, s)
@@ -202,7 +212,7 @@ def swept_mesh(
     n2, nz = len(cs.theta), len(xs) - 1
     # points: station-major
     X = np.repeat(xs, n2)  # (nz+1)*n2
-    rc = _core_radius(d, X)
+    rc = core_radius(d, X)
     ro = d.r_outer(X)
     A, B, TH = np.tile(cs.a, nz + 1), np.tile(cs.b, nz + 1), np.tile(cs.theta, nz + 1)
     R = A * rc + B * ro

@@ -71,6 +71,7 @@ class Template:
     points: np.ndarray  # (n_v, 3) float64
     tets: np.ndarray  # (n_el, 4) int64
     face_class: np.ndarray  # (n_f,) int64
+    structured: bool = False  # a swept mesh: cylindrical mid-edge nodes (geometry.quadratic)
 
 
 def template_designs() -> list[WhiskerDesign]:
@@ -91,6 +92,7 @@ def save_template(path: Path, tpl: Template) -> None:
         points=tpl.points,
         tets=tpl.tets.astype(np.int32),
         face_class=tpl.face_class.astype(np.int8),
+        structured=np.array(bool(tpl.structured)),
     )
 
 
@@ -104,6 +106,7 @@ def load_template(path: Path) -> Template:
             points=np.asarray(z["points"], dtype=np.float64),
             tets=np.asarray(z["tets"], dtype=np.int64),
             face_class=np.asarray(z["face_class"], dtype=np.int64),
+            structured=bool(z["structured"]) if "structured" in z.files else False,
         )
 
 
@@ -141,10 +144,9 @@ def select_template(design: WhiskerDesign, sizing: MeshSizing, directory: str = 
 # ---------------------------------------------------------------------- the map
 def _core_radius(d: WhiskerDesign, x: np.ndarray) -> np.ndarray:
     """``r_core(x)``: cavity radius on [c, l], constant fractions of r_o outside."""
-    ro = d.r_outer(x)
-    rho_c = d.r_inner(d.c) / d.r_outer(d.c)
-    rho_l = d.r_inner(d.l) / d.r_outer(d.l)
-    return np.where(x < d.c, rho_c * ro, np.where(x > d.l, rho_l * ro, ro - d.t))
+    from geometry.swept import core_radius
+
+    return core_radius(d, x)
 
 
 def map_axial(src: WhiskerDesign, dst: WhiskerDesign, x: np.ndarray) -> np.ndarray:
@@ -217,7 +219,7 @@ def make_template(design: WhiskerDesign, sizing: MeshSizing, num_threads: int = 
     if n_unproj:
         raise RuntimeError(f"template for {design.describe()}: {n_unproj} vertices could not be projected")
     name = f"{sizing.name}_a{design.alpha_deg:g}_t{design.t:g}"
-    return Template(name, design, sizing.template_key(), sizing.name, pts, tets, cls)
+    return Template(name, design, sizing.template_key(), sizing.name, pts, tets, cls, structured=(method == "swept"))
 
 
 def _renumber(pts: np.ndarray, tets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
