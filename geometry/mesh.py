@@ -195,7 +195,8 @@ def finish_mesh(
     h_wall = sizing.wall_size(design)
     fibres = locate_fibres(design, locator, ds=fibre_ds_factor * h_wall)
     report = make_report(
-        design, qm.points, qm.cells, faces["cavity"], locator, h_wall, method, time.perf_counter() - t_start
+        design, qm.points, qm.cells, faces["cavity"], locator, h_wall, method, time.perf_counter() - t_start,
+        jac_ratio=qm.jacobian_ratio,
     )
     return WhiskerMesh(TetMesh(qm.points, qm.cells), nodes, faces, fibres, design, report, sizing)
 
@@ -220,7 +221,8 @@ def _template(design: WhiskerDesign, sizing: MeshSizing, gate: QualityGate) -> W
             f"available: {tpl.available_sizings()}"
         )
     pts, tets, face_class = tpl.map_template(found, design)
-    qm = upgrade(design, pts, tets, face_class=face_class, cylindrical=found.structured)
+    qm = upgrade(design, pts, tets, face_class=face_class, cylindrical=found.structured,
+                 topology=tpl.template_topology(found))
     wm = finish_mesh(design, sizing, qm, f"template:{found.name}", t0)
     fails = gate.failures(wm.report, sizing, design)
     if fails:

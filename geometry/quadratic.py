@@ -17,10 +17,16 @@ With ``cylindrical=True`` (structured swept meshes and templates mapped from the
 lie in the *wall region* ``r >= r_core(x)`` (the wall rings of the swept section, see
 :func:`geometry.swept.core_radius`) at the midpoint in cylindrical coordinates::
 
-    x_m = (x_a + x_b)/2,   r_m = (r_a + r_b)/2,   theta_m = theta_a + wrap(theta_b - theta_a)/2
+    x_m = (x_a + x_b)/2,   theta_m = theta_a + wrap(theta_b - theta_a)/2,
+    r_m = (r_a + r_b)/2                  (both ends on one ring of the section)
+    r_m = sqrt((r_a^2 + r_b^2)/2)        (ends on different rings)
 
-so element edges follow the circles of the section instead of their chords. Boundary
-edges on the cones then lie on the exact surfaces (``r_o`` and ``r_i`` are linear in x),
+so element edges follow the circles of the section instead of their chords. The
+quadratic mean across rings makes ``r dr/ds`` (the polar map's Jacobian) nearly
+constant along a radial edge instead of growing like r, so a single thick wedge-shaped
+layer (coarse meshes of thick walls, ``r_i / r_o`` down to ~0.2) keeps a Jacobian ratio
+~0.4 instead of ``r_i / r_o``. Boundary edges on the cones lie on one ring and so on the
+exact surfaces (``r_o`` and ``r_i`` are linear in x),
 and the elements of a thin wall are not pinched by the chord-to-arc offset of their
 boundary edges (with straight interiors the offset, ``r (1 - cos(pi / n_theta))``, can
 approach the layer thickness ``t / n_wall`` and flatten the Jacobian). Edges with an end
@@ -64,6 +70,8 @@ class QuadraticMesh:
         Boundary vertices left off their patch to avoid inversion.
     n_unsnapped : int
         Elements whose curved mid-edge nodes were reverted to straight.
+    jacobian_ratio : ndarray, shape (n_el,)
+        ``min det J / max |det J|`` over :data:`CHECK_POINTS` (reused by the report).
     """
 
     points: np.ndarray
@@ -74,6 +82,7 @@ class QuadraticMesh:
     face_class: np.ndarray
     n_unprojected: int = 0
     n_unsnapped: int = 0
+    jacobian_ratio: np.ndarray | None = None  # (n_el,) min det J / max |det J| at CHECK_POINTS
 
 
 def _project_safely(d: WhiskerDesign, pts: np.ndarray, tets4: np.ndarray, tris: np.ndarray, cls: np.ndarray):
@@ -101,6 +110,7 @@ def upgrade(
     tets4: np.ndarray,
     face_class: np.ndarray | None = None,
     cylindrical: bool = False,
+    topology: tuple | None = None,
 ) -> QuadraticMesh:
     """Build the boundary-conforming TET10 mesh (see module docstring).
 
@@ -115,6 +125,9 @@ def upgrade(
         default classified geometrically.
     cylindrical : bool
         Cylindrical mid-edge nodes in the wall region (module docstring).
+    topology : tuple, optional
+        ``(cells, edges, face_elem, face_local, faces6)`` of these tets as returned by
+        :func:`topology`, when already known (template meshes: computed once).
 
     Returns
     -------
@@ -122,8 +135,7 @@ def upgrade(
     """
     pts = np.asarray(points1, dtype=np.float64)
     tets4 = np.asarray(tets4, dtype=np.int64)
-    _, cells, edges = p1_to_p2(pts, tets4)
-    felem, flocal, faces6 = boundary_faces(cells)
+    cells, edges, felem, flocal, faces6 = topology if topology is not None else mesh_topology(pts, tets4)
     tris = faces6[:, :3]
     if face_class is None:
         face_class = bd.classify_faces(design, pts, tris)
@@ -147,7 +159,16 @@ def upgrade(
         nodes = np.unique(cells[bad][:, 4:])
         points[nodes] = straight[nodes]
         logger.warning("%d elements: curved mid-edge nodes reverted to straight (Jacobian <= 0)", len(bad))
-    return QuadraticMesh(points, cells, felem, flocal, faces6, face_class, n_unproj, len(bad))
+        detj = jacobian_determinants(points, cells, CHECK_POINTS)
+    jr = detj.min(axis=1) / np.abs(detj).max(axis=1)
+    return QuadraticMesh(points, cells, felem, flocal, faces6, face_class, n_unproj, len(bad), jr)
+
+
+def mesh_topology(points1: np.ndarray, tets4: np.ndarray) -> tuple:
+    """``(cells10, edges, face_elem, face_local, faces6)`` of linear tets (p1_to_p2 + boundary_faces)."""
+    _, cells, edges = p1_to_p2(points1, tets4)
+    felem, flocal, faces6 = boundary_faces(cells)
+    return cells, edges, felem, flocal, faces6
 
 
 def cylindrical_midpoints(d: WhiskerDesign, pts: np.ndarray, edges: np.ndarray, mid: np.ndarray) -> np.ndarray:
@@ -167,10 +188,14 @@ def cylindrical_midpoints(d: WhiskerDesign, pts: np.ndarray, edges: np.ndarray, 
     from geometry.swept import core_radius
 
     x, r, th = bd.to_meridian(pts)
-    in_wall = r >= core_radius(d, x) * (1.0 - 1e-7)  # (n_v,)
+    rc = core_radius(d, x)
+    in_wall = r >= rc * (1.0 - 1e-7)  # (n_v,)
+    frac = (r - rc) / np.maximum(d.r_outer(x) - rc, 1e-300)  # wall fraction: ring 0 .. 1
     sel = in_wall[edges[:, 0]] & in_wall[edges[:, 1]]
     a, b = edges[sel, 0], edges[sel, 1]
     dth = np.angle(np.exp(1j * (th[b] - th[a])))  # wrapped to (-pi, pi]
+    across = np.abs(frac[a] - frac[b]) > 1e-6  # joins two rings: quadratic-mean radius
+    rm = np.where(across, np.sqrt(0.5 * (r[a] ** 2 + r[b] ** 2)), 0.5 * (r[a] + r[b]))
     out = mid.copy()
-    out[sel] = bd.from_meridian(0.5 * (x[a] + x[b]), 0.5 * (r[a] + r[b]), th[a] + 0.5 * dth)
+    out[sel] = bd.from_meridian(0.5 * (x[a] + x[b]), rm, th[a] + 0.5 * dth)
     return out

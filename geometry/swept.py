@@ -14,18 +14,17 @@ nodes, closed by a fan to the centre. A cross-section node sits at radius
 
     r = a r_core(x) + b r_o(x)        (core nodes: b = 0; wall ring j: a = 1 - j/n_wall, b = j/n_wall)
 
-with ``r_core(x)`` the cavity radius ``r_i(x)`` on ``[c, l]`` and the fixed fractions
-``rho_c r_o(x)`` (cap) and ``rho_l r_o(x)`` (body), ``rho_c = r_i(c)/r_o(c)``,
-``rho_l = r_i(l)/r_o(l)`` (the same radial map as :mod:`geometry.template`, so a
-swept mesh maps exactly onto the swept mesh of another design).
+with ``r_core(x)`` the cavity radius ``r_i(x)`` on ``[c, l]`` and fractions of ``r_o(x)``
+outside (:func:`core_radius`; the same radial map as :mod:`geometry.template`, so a
+swept mesh maps onto the swept mesh of another design).
 
 *Axial stations*: knots ``0, c, x_ss, x_ss + e, l, L'`` (the gauge window is a whole
 number of layers, at least two, when ``c < x_ss`` and ``x_ss + e < l``); the cap gets
 ``round(c / h_cap)`` layers, each chamber interval ``round(length / dz)`` with
 ``dz = axial_factor * h_wall``; the body is graded, layer size
-``h(s) = min(h_body, dz + grading * s, max(dz, 1.5 r_o))`` at distance ``s`` from the
-chamber end (the last bound keeps the elements of a slender tip from getting long and
-thin).
+``h(s) = min(h_body, dz + grading * s, max(dz, min(1.5, 3 / n_wall) r_o))`` at distance ``s``
+from the chamber end (the last bound keeps the elements of a slender tip from getting
+long and thin: about 6 ring thicknesses at most).
 
 *Elements*: every triangle of the section times every axial layer is a prism (core
 triangles are left out over ``[c, l]``: the cavity); each prism is split into three
@@ -137,13 +136,26 @@ def cross_section(n_theta: int, n_wall: int) -> CrossSection:
     )
 
 
+#: core fraction r_core / r_o the body relaxes to, over BODY_CORE_RELAX mm from x = l
+BODY_CORE_FRACTION = 0.5
+BODY_CORE_RELAX = 10.0
+
+
 def core_radius(d: WhiskerDesign, x: np.ndarray) -> np.ndarray:
-    """``r_core(x)``: ``r_i(x)`` on [c, l], ``rho_c r_o(x)`` (cap), ``rho_l r_o(x)`` (body)."""
+    """``r_core(x)``: ``r_i(x)`` on [c, l], ``rho_c r_o(x)`` (cap), ``rho_b(x) r_o(x)`` (body).
+
+    ``rho_c = r_i(c)/r_o(c)``; in the body the fraction moves linearly from
+    ``rho_l = r_i(l)/r_o(l)`` to :data:`BODY_CORE_FRACTION` over :data:`BODY_CORE_RELAX`
+    mm, so a thick wall (small cavity) does not leave a needle-thin core in a slender tip.
+    Continuous in x.
+    """
     x = np.asarray(x, dtype=float)
     ro = d.r_outer(x)
     rho_c = d.r_inner(d.c) / d.r_outer(d.c)
     rho_l = d.r_inner(d.l) / d.r_outer(d.l)
-    return np.where(x < d.c, rho_c * ro, np.where(x > d.l, rho_l * ro, ro - d.t))
+    s = np.clip((x - d.l) / BODY_CORE_RELAX, 0.0, 1.0)
+    rho_b = rho_l + (BODY_CORE_FRACTION - rho_l) * s
+    return np.where(x < d.c, rho_c * ro, np.where(x > d.l, rho_b * ro, ro - d.t))
 
 
 def axial_knots(d: WhiskerDesign) -> list[float]:
@@ -259,9 +271,13 @@ def build_swept(design: WhiskerDesign, sizing) -> tuple[np.ndarray, np.ndarray]:
 
     ``n_wall = max(1, round(wall_layers))`` radial layers (``round(t / h_wall)`` for an
     absolute ``h_wall``), ``n_theta`` sectors, axial layers from ``h_cap``,
-    ``axial_factor * h_wall``, ``h_body`` and ``grading`` (module docstring).
+    ``axial_factor * h_wall``, ``h_body``, ``grading`` and ``radius_factor = min(1.5, 3 / n_wall)``
+    (module docstring).
     """
     hw = sizing.wall_size(design)
     n_wall = max(1, round(design.t / hw))
-    st = axial_stations(design, sizing.cap_size(design), sizing.axial_factor * hw, sizing.h_body, sizing.grading)
+    st = axial_stations(
+        design, sizing.cap_size(design), sizing.axial_factor * hw, sizing.h_body, sizing.grading,
+        radius_factor=min(1.5, 3.0 / n_wall),
+    )
     return swept_mesh(design, int(sizing.n_theta), n_wall, st)

@@ -14,8 +14,8 @@ piecewise-smooth map that takes every patch of T onto the same patch of N:
     x' = l' + (x - l)(L'_N - l')/(L'_T - l)          l <= x <= L'_T
 
 *Radial*, at fixed angle, with the core radius
-``r_core(x) = r_i(x)`` on [c, l] and ``rho_c r_o(x)`` (cap), ``rho_l r_o(x)`` (body),
-``rho_c = r_i(c)/r_o(c)``, ``rho_l = r_i(l)/r_o(l)`` (continuous in x)::
+``r_core(x) = r_i(x)`` on [c, l] and fractions of ``r_o(x)`` in the cap and body
+(:func:`geometry.swept.core_radius`, continuous in x)::
 
     r' = r r'_core(x') / r_core(x)                                     r <= r_core(x)
     r' = r'_core + (r - r_core)(r'_o(x') - r'_core)/(r_o(x) - r_core)  r >= r_core(x)
@@ -139,6 +139,23 @@ def select_template(design: WhiskerDesign, sizing: MeshSizing, directory: str = 
     if not cands:
         return None
     return min(cands, key=lambda t: template_distance(design, t.design))
+
+
+_TOPOLOGY: dict[tuple[str, str, int], tuple] = {}
+
+
+def template_topology(tpl: Template) -> tuple:
+    """TET10 connectivity, edges and boundary faces of a template (computed once per process).
+
+    The map moves vertices only, so every mesh mapped from one template shares them
+    (:func:`geometry.quadratic.mesh_topology`).
+    """
+    from geometry.quadratic import mesh_topology
+
+    key = (tpl.name, tpl.sizing_key, len(tpl.tets))
+    if key not in _TOPOLOGY:
+        _TOPOLOGY[key] = mesh_topology(tpl.points, tpl.tets)
+    return _TOPOLOGY[key]
 
 
 # ---------------------------------------------------------------------- the map

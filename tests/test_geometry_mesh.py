@@ -9,12 +9,13 @@ import pytest
 
 from fem import element
 from fem.mesh import boundary_faces, jacobian_determinants, signed_volumes_linear
-from fem.quadrature import tet_rule
+from fem.quadrature import tet_rule, tri_rule
 from geometry import analytic
 from geometry import boundary as bd
 from geometry.design import InvalidDesignError, WhiskerDesign
 from geometry.mesh import MeshSizing, TemplateError, WhiskerMesh, build_mesh
 from geometry.quality import radius_ratio
+from geometry.swept import core_radius
 from geometry.template import TEMPLATE_DIR, load_templates, map_points
 
 
@@ -35,14 +36,23 @@ def test_node_order_and_positive_jacobians(wm):
     assert (signed_volumes_linear(m.points, m.cells) > 0).all()
     for deg in (2, 3):
         assert (jacobian_determinants(m.points, m.cells, tet_rule(deg).points) > 0).all()
-    # straight-edge elements: mid-edge nodes at edge midpoints, in VTK order (0,1),(1,2),(0,2),(0,3),(1,3),(2,3)
+    # mid-edge nodes in VTK order (0,1),(1,2),(0,2),(0,3),(1,3),(2,3): for the swept/template mesh each
+    # lies at the cylindrical midpoint of its edge (x and r averaged, theta halved) when both ends are in
+    # the wall region r >= r_core(x), else at the straight midpoint (geometry.quadratic, cylindrical=True)
     X = m.points[m.cells]
-    mid = 0.5 * (X[:, element.EDGES[:, 0]] + X[:, element.EDGES[:, 1]])
-    dev = np.linalg.norm(X[:, 4:] - mid, axis=2).max(axis=1)
-    # element size = longest straight edge (edge 0-1 alone may be the short radial one)
-    h = np.linalg.norm(X[:, element.EDGES[:, 1]] - X[:, element.EDGES[:, 0]], axis=2).max(axis=1)
-    assert np.median(dev / h) < 1e-12  # interior elements are straight
-    assert (dev / h).max() < 0.1  # curved boundary elements are only mildly curved
+    A, B = X[:, element.EDGES[:, 0]].reshape(-1, 3), X[:, element.EDGES[:, 1]].reshape(-1, 3)
+    straight = 0.5 * (A + B)
+    xa, ra, ta = bd.to_meridian(A)
+    xb, rb, tb = bd.to_meridian(B)
+    d = wm.design
+    wall = (ra >= core_radius(d, xa) * (1 - 1e-7)) & (rb >= core_radius(d, xb) * (1 - 1e-7))
+    cyl = bd.from_meridian(0.5 * (xa + xb), 0.5 * (ra + rb), ta + 0.5 * np.angle(np.exp(1j * (tb - ta))))
+    expect = np.where(wall[:, None], cyl, straight)
+    h = np.linalg.norm(B - A, axis=1)
+    assert np.abs(X[:, 4:].reshape(-1, 3) - expect).max() < 1e-9 * d.D
+    assert 0.2 < wall.mean() < 0.95  # both kinds occur
+    dev = np.linalg.norm(X[:, 4:].reshape(-1, 3) - straight, axis=1)
+    assert (dev / h).max() < 0.15  # edges are only mildly curved (sagitta / chord of a 2 pi / n_theta arc)
 
 
 def test_boundary_nodes_on_exact_surfaces(wm):
@@ -80,10 +90,15 @@ def test_face_sets_cover_the_boundary_and_are_outward(wm):
     assert (np.einsum("ij,ij->i", n[:, 1:], cen[:, 1:]) < 0).all()  # into the cavity
     assert (normals(fs["cavity_start"])[0][:, 0] > 0.999).all()
     assert (normals(fs["cavity_end"])[0][:, 0] < -0.999).all()
-    # closed cavity: the outward normals integrate to zero, enclosed volume = cavity volume
-    a, b, c = (P[fs["cavity"][:, k]] for k in range(3))
-    vol = -np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6
-    assert vol == pytest.approx(analytic.cavity_volume(d), rel=2e-3)  # straight triangles
+    # closed cavity: enclosed volume -(1/3) int X . n dA over the curved tri6 faces = cavity volume
+    rule = tri_rule(4)
+    N, dN = element.tri6_shape_functions(rule.points), element.tri6_shape_gradients(rule.points)
+    Xf = P[fs["cavity"]]  # (n_f, 6, 3)
+    Xq = np.einsum("qa,fai->fqi", N, Xf)  # (n_f, n_qp, 3)
+    T = np.einsum("fai,qaj->fqij", Xf, dN)  # (n_f, n_qp, 3, 2)
+    nA = np.cross(T[..., 0], T[..., 1])  # (n_f, n_qp, 3) area-scaled outward normal
+    vol = -(np.einsum("fqi,fqi->fq", Xq, nA) @ rule.weights).sum() / 3
+    assert vol == pytest.approx(analytic.cavity_volume(d), rel=1e-3)
 
 
 def test_gauge_footprint(wm):

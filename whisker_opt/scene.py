@@ -206,12 +206,20 @@ def contact_band(wm: WhiskerMesh, u: np.ndarray, x_contact: float, width: float,
 
 
 def mid_chamber_radial_growth(wm: WhiskerMesh, u: np.ndarray) -> float:
-    """Mean radial displacement of outer-surface nodes within ±0.5 mm of mid-chamber."""
+    """Mean radial displacement of the outer-surface nodes nearest to mid-chamber.
+
+    Nodes within ±0.5 mm of x = (c + l)/2, widened to the nearest node ring on coarse
+    meshes (at most a quarter of the chamber length either side).
+    """
     d = wm.design
     X = wm.mesh.points
     outer = wm.node_sets["outer"]
     xm = 0.5 * (d.c + d.l)
-    sel = outer[np.abs(X[outer, 0] - xm) <= 0.5]
+    dist = np.abs(X[outer, 0] - xm)
+    half = min(max(0.5, float(dist.min()) + 1e-9), 0.25 * (d.l - d.c))
+    sel = outer[dist <= half]
+    if len(sel) == 0:
+        raise ValueError(f"no outer-surface node within {half:.3g} mm of mid-chamber x = {xm:.3g} mm")
     r = np.linalg.norm(X[sel, 1:], axis=1)  # (k,)
     ur = np.einsum("ki,ki->k", u[sel, 1:], X[sel, 1:]) / r  # (k,)
     return float(ur.mean())

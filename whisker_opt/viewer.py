@@ -18,7 +18,7 @@ What a view shows (issue 6)
   ``LE_xx = (½ ln(F Fᵀ))_xx`` (the Eulerian Hencky strain, Abaqus' LE11), computed from
   the P2 displacement by :func:`axial_log_strain`, or the displacement magnitude, or any
   array stored in the VTU; one labelled scalar bar, one colour range for all panels.
-* The undeformed outer surface as a faint ghost, the chamber cavity (its own surface
+* The undeformed outline (boundary of the reference section z = 0), the chamber cavity (its own surface
   component, found by connectivity), either revealed by a cut at ``z = 0``
   (``cavity="clip"``) or seen through a translucent outer surface
   (``cavity="translucent"``); the fibre helices (:mod:`geometry.fibres`, mapped by the
@@ -36,6 +36,7 @@ can register the command without the optional ``viewer`` extra installed.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import csv
 import dataclasses
 import json
@@ -45,6 +46,7 @@ import os
 import re
 import shutil
 import sys
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence
@@ -57,6 +59,7 @@ INSTALL_HINT = "install the viewer extra: pip install 'whisker-opt[viewer]'"
 DISPLACEMENT_NAMES = ("displacement", "u", "U", "disp", "Displacement", "DISP")
 STRAIN_FIELD = "axial_log_strain"
 MAGNITUDE_FIELD = "displacement_magnitude"
+MISES_FIELD = "von_mises"
 STORED_STRAIN_NAMES = ("axial_log_strain", "le11", "le_xx", "log_strain_xx", "lexx")
 FIELD_ALIASES = {
     "strain": STRAIN_FIELD,
@@ -67,9 +70,14 @@ FIELD_ALIASES = {
     "displacement": MAGNITUDE_FIELD,
     "magnitude": MAGNITUDE_FIELD,
     "|u|": MAGNITUDE_FIELD,
+    "mises": MISES_FIELD,
+    "stress": MISES_FIELD,
+    "von_mises_stress": MISES_FIELD,
 }
-FIELD_LABELS = {STRAIN_FIELD: "axial log strain LE_xx [-]", MAGNITUDE_FIELD: "displacement |u| [mm]"}
-STATE_ORDER = ("reference", "undeformed", "mesh", "initial", "pressurised", "pressurized", "inflated", "deflected", "final")
+FIELD_LABELS = {STRAIN_FIELD: "LE_xx [-]", MAGNITUDE_FIELD: "displacement [mm]", MISES_FIELD: "von Mises [MPa]"}
+STATE_ORDER = (
+    "reference", "undeformed", "mesh", "initial", "pressurised", "pressurized", "inflated", "deflected", "final",
+)
 SCENE_ORDER = (
     "intact", "uncompensated", "trimmed_uncompensated", "trimmed", "vented", "trimmed_vented", "compensated", "scene",
 )
@@ -96,7 +104,9 @@ def require_pyvista():
     try:
         import pyvista
     except ImportError as exc:  # includes sys.modules["pyvista"] = None
-        raise ViewerUnavailable(f"the result viewer needs pyvista, which is not importable ({exc}); {INSTALL_HINT}") from exc
+        raise ViewerUnavailable(
+            f"the result viewer needs pyvista, which is not importable ({exc}); {INSTALL_HINT}"
+        ) from exc
     return pyvista
 
 
@@ -287,19 +297,80 @@ def read_scenes_json(path: Path, defaults: Mapping[str, Any] | None = None) -> d
     return {k: scene_info_from_dict(k, v, defaults) for k, v in data.items() if isinstance(v, dict)}
 
 
-def _read_config_scene(root: Path) -> dict[str, Any]:
-    p = root / "config.yaml"
+def read_run_config(root: Path) -> dict[str, Any]:
+    """The ``config.yaml`` of a run directory as a plain mapping ({} when absent or unreadable)."""
+    p = Path(root) / "config.yaml"
     if not p.is_file():
         return {}
     try:
         import yaml
 
         cfg = yaml.safe_load(p.read_text()) or {}
-        sc = cfg.get("scene") or {}
-        return {"contact_ratio": sc.get("contact_ratio", 1.0)} if isinstance(sc, dict) else {}
     except Exception as exc:  # noqa: BLE001 - the config is optional metadata here
         logger.warning("%s: ignored (%s)", p, exc)
         return {}
+    return cfg if isinstance(cfg, dict) else {}
+
+
+def _section(cfg: Mapping[str, Any], name: str) -> dict[str, Any]:
+    sec = cfg.get(name)
+    return sec if isinstance(sec, dict) else {}
+
+
+def scenes_from_genes(cfg: Mapping[str, Any], genes: Mapping[str, Any],
+                      curves: tuple[Sequence[float], Sequence[float], Sequence[float]] | None = None,
+                      notes: Mapping[str, Any] | None = None) -> dict[str, SceneInfo]:
+    """The intact (Q = Q_i) and trimmed vented (trim = optimiser.delta_max, Q = 0) scenes of a genome.
+
+    Mirrors :meth:`whisker_opt.evaluator.SceneEvaluator.specs`: the ``design`` section of
+    ``cfg`` with ``alpha_deg, l, t`` from the genes ``alpha, l, t``.
+
+    Parameters
+    ----------
+    cfg : mapping
+        The run's ``config.yaml``.
+    genes : mapping
+        ``alpha`` [deg], ``l``, ``t`` [mm], ``Q_i`` [MPa].
+    curves : (delta, eps_i, eps_c), optional
+        Gauge responses (e.g. ``best_curves.csv``).
+    notes : mapping, optional
+        Shown as text (f1, F_p, ...).
+    """
+    try:  # a partial design section takes the WhiskerDesign defaults, as the config does
+        from geometry.design import WhiskerDesign
+
+        design = WhiskerDesign().as_dict()
+    except Exception:  # noqa: BLE001 - geometry unavailable: use what the config says
+        design = {}
+    design.update(_section(cfg, "design"))
+    try:
+        design.update(alpha_deg=float(genes["alpha"]), l=float(genes["l"]), t=float(genes["t"]))
+    except (KeyError, TypeError, ValueError):
+        return {}
+    trim = _float(_section(cfg, "optimiser").get("delta_max")) or 5.0
+    ratio = _float(_section(cfg, "scene").get("contact_ratio")) or 1.0
+    out = {}
+    for name, tr, q, k in (("intact", 0.0, _float(genes.get("Q_i")), 1), ("trimmed", trim, 0.0, 2)):
+        d = dict(design, trim=tr)
+        entry: dict[str, Any] = {"design": d, "Q": q, "trim": tr, "contact_ratio": ratio}
+        if curves is not None:
+            entry.update(delta=list(curves[0]), eps=list(curves[k]))
+        out[name] = dataclasses.replace(scene_info_from_dict(name, entry), notes=dict(notes or {}))
+    return out
+
+
+def _best_curves(root: Path) -> tuple[list[float], list[float], list[float]] | None:
+    p = Path(root) / "best_curves.csv"
+    if not p.is_file():
+        return None
+    with p.open(newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    try:
+        return ([float(r["delta_mm"]) for r in rows], [float(r["eps_i"]) for r in rows],
+                [float(r["eps_c"]) for r in rows])
+    except (KeyError, ValueError) as exc:
+        logger.warning("%s: ignored (%s)", p, exc)
+        return None
 
 
 # ============================================================================ discovery
@@ -379,6 +450,8 @@ class RunContents:
         ``best.json`` of a run directory.
     single_file : bool
         The source was one ``.vtu`` file.
+    config : dict
+        The run's ``config.yaml`` ({} when absent).
     """
 
     root: Path
@@ -386,6 +459,12 @@ class RunContents:
     scenes: dict[str, dict[str, SceneInfo]]
     best: dict | None = None
     single_file: bool = False
+    config: dict = field(default_factory=dict)
+
+    @property
+    def c10(self) -> float | None:
+        """Neo-Hookean C10 [MPa] of the run's ``config.yaml`` (``material.C10``), None when absent."""
+        return _float(_section(self.config, "material").get("C10"))
 
     @property
     def groups(self) -> list[str]:
@@ -439,7 +518,9 @@ class RunContents:
             pref = [f for f in sts if f.state.startswith(state)]
             hit = exact or (pref if len(pref) == 1 else [])
             if not hit:
-                raise ViewerError(f"{self.root / group}: scene {s!r} has no state {state!r}; states: {[f.state for f in sts]}")
+                raise ViewerError(
+                    f"{self.root / group}: scene {s!r} has no state {state!r}; states: {[f.state for f in sts]}"
+                )
             out.append(hit[0])
         return out
 
@@ -498,21 +579,25 @@ def discover(source: str | Path) -> RunContents:
                 f"{source}: no *.vtu file found (searched recursively); it holds {present}. "
                 "Deformed meshes are written by `whisker-opt simulate` and, for the best design, by `whisker-opt run`"
             )
-    defaults = _read_config_scene(root)
+    cfg = read_run_config(root)
+    defaults = {k: v for k, v in _section(cfg, "scene").items() if k == "contact_ratio"}
+    best = None
+    if (root / "best.json").is_file():
+        b = read_json(root / "best.json")
+        best = b if isinstance(b, dict) else None
     scenes: dict[str, dict[str, SceneInfo]] = {}
     files = []
     for p in vtus:
         group = "." if p.parent == root else p.parent.relative_to(root).as_posix()
         if group not in scenes:
             scenes[group] = _group_scenes(root, p.parent, defaults)
+            if not scenes[group] and group == "best" and best and isinstance(best.get("genes"), dict):
+                notes = {k: best[k] for k in ("f1", "F_p", "eval_id") if k in best}
+                scenes[group] = scenes_from_genes(cfg, best["genes"], _best_curves(root), notes)
         scene, state = split_stem(p.stem, list(scenes[group]))
         files.append(StateFile(group, scene, state, p))
-    best = None
-    if (root / "best.json").is_file():
-        b = read_json(root / "best.json")
-        best = b if isinstance(b, dict) else None
     logger.info("%s: %d VTU file(s) in %d group(s)", source, len(files), len({f.group for f in files}))
-    return RunContents(root=root, files=tuple(files), scenes=scenes, best=best, single_file=single)
+    return RunContents(root=root, files=tuple(files), scenes=scenes, best=best, single_file=single, config=cfg)
 
 
 def _group_scenes(root: Path, folder: Path, defaults: Mapping[str, Any]) -> dict[str, SceneInfo]:
@@ -596,15 +681,28 @@ def load_grid(path: str | Path):
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no such VTU file")
-    try:
-        grid = pv.read(path)
-    except Exception as exc:  # noqa: BLE001 - VTK raises various types
-        raise ViewerError(f"{path}: cannot read as VTU ({exc})") from None
+    with path.open("rb") as fh:
+        head = fh.read(512).lstrip()
+    if not (head.startswith(b"<?xml") or head.startswith(b"<VTKFile")):
+        raise ViewerError(f"{path}: not a VTU file (no XML VTKFile header)")
+    with warnings.catch_warnings(record=True) as caught, pv.vtk_verbosity("off"):
+        warnings.simplefilter("always")
+        try:
+            grid = pv.read(path)
+        except Exception as exc:  # noqa: BLE001 - VTK raises various types
+            raise ViewerError(f"{path}: cannot read as VTU ({exc})") from None
     if not isinstance(grid, pv.UnstructuredGrid) or grid.n_cells == 0:
-        raise ViewerError(f"{path}: expected an unstructured grid with cells, got {type(grid).__name__}")
+        why = "; ".join(str(w.message).splitlines()[0] for w in caught)
+        n = f", {grid.n_cells} cells" if hasattr(grid, "n_cells") else ""
+        raise ViewerError(
+            f"{path}: not a readable VTU unstructured grid with cells (got {type(grid).__name__}{n})"
+            + (f"; reader: {why}" if why else "")
+        )
     types = set(np.unique(grid.celltypes).tolist())
     if not types & {int(pv.CellType.QUADRATIC_TETRA), int(pv.CellType.TETRA)}:
-        raise ViewerError(f"{path}: no tetrahedra (VTK cell types {sorted(types)}; need 24 = quadratic tetra or 10 = tetra)")
+        raise ViewerError(
+            f"{path}: no tetrahedra (VTK cell types {sorted(types)}; need 24 = quadratic tetra or 10 = tetra)"
+        )
     return grid
 
 
@@ -644,16 +742,51 @@ def displacement_name(grid, requested: str | None = None, where: str = "grid") -
 def quadratic_cells(grid) -> np.ndarray:
     """The (n, 10) connectivity of the grid's quadratic tetrahedra (VTK = fem TET10 order)."""
     pv = require_pyvista()
-    return np.asarray(grid.cells_dict.get(int(pv.CellType.QUADRATIC_TETRA), np.zeros((0, 10), np.int64)), dtype=np.int64)
+    cells = grid.cells_dict.get(int(pv.CellType.QUADRATIC_TETRA), np.zeros((0, 10), np.int64))
+    return np.asarray(cells, dtype=np.int64)
+
+
+def nodal_deformation_gradient(points: np.ndarray, cells: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Deformation gradient at the nodes, averaged over the elements sharing each node.
+
+    ``F = I + ∂u/∂X`` is evaluated with the TET10 shape functions (:mod:`fem.element`)
+    at each element's 10 nodes (``∂u/∂X = (∂u/∂ξ)(∂X/∂ξ)⁻¹``), then averaged.
+
+    Parameters
+    ----------
+    points : ndarray, shape (n_nodes, 3)
+        Reference coordinates.
+    cells : ndarray, shape (n_el, 10)
+    u : ndarray, shape (n_nodes, 3)
+
+    Returns
+    -------
+    F : ndarray, shape (k, 3, 3)
+        At the ``k`` nodes used by some cell.
+    used : ndarray of bool, shape (n_nodes,)
+    """
+    from fem import element
+
+    X = np.asarray(points, dtype=float)
+    u = np.asarray(u, dtype=float)
+    cells = np.asarray(cells, dtype=np.int64)
+    dN = element.shape_gradients(element.NODES)  # (10, 10, 3) at the 10 nodes
+    J = np.einsum("eai,nak->enik", X[cells], dN)  # (n_el, 10, 3, 3) dX/dxi
+    H = np.einsum("eai,nak->enik", u[cells], dN)  # (n_el, 10, 3, 3) du/dxi
+    F = np.eye(3) + np.einsum("enik,enkj->enij", H, np.linalg.inv(J))  # (n_el, 10, 3, 3)
+    n = len(X)
+    Fn = np.zeros((n, 9))
+    np.add.at(Fn, cells.ravel(), F.reshape(-1, 9))
+    cnt = np.bincount(cells.ravel(), minlength=n).astype(float)
+    used = cnt > 0
+    return (Fn[used] / cnt[used, None]).reshape(-1, 3, 3), used
 
 
 def axial_log_strain(points: np.ndarray, cells: np.ndarray, u: np.ndarray) -> np.ndarray:
     """Nodal axial Hencky strain ``LE_xx = (½ ln(F Fᵀ))_xx`` of a P2 displacement field.
 
-    F = I + ∂u/∂X is evaluated with the TET10 shape functions (:mod:`fem.element`) at
-    each element's 10 nodes, averaged over the elements sharing a node, and
-    ``½ ln(B)``, ``B = F Fᵀ``, is taken by eigen-decomposition
-    (``ln V = Σ_k ½ ln λ_k n_k n_kᵀ``; Abaqus' LE, Eulerian).
+    F from :func:`nodal_deformation_gradient`; ``½ ln(B)``, ``B = F Fᵀ``, by
+    eigen-decomposition (``ln V = Σ_k ½ ln λ_k n_k n_kᵀ``; Abaqus' LE, Eulerian).
 
     Parameters
     ----------
@@ -667,54 +800,75 @@ def axial_log_strain(points: np.ndarray, cells: np.ndarray, u: np.ndarray) -> np
     ndarray, shape (n_nodes,)
         NaN at nodes not used by any cell.
     """
-    from fem import element
-
-    X = np.asarray(points, dtype=float)
-    u = np.asarray(u, dtype=float)
-    cells = np.asarray(cells, dtype=np.int64)
-    dN = element.shape_gradients(element.NODES)  # (10, 10, 3) at the 10 nodes
-    Xe = X[cells]  # (n_el, 10, 3)
-    ue = u[cells]  # (n_el, 10, 3)
-    J = np.einsum("eai,nak->enik", Xe, dN)  # (n_el, 10, 3, 3) dX/dxi
-    H = np.einsum("eai,nak->enik", ue, dN)  # (n_el, 10, 3, 3) du/dxi
-    grad = np.einsum("enik,enkj->enij", H, np.linalg.inv(J))  # (n_el, 10, 3, 3) du/dX
-    F = np.eye(3) + grad  # (n_el, 10, 3, 3)
-    n = len(X)
-    Fn = np.zeros((n, 9))
-    np.add.at(Fn, cells.ravel(), F.reshape(-1, 9))
-    cnt = np.bincount(cells.ravel(), minlength=n).astype(float)
-    used = cnt > 0
-    out = np.full(n, np.nan)
-    Fa = (Fn[used] / cnt[used, None]).reshape(-1, 3, 3)  # (k, 3, 3)
-    B = np.einsum("kij,klj->kil", Fa, Fa)  # (k, 3, 3) F Fᵀ
+    F, used = nodal_deformation_gradient(points, cells, u)
+    B = np.einsum("kij,klj->kil", F, F)  # (k, 3, 3) F Fᵀ
     lam, vec = np.linalg.eigh(B)  # (k, 3), (k, 3, 3)
+    out = np.full(len(used), np.nan)
     out[used] = np.einsum("kj,kj->k", vec[:, 0, :] ** 2, 0.5 * np.log(np.maximum(lam, 1e-300)))  # (k,)
     return out
 
 
-def add_derived_fields(grid, disp: str | None) -> None:
-    """Add ``X_ref``, ``displacement_magnitude`` and ``axial_log_strain`` point arrays in place.
+def von_mises_neo_hookean(F: np.ndarray, c10: float) -> np.ndarray:
+    """Von Mises stress of the decoupled neo-Hookean law ``W = C10 (Ī₁ - 3) + U(J)``.
 
-    The strain is computed only for quadratic tets and when no stored axial strain exists.
+    The deviatoric Cauchy stress is ``s = 2 C10 J^(-5/3) dev(B)``, ``B = F Fᵀ``
+    (the volumetric part, hence the element pressure, does not enter), and
+    ``σ_vM = sqrt(3/2 s:s)``. For an incompressible uniaxial stretch λ this is
+    ``2 C10 (λ² - 1/λ)``.
+
+    Parameters
+    ----------
+    F : ndarray, shape (k, 3, 3)
+    c10 : float
+        [MPa].
+
+    Returns
+    -------
+    ndarray, shape (k,)
+        [MPa].
+    """
+    J = np.linalg.det(F)  # (k,)
+    B = np.einsum("kij,klj->kil", F, F)  # (k, 3, 3)
+    dev = B - np.einsum("kii->k", B)[:, None, None] / 3.0 * np.eye(3)  # (k, 3, 3)
+    sdev = 2.0 * c10 * np.abs(J)[:, None, None] ** (-5.0 / 3.0) * dev  # (k, 3, 3)
+    return np.sqrt(1.5 * np.einsum("kij,kij->k", sdev, sdev))
+
+
+def add_derived_fields(grid, disp: str | None, c10: float | None = None) -> None:
+    """Add ``X_ref``, ``displacement_magnitude``, ``axial_log_strain`` and (given ``c10``)
+    ``von_mises`` point arrays in place.
+
+    The strain is computed only for quadratic tets and when no stored axial strain exists;
+    the von Mises stress only for quadratic tets with a known neo-Hookean C10 [MPa].
     """
     grid.point_data["X_ref"] = np.asarray(grid.points, dtype=float).copy()
     if disp is None:
         return
     u = np.asarray(grid.point_data[disp], dtype=float)
     grid.point_data[MAGNITUDE_FIELD] = np.linalg.norm(u, axis=1)
+    cells = quadratic_cells(grid)
     stored = [k for k in grid.point_data.keys() if k.lower() in STORED_STRAIN_NAMES]
     if stored:
         if stored[0] != STRAIN_FIELD:
             grid.point_data[STRAIN_FIELD] = np.asarray(grid.point_data[stored[0]])
+    if not len(cells) or (stored and c10 is None):
         return
-    cells = quadratic_cells(grid)
-    if len(cells):
-        grid.point_data[STRAIN_FIELD] = axial_log_strain(grid.points, cells, u)
+    F, used = nodal_deformation_gradient(grid.points, cells, u)
+    if not stored:
+        B = np.einsum("kij,klj->kil", F, F)  # (k, 3, 3)
+        lam, vec = np.linalg.eigh(B)  # (k, 3), (k, 3, 3)
+        le = np.full(len(used), np.nan)
+        le[used] = np.einsum("kj,kj->k", vec[:, 0, :] ** 2, 0.5 * np.log(np.maximum(lam, 1e-300)))  # (k,)
+        grid.point_data[STRAIN_FIELD] = le
+    if c10 is not None:
+        vm = np.full(len(used), np.nan)
+        vm[used] = von_mises_neo_hookean(F, c10)
+        grid.point_data[MISES_FIELD] = vm
 
 
 def field_names(grid) -> list[str]:
     """Fields a view can be coloured by: derived ones first, then stored point and cell arrays."""
-    names = [n for n in (STRAIN_FIELD, MAGNITUDE_FIELD) if n in grid.point_data]
+    names = [n for n in (STRAIN_FIELD, MAGNITUDE_FIELD, MISES_FIELD) if n in grid.point_data]
     skip = {"X_ref", "vtkOriginalPointIds", "vtkOriginalCellIds", *names}
     names += [k for k in grid.point_data.keys() if k not in skip]
     names += [k for k in grid.cell_data.keys() if k not in skip and k not in names]
@@ -750,7 +904,9 @@ def resolve_field(grid, requested: str | None, where: str = "grid") -> tuple[str
         comp = "xyz".index(c) if c in "xyz" else int(c)
     base = FIELD_ALIASES.get(base.lower(), base) if base not in available else base
     if base not in available:
-        raise ViewerError(f"{where}: no field {requested!r}; available fields: {available} (or aliases {sorted(FIELD_ALIASES)})")
+        raise ViewerError(
+            f"{where}: no field {requested!r}; available fields: {available} (or aliases {sorted(FIELD_ALIASES)})"
+        )
     arr = grid.point_data.get(base)
     if arr is None:
         arr = grid.cell_data.get(base)
@@ -778,13 +934,16 @@ class StateView:
         Smooth (subdivided P2) warped outer and cavity surfaces, carrying the point data.
     edges : pyvista.PolyData or None
         Curved element edges on the warped boundary.
-    ghost : pyvista.PolyData or None
-        Undeformed outer surface (only when a displacement exists).
+    outline : pyvista.PolyData or None
+        Undeformed outline: boundary of the reference section at ``z = cut_z`` (only
+        when a displacement exists).
     displacement : str or None
     scale : float
     info : SceneInfo
     state : str
     path : Path or None
+    cut_z : float
+        The section / clipping plane ``z = cut_z`` (middle of the reference bounds; 0 for a whisker).
     """
 
     title: str
@@ -793,12 +952,13 @@ class StateView:
     outer: Any
     cavity: Any
     edges: Any
-    ghost: Any
+    outline: Any
     displacement: str | None
     scale: float
     info: SceneInfo
     state: str = ""
     path: Path | None = None
+    cut_z: float = 0.0
 
     def field_range(self, name: str | None, comp: int | None = None) -> tuple[float, float] | None:
         """(min, max) of a field over the drawn surface; None when absent."""
@@ -893,6 +1053,7 @@ def prepare_state(
     scale: float = 1.0,
     subdivision: int = 2,
     edges: bool = True,
+    c10: float | None = None,
 ) -> StateView:
     """Load a state and build its surfaces.
 
@@ -912,6 +1073,8 @@ def prepare_state(
         Subdivisions of each curved boundary triangle (0 = straight).
     edges : bool
         Build the curved element edges.
+    c10 : float, optional
+        Neo-Hookean C10 [MPa]; adds the ``von_mises`` field (:func:`von_mises_neo_hookean`).
 
     Raises
     ------
@@ -931,7 +1094,7 @@ def prepare_state(
     disp = displacement_name(grid, displacement, where)
     if disp is None:
         logger.info("%s: no displacement array (looked for %s); drawn undeformed", where, DISPLACEMENT_NAMES)
-    add_derived_fields(grid, disp)
+    add_derived_fields(grid, disp, c10)
     vol = cell_volumes(grid)
     if np.any(vol <= 0):
         logger.warning("%s: %d of %d cells have non-positive VTK volume (inverted or misordered nodes)",
@@ -944,15 +1107,24 @@ def prepare_state(
         elem, _, f6 = boundary_faces(cells)
         lab = _surface_components(f6, np.asarray(grid.points))
         outer = _tri6_surface(warped.points, f6[lab == 0], warped, elem[lab == 0], subdivision)
-        cavity = _tri6_surface(warped.points, f6[lab == 1], warped, elem[lab == 1], subdivision) if np.any(lab == 1) else None
+        cavity = None
+        if np.any(lab == 1):
+            cavity = _tri6_surface(warped.points, f6[lab == 1], warped, elem[lab == 1], subdivision)
         edge_poly = boundary_edges(np.asarray(warped.points), f6[lab == 0]) if edges else None
-        ghost = _tri6_surface(grid.points, f6[lab == 0], grid, elem[lab == 0], 1) if disp else None
     else:  # linear tets: VTK's own surface
         outer = warped.extract_surface(pass_pointid=False, pass_cellid=False, algorithm="dataset_surface")
         cavity, edge_poly = None, (outer.extract_all_edges() if edges else None)
-        ghost = grid.extract_surface(pass_pointid=False, pass_cellid=False, algorithm="dataset_surface") if disp else None
+    zb = grid.bounds
+    cut_z = 0.5 * (zb[4] + zb[5])
+    outline = None
+    if disp:
+        sec = grid.slice(normal=(0.0, 0.0, 1.0), origin=(0.0, 0.0, cut_z))
+        if sec.n_points:
+            outline = sec.extract_feature_edges(boundary_edges=True, feature_edges=False, manifold_edges=False,
+                                                non_manifold_edges=False)
     title = info.name + (f" · {state}" if state else "")
-    return StateView(title, grid, warped, outer, cavity, edge_poly, ghost, disp, float(scale), info, state, path)
+    return StateView(title, grid, warped, outer, cavity, edge_poly, outline, disp, float(scale), info, state, path,
+                     cut_z)
 
 
 def displaced(sv: StateView, points_ref: np.ndarray) -> np.ndarray:
@@ -984,7 +1156,7 @@ def _design_obj(design: dict | None):
 
 
 def _radius_at(sv: StateView, x: np.ndarray, design) -> np.ndarray:
-    """Outer radius at reference axial positions: the design's cone, else the ghost/outer surface."""
+    """Outer radius at reference axial positions: the design's cone, else the widest reference node near x."""
     if design is not None:
         return np.asarray(design.r_outer(x), dtype=float)
     X = np.asarray(sv.grid.points)
@@ -1064,7 +1236,7 @@ def _text_lines(sv: StateView) -> tuple[str, str]:
     if info.Q is not None:
         parts.append(f"Q={info.Q:.4g} MPa")
     for k, v in info.notes.items():
-        if k == "genes" and isinstance(v, dict):
+        if k == "genes" and isinstance(v, dict) and not d:
             parts.append(", ".join(f"{g}={float(x):.4g}" for g, x in v.items()))
         elif _float(v) is not None:
             parts.append(f"{k}={float(v):.4g}")
@@ -1079,10 +1251,10 @@ def _text_lines(sv: StateView) -> tuple[str, str]:
     return ", ".join(parts), gtxt
 
 
-def _clip(poly, on: bool):
+def _clip(poly, on: bool, z: float = 0.0):
     if poly is None or not on or poly.n_points == 0:
         return poly
-    return poly.clip(normal=(0.0, 0.0, 1.0), origin=(0.0, 0.0, 0.0), invert=True)
+    return poly.clip(normal=(0.0, 0.0, 1.0), origin=(0.0, 0.0, z), invert=True)
 
 
 def add_state(
@@ -1093,7 +1265,7 @@ def add_state(
     cmap: str = "coolwarm",
     cavity: str = "clip",
     show_edges: bool = True,
-    show_ghost: bool = True,
+    show_outline: bool = True,
     show_fibres: bool = True,
     show_gauge: bool = True,
     show_contact: bool = True,
@@ -1121,39 +1293,39 @@ def add_state(
     mesh_kw: dict[str, Any] = dict(smooth_shading=True, show_scalar_bar=name is not None)
     if name is not None:
         mesh_kw.update(scalars=name, component=comp, cmap=cmap, clim=clim,
-                       scalar_bar_args=dict(title=label, n_labels=5, fmt="%.3g", vertical=False))
+                       scalar_bar_args=dict(title=label, n_labels=5, fmt="%.3g", vertical=True, position_x=0.88,
+                                            position_y=0.12, width=0.05, height=0.62, title_font_size=12,
+                                            label_font_size=11))
     else:
         mesh_kw.update(color="lightsteelblue")
-    outer = _clip(sv.outer, clip)
+    outer = _clip(sv.outer, clip, sv.cut_z)
     opacity = 0.35 if cavity == "translucent" and sv.cavity is not None else 1.0
     if outer is not None and outer.n_points:
         plotter.add_mesh(outer, opacity=opacity, name=prefix + "outer", **mesh_kw)
     if clip:
-        sec = sv.warped.slice(normal=(0.0, 0.0, 1.0), origin=(0.0, 0.0, 0.0))
+        sec = sv.warped.slice(normal=(0.0, 0.0, 1.0), origin=(0.0, 0.0, sv.cut_z))
         if sec.n_points:
             plotter.add_mesh(sec, name=prefix + "section", **dict(mesh_kw, smooth_shading=False, show_scalar_bar=False))
     if sv.cavity is not None and cavity != "hidden":
-        cav = _clip(sv.cavity, clip)
+        cav = _clip(sv.cavity, clip, sv.cut_z)
         if cav is not None and cav.n_points:
             plotter.add_mesh(cav, color="lightskyblue", opacity=0.6 if clip else 1.0, smooth_shading=True,
                              name=prefix + "cavity")
     if show_edges and sv.edges is not None:
-        ed = _clip(sv.edges, clip)
+        ed = _clip(sv.edges, clip, sv.cut_z)
         if ed is not None and ed.n_points:
             plotter.add_mesh(ed, color="black", opacity=0.2, line_width=1, name=prefix + "edges")
-    if show_ghost and sv.ghost is not None:
-        gh = _clip(sv.ghost, clip)
-        if gh is not None and gh.n_points:
-            plotter.add_mesh(gh, color="grey", opacity=0.15, name=prefix + "ghost")
+    if show_outline and sv.outline is not None and sv.outline.n_points:
+        plotter.add_mesh(sv.outline, color="dimgrey", line_width=2, name=prefix + "outline")
     if show_fibres:
         r_tube = 0.5 * float((sv.info.design or {}).get("fibre_diameter", 0.38) or 0.38)
         for k, line in enumerate(fibre_lines(sv)):
-            line = _clip(line, clip and cavity != "translucent")
+            line = _clip(line, clip, sv.cut_z)
             if line is not None and line.n_points:
                 plotter.add_mesh(line.tube(radius=r_tube, n_sides=10), color="darkorange", name=f"{prefix}fibre{k}")
     if show_gauge:
-        patch = gauge_patch(sv)
-        if patch is not None:
+        patch = gauge_patch(sv)  # drawn whole even when the body is cut: it is a marker
+        if patch is not None and patch.n_points:
             plotter.add_mesh(patch, color="gold", name=prefix + "gauge")
             plotter.add_mesh(patch.extract_feature_edges(boundary_edges=True, feature_edges=False,
                                                          manifold_edges=False, non_manifold_edges=False),
@@ -1211,9 +1383,13 @@ def default_window_size(shape: tuple[int, int]) -> tuple[int, int]:
     return 640 * cols, 620
 
 
-def _set_camera(plotter, view: str, margin: float = 0.85) -> None:
-    """Point the current renderer's camera (``iso``: from +z, turned 25° about y and x;
-    ``xy``: from +z) and zoom so the visible props fill ``margin`` of the panel."""
+def _set_camera(plotter, view: str, margin: float = 0.85, reserve_right: float = 0.16) -> None:
+    """Point the current renderer's camera and fit the visible props.
+
+    ``iso`` looks from +z turned 25° about y and x, ``xy`` from +z. The props fill
+    ``margin`` of the panel height and of its width less the right-hand strip
+    ``reserve_right`` (a fraction of the width, kept free for the scalar bar).
+    """
     if view == "xy":
         plotter.view_xy()
     elif view == "iso":
@@ -1225,18 +1401,28 @@ def _set_camera(plotter, view: str, margin: float = 0.85) -> None:
     ren = plotter.renderer
     b = ren.ComputeVisiblePropBounds()
     ren.ResetCamera(b)
-    xs, ys = [], []
-    for x in b[0:2]:
-        for y in b[2:4]:
-            for z in b[4:6]:
-                ren.SetWorldPoint(x, y, z, 1.0)
-                ren.WorldToView()
-                vx, vy, _ = ren.GetViewPoint()
-                xs.append(vx)
-                ys.append(vy)
-    ext = max(max(xs) - min(xs), max(ys) - min(ys)) / 2.0  # half-extent in view coordinates [-1, 1]
-    if np.isfinite(ext) and ext > 1e-9:
-        ren.GetActiveCamera().Zoom(margin / ext)
+    cam = ren.GetActiveCamera()
+
+    def view_extent() -> tuple[float, float, float, float]:
+        xs, ys = [], []
+        for x in b[0:2]:
+            for y in b[2:4]:
+                for z in b[4:6]:
+                    ren.SetWorldPoint(x, y, z, 1.0)
+                    ren.WorldToView()
+                    vx, vy, _ = ren.GetViewPoint()
+                    xs.append(vx)
+                    ys.append(vy)
+        return min(xs), max(xs), min(ys), max(ys)
+
+    x0, x1, y0, y1 = view_extent()  # view coordinates, the panel is [-1, 1]²
+    half_w = (1.0 - reserve_right)  # usable width [-1, 1 - 2 reserve_right] has half-width 1 - reserve_right
+    zx = margin * half_w / max(0.5 * (x1 - x0), 1e-12)
+    zy = margin / max(0.5 * (y1 - y0), 1e-12)
+    z = min(zx, zy)
+    if np.isfinite(z) and z > 0:
+        cam.Zoom(z)
+        cam.SetWindowCenter(reserve_right, 0.0)  # shift the image left by the reserved strip
 
 
 def make_plotter(views: Sequence[StateView], off_screen: bool, window_size: tuple[int, int] | None = None,
@@ -1251,13 +1437,17 @@ def make_plotter(views: Sequence[StateView], off_screen: bool, window_size: tupl
         logger.info("no display (DISPLAY/WAYLAND_DISPLAY unset): rendering off-screen")
     p = pv.Plotter(shape=shape, off_screen=off_screen, window_size=list(ws), border=False)
     p.set_background("white")
-    p.enable_depth_peeling()  # correct order of the translucent cavity / outer surface
+    # no depth peeling: with VTK 9.6 on EGL it drops translucent layers altogether
     return p
 
 
 def draw(plotter, views: Sequence[StateView], field, clim, camera: str = "iso", prefix: str = "", **kw) -> None:
     """Draw the views into the plotter's panels (row-major), sharing ``clim`` and the camera."""
     rows, cols = plotter.shape
+    if prefix:  # redraw: drop this prefix's actors (a part may be absent in the new state)
+        for ren in plotter.renderers:
+            for name in [n for n in ren.actors if str(n).startswith(prefix)]:
+                ren.remove_actor(name, render=False)
     for i, sv in enumerate(views):
         plotter.subplot(i // cols, i % cols)
         add_state(plotter, sv, field, clim=clim, prefix=f"{prefix}{i}:", **kw)
@@ -1444,6 +1634,7 @@ def load_views(
         info = contents.info(group, f.scene)
         if notes:
             info = dataclasses.replace(info, notes={**info.notes, **notes})
+        kw.setdefault("c10", contents.c10)
         out.append(prepare_state(f.path, info=info, state=f.state, **kw))
     return out
 
@@ -1453,18 +1644,21 @@ def _view_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--screenshot", type=Path, default=None, metavar="FILE.png",
                    help="render off-screen to this PNG instead of opening a window")
     p.add_argument("--field", default=None,
-                   help="colour by: strain (axial log strain, default), displacement (|u|), any stored array, "
-                        "name:x for a component, or none")
-    p.add_argument("--scene", action="append", default=None, help="scene(s) to show (repeatable; default all, side by side)")
+                   help="colour by: strain (axial log strain LE_xx, default), displacement (|u|), mises (von Mises, "
+                        "needs material.C10 in config.yaml), any stored array, name:x for a component, or none")
+    p.add_argument("--scene", action="append", default=None,
+                   help="scene(s) to show (repeatable; default all, side by side)")
     p.add_argument("--state", default=None, help="state to show, e.g. pressurised or deflected (default: the last)")
     p.add_argument("--rank", type=int, default=None, help="show the N-th best design of a run (1 = best)")
     p.add_argument("--eval", dest="eval_id", default=None, help="show the evaluation with this eval_id")
-    p.add_argument("--group", default=None, help="sub-folder of the results holding the VTU files (default: best/ or the root)")
+    p.add_argument("--group", default=None,
+                   help="sub-folder of the results holding the VTU files (default: best/ or the root)")
     p.add_argument("--scale", type=float, default=1.0, help="displacement magnification (default 1 = true scale)")
     p.add_argument("--cavity", choices=CAVITY_MODES, default="clip",
                    help="clip: cut at z=0 to show wall section and cavity; translucent: see-through outer surface")
     p.add_argument("--camera", choices=("iso", "xy"), default="iso", help="camera direction")
-    p.add_argument("--layout", choices=("auto", "rows", "columns"), default="auto", help="arrangement of side-by-side panels")
+    p.add_argument("--layout", choices=("auto", "rows", "columns"), default="auto",
+                   help="arrangement of side-by-side panels")
     p.add_argument("--window-size", type=int, nargs=2, default=None, metavar=("W", "H"), help="image size in pixels")
     p.add_argument("--no-edges", action="store_true", help="do not draw element edges")
     p.add_argument("--plots", action="store_true",
@@ -1494,37 +1688,45 @@ def _view_main(args: argparse.Namespace) -> int:
         row = evaluation_row(contents.root, rank=args.rank, eval_id=args.eval_id)
         group = group_for_evaluation(contents, row.get("eval_id", ""))
         notes = {"eval_id": row.get("eval_id"), "F_p": row.get("F_p"), "f1": row.get("f1")}
+        if not contents.scenes.get(group):  # no scenes.json there: the design from config + genes
+            contents.scenes[group] = scenes_from_genes(contents.config, row)
     elif group == "best" and contents.best:
         b = contents.best
         notes = {k: b[k] for k in ("genes", "f1", "F_p") if k in b}
-    require_pyvista()
     headless = is_headless()
     screenshot = args.screenshot
     if screenshot is None and headless:
         screenshot = contents.root / "view.png"
-        print(f"whisker-opt view: no display found (DISPLAY/WAYLAND_DISPLAY unset); rendering off-screen to {screenshot}",
-              file=sys.stderr)
+        print(f"whisker-opt view: no display found (DISPLAY/WAYLAND_DISPLAY unset); "
+              f"rendering off-screen to {screenshot}", file=sys.stderr)
     kw = dict(cavity=args.cavity, show_edges=not args.no_edges)
     ws = tuple(args.window_size) if args.window_size else None
+    pv = require_pyvista()
+    # headless: VTK first tries X and warns before falling back to EGL; keep only its errors
+    quiet = pv.vtk_verbosity("error") if headless else contextlib.nullcontext()
     if screenshot is not None:
         views = load_views(contents, group, args.scene, args.state, notes, scale=args.scale)
-        out = render(views, args.field, screenshot=screenshot, window_size=ws, layout=args.layout,
-                     camera=args.camera, **kw)
+        with quiet:
+            out = render(views, args.field, screenshot=screenshot, window_size=ws, layout=args.layout,
+                         camera=args.camera, **kw)
         print(f"screenshot written to {out}")
         out_dir = Path(out).parent
     else:
-        scenes = args.scene or contents.scene_names(group)
-        per_scene = [contents.states(group, s) for s in scenes]
-        n = max(len(s) for s in per_scene)
+        chosen = contents.select(group, args.scene, args.state)  # validates the names
+        if args.state is not None:
+            files_per_step = [chosen]
+        else:  # step k shows every scene at its k-th state (its last one when it has fewer)
+            per_scene = [contents.states(group, f.scene) for f in chosen]
+            n = max(len(s) for s in per_scene)
+            files_per_step = [[sts[min(k, len(sts) - 1)] for sts in per_scene] for k in range(n)]
         series = []
-        for k in range(n):
+        for files in files_per_step:
             step = []
-            for s, sts in zip(scenes, per_scene):
-                f = sts[min(k, len(sts) - 1)] if args.state is None else contents.select(group, [s], args.state)[0]
-                info = contents.info(group, s)
+            for f in files:
+                info = contents.info(group, f.scene)
                 if notes:
                     info = dataclasses.replace(info, notes={**info.notes, **notes})
-                step.append(prepare_state(f.path, info=info, state=f.state, scale=args.scale))
+                step.append(prepare_state(f.path, info=info, state=f.state, scale=args.scale, c10=contents.c10))
             series.append(step)
         p, _ = interactive_plotter(series, args.field, off_screen=False, window_size=ws, layout=args.layout,
                                    camera=args.camera, **kw)

@@ -1,0 +1,82 @@
+"""Physical checks of the whisker scene (issue #4) on the coarse preset.
+
+Each test states the number it checks; the references are the thesis' qualitative
+findings (SPEC §5) and the closed-form beam model of SPEC §8.
+"""
+
+import numpy as np
+import pytest
+
+from geometry.design import WhiskerDesign
+from geometry.mesh import MeshSizing
+from whisker_opt.beam import BeamModel, sensitivity
+from whisker_opt.scene import SceneRunner, SceneSpec, run_scene
+
+pytestmark = pytest.mark.slow
+
+COARSE = MeshSizing.preset("coarse")
+
+
+@pytest.fixture(scope="module")
+def runner():
+    return SceneRunner()
+
+
+def spec(design=WhiskerDesign(), **kw):
+    kw.setdefault("n_deflection_steps", 3)
+    return SceneSpec(design, sizing=COARSE, **kw)
+
+
+def test_pressurisation_lengthens_monotonically_and_fibres_block_radial_growth(runner):
+    """Δl(Q) > 0 and increasing on [0, 0.2] MPa; fibres keep radial growth ≪ axial growth."""
+    res = {Q: runner.run(spec(Q=Q, delta_max=0.5, n_deflection_steps=1)) for Q in (0.05, 0.1, 0.2)}
+    dl = [res[Q].delta_l for Q in (0.05, 0.1, 0.2)]
+    print("delta_l(Q) =", dl, "radial =", [res[Q].radial_growth for Q in (0.05, 0.1, 0.2)])
+    assert 0 < dl[0] < dl[1] < dl[2]
+    assert abs(res[0.2].radial_growth) < 0.2 * res[0.2].delta_l
+    bare = runner.run(spec(design=WhiskerDesign(n_fibres=0), Q=0.05, delta_max=0.5, n_deflection_steps=1))
+    print("bare tube radial growth at 0.05 MPa:", bare.radial_growth, "wound:", res[0.05].radial_growth)
+    assert bare.radial_growth > 5 * abs(res[0.05].radial_growth)
+
+
+def test_gauge_zero_at_onset_and_sensitivity_rises_with_pressure(runner):
+    """ε(0) = 0; at δ = 2 mm the reading at Q = 0.2 MPa exceeds that at Q = 0 (a = 1)."""
+    e0 = runner.run(spec(Q=0.0, delta_max=2.0))
+    e2 = runner.run(spec(Q=0.2, delta_max=2.0))
+    assert e0.eps_line[0] == 0.0 and e2.eps_line[0] == 0.0
+    print("eps(2 mm): Q=0", e0.eps_line[-1], "Q=0.2", e2.eps_line[-1])
+    assert e2.eps_line[-1] > e0.eps_line[-1] > 0
+
+
+def test_trimmed_whisker_reads_more_strain(runner):
+    """At the same tip deflection, a 5 mm shorter whisker reads more strain (Q = 0)."""
+    intact = runner.run(spec(Q=0.0, delta_max=2.0))
+    trimmed = runner.run(spec(design=WhiskerDesign(trim=5.0), Q=0.0, delta_max=2.0))
+    print("eps(2 mm): intact", intact.eps_line[-1], "trimmed", trimmed.eps_line[-1])
+    assert trimmed.eps_line[-1] > 1.05 * intact.eps_line[-1]
+
+
+def test_small_deflection_agrees_with_beam_model(runner):
+    """Unpressurised intact whisker, δ = 0.5 mm: FE ε/δ within 15 % of the beam model (SPEC §8)."""
+    r = runner.run(spec(Q=0.0, delta_max=0.5, n_deflection_steps=1))
+    fe = r.eps_line[-1] / 0.5
+    beam = sensitivity(WhiskerDesign(), a=1.0, Q=0.0, model=BeamModel(calibration=3.9))
+    print(f"FE eps/delta = {fe:.5g} 1/mm, beam = {beam:.5g} 1/mm, ratio {fe / beam:.4f}")
+    assert abs(fe / beam - 1) < 0.15
+
+
+def test_curve_interpolation_and_input_errors(runner):
+    """The curve passes through the solved points; out-of-range deflections are refused."""
+    r = runner.run(spec(Q=0.0, delta_max=2.0))
+    assert np.allclose(r.curve(r.delta), r.eps_line, atol=1e-14)
+    with pytest.raises(ValueError, match="deflections must lie"):
+        r.curve(np.array([3.0]))
+    with pytest.raises(ValueError, match="contact_ratio"):
+        SceneSpec(WhiskerDesign(), contact_ratio=1.5)
+
+
+def test_memo_returns_identical_result(runner):
+    s = spec(Q=0.0, delta_max=2.0)
+    a = runner.run(s)
+    hits = runner.memo_hits
+    assert runner.run(s) is a and runner.memo_hits == hits + 1

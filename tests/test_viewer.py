@@ -1,0 +1,368 @@
+"""Off-screen tests of the pyvista result viewer (whisker_opt/viewer.py, issue 6).
+
+Synthetic scenes are small TET10 boxes (fem.meshgen.box_mesh) written with fem.io.write_vtu,
+with displacement fields whose deformed bounds and log strains are known in closed form.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+
+import numpy as np
+import pytest
+
+pv = pytest.importorskip("pyvista")
+pv.OFF_SCREEN = True
+
+from fem.io import write_vtu  # noqa: E402
+from fem.mesh import TetMesh, volumes  # noqa: E402
+from fem.meshgen import box_mesh, map_mesh  # noqa: E402
+from whisker_opt import viewer as V  # noqa: E402
+
+WS = (320, 200)  # small images keep the tests fast
+
+
+def _bend(points: np.ndarray, a: float) -> np.ndarray:
+    """u = (0, -a x², 0): the tip (x = 10) moves by -100 a in y."""
+    u = np.zeros_like(points)
+    u[:, 1] = -a * points[:, 0] ** 2
+    return u
+
+
+@pytest.fixture(scope="module")
+def box() -> TetMesh:
+    return box_mesh(10.0, 2.0, 2.0, 5, 1, 1)
+
+
+@pytest.fixture()
+def box_vtu(tmp_path, box):
+    path = tmp_path / "scene_deflected.vtu"
+    write_vtu(path, box, point_data={"displacement": _bend(box.points, 0.01)})
+    return path
+
+
+def _image(path):
+    import matplotlib.image as mpimg
+
+    return np.asarray(mpimg.imread(path), dtype=float)
+
+
+# ------------------------------------------------------------------ fields and geometry
+def test_warp_moves_bounds_by_the_displacement(box_vtu):
+    for scale in (1.0, 2.5):
+        sv = V.prepare_state(box_vtu, scale=scale)
+        assert sv.displacement == "displacement"
+        b = np.array(sv.outer.bounds)
+        # x unchanged, y from -100·a·scale (tip, y=0) to 2 (base, y=2), z unchanged
+        np.testing.assert_allclose(b, [0.0, 10.0, -1.0 * scale, 2.0, 0.0, 2.0], atol=1e-9)
+        np.testing.assert_allclose(np.array(sv.warped.bounds), b, atol=1e-9)
+    ref = V.prepare_state(box_vtu, scale=0.0)
+    np.testing.assert_allclose(ref.outer.bounds, [0, 10, 0, 2, 0, 2], atol=1e-12)
+
+
+def test_axial_log_strain_closed_forms(box):
+    X = box.points
+    k = 0.2
+    u = np.zeros_like(X)
+    u[:, 0] = k * X[:, 0]  # uniform stretch: LE_xx = ln(1 + k)
+    np.testing.assert_allclose(V.axial_log_strain(X, box.cells, u), math.log(1 + k), atol=1e-12)
+    th = math.radians(30.0)  # rigid rotation about z: no strain (a linear strain would give cos θ - 1)
+    R = np.array([[math.cos(th), -math.sin(th), 0], [math.sin(th), math.cos(th), 0], [0, 0, 1]])
+    np.testing.assert_allclose(V.axial_log_strain(X, box.cells, X @ R.T - X), 0.0, atol=1e-12)
+    # stretch λ along x then rotation: Eulerian ln V has xx = ln λ cos² θ
+    lam = 1.3
+    Fu = R @ np.diag([lam, 1.0, 1.0])
+    np.testing.assert_allclose(V.axial_log_strain(X, box.cells, X @ Fu.T - X), math.log(lam) * math.cos(th) ** 2,
+                               atol=1e-12)
+
+
+def test_quadratic_cell_ordering_matches_vtk(tmp_path):
+    """VTK's own volumes of the written TET10 cells are positive and equal ours (curved mesh)."""
+    m = map_mesh(box_mesh(1.0, 1.0, 1.0, 2, 2, 2, distort=0.2, seed=3),
+                 lambda p: np.c_[p[:, 0] * (1 + 0.3 * p[:, 1] ** 2), p[:, 1], p[:, 2] + 0.2 * np.sin(3 * p[:, 0])])
+    path = write_vtu(tmp_path / "m.vtu", m)
+    grid = V.load_grid(path)
+    np.testing.assert_array_equal(np.unique(grid.celltypes), [pv.CellType.QUADRATIC_TETRA])
+    vol_vtk = V.cell_volumes(grid)
+    vol_fem = volumes(m.points, m.cells)
+    assert vol_vtk.min() > 0
+    np.testing.assert_allclose(vol_vtk, vol_fem, rtol=0.05)  # VTK integrates a linear sub-tet split
+    assert abs(vol_vtk.sum() / vol_fem.sum() - 1) < 0.01
+    # the test can fail: Gmsh's order (last two edge nodes swapped) is detected
+    gmsh = pv.UnstructuredGrid({pv.CellType.QUADRATIC_TETRA: m.cells[:, [0, 1, 2, 3, 4, 5, 6, 7, 9, 8]]}, m.points)
+    assert np.max(np.abs(V.cell_volumes(gmsh) / vol_fem - 1)) > 0.2
+
+
+def test_surfaces_outer_and_cavity_are_separated():
+    """A box with a box-shaped hole: the hole's faces form the cavity surface."""
+    m = box_mesh(3.0, 3.0, 3.0, 3, 3, 3)
+    cent = m.points[m.cells[:, :4]].mean(axis=1)
+    keep = ~np.all((cent > 1.0) & (cent < 2.0), axis=1)
+    used = np.unique(m.cells[keep])
+    remap = -np.ones(len(m.points), dtype=np.int64)
+    remap[used] = np.arange(len(used))
+    holed = TetMesh(m.points[used], remap[m.cells[keep]])
+    grid = pv.UnstructuredGrid({pv.CellType.QUADRATIC_TETRA: holed.cells}, holed.points)
+    grid.point_data["u"] = np.zeros_like(holed.points)
+    sv = V.prepare_state(grid)
+    np.testing.assert_allclose(sv.outer.bounds, [0, 3, 0, 3, 0, 3], atol=1e-12)
+    np.testing.assert_allclose(sv.cavity.bounds, [1, 2, 1, 2, 1, 2], atol=1e-12)
+    assert sv.outline is not None and sv.outline.n_points > 0
+
+
+def test_fields_and_errors(box_vtu):
+    sv = V.prepare_state(box_vtu)
+    names = V.field_names(sv.grid)
+    assert names[:2] == [V.STRAIN_FIELD, V.MAGNITUDE_FIELD]
+    assert V.resolve_field(sv.grid, None)[0] == V.STRAIN_FIELD
+    assert V.resolve_field(sv.grid, "LE11")[0] == V.STRAIN_FIELD
+    assert V.resolve_field(sv.grid, "|u|")[0] == V.MAGNITUDE_FIELD
+    assert V.resolve_field(sv.grid, "displacement:y") == ("displacement", "displacement [y]", 1)
+    assert V.resolve_field(sv.grid, "none")[0] is None
+    with pytest.raises(V.ViewerError, match=r"no field 'stress'.*available fields"):
+        V.resolve_field(sv.grid, "stress", str(box_vtu))
+    with pytest.raises(V.ViewerError, match="displacement array 'w' not found"):
+        V.prepare_state(box_vtu, displacement="w")
+    with pytest.raises(V.ViewerError, match="scale"):
+        V.prepare_state(box_vtu, scale=-1.0)
+    lo, hi = V.shared_clim([sv], (V.STRAIN_FIELD, "", None))
+    assert (lo, hi) == pytest.approx(sv.field_range(V.STRAIN_FIELD))  # one sign: the data range
+    sv.outer.point_data[V.STRAIN_FIELD][0] = 0.002
+    assert V.shared_clim([sv], (V.STRAIN_FIELD, "", None)) == pytest.approx((lo, -lo))  # both signs: symmetric
+
+
+# ------------------------------------------------------------------ discovery and metadata
+def test_missing_files_name_the_path(tmp_path):
+    missing = tmp_path / "no_such_run"
+    with pytest.raises(FileNotFoundError, match=str(missing)):
+        V.discover(missing)
+    (tmp_path / "empty").mkdir()
+    (tmp_path / "empty" / "curve.csv").write_text("delta_mm\n0\n")
+    with pytest.raises(FileNotFoundError, match=r"empty: no \*\.vtu file found"):
+        V.discover(tmp_path / "empty")
+    with pytest.raises(FileNotFoundError, match="nothing.vtu"):
+        V.load_grid(tmp_path / "nothing.vtu")
+    (tmp_path / "broken.vtu").write_text("not xml")
+    with pytest.raises(V.ViewerError, match="broken.vtu"):
+        V.load_grid(tmp_path / "broken.vtu")
+    (tmp_path / "notes.txt").write_text("x")
+    with pytest.raises(V.ViewerError, match="notes.txt: not a .vtu"):
+        V.discover(tmp_path / "notes.txt")
+
+
+def test_split_stem_and_state_order():
+    assert V.split_stem("intact_deflected") == ("intact", "deflected")
+    assert V.split_stem("trimmed_vented_pressurised") == ("trimmed_vented", "pressurised")
+    assert V.split_stem("trimmed_vented_deflected", ["trimmed_vented"]) == ("trimmed_vented", "deflected")
+    assert V.split_stem("mesh") == ("mesh", "reference")
+    assert V.split_stem("intact_delta_1.5") == ("intact", "delta_1.5")
+    states = ["deflected", "delta_2", "pressurised", "delta_0.5", "reference"]
+    assert sorted(states, key=V.state_sort_key) == ["reference", "pressurised", "delta_0.5", "delta_2", "deflected"]
+
+
+def _pair_dir(tmp_path, box):
+    """A simulate-like directory: intact (long) and trimmed (short) boxes, two states each."""
+    run = tmp_path / "pair"
+    short = box_mesh(8.0, 2.0, 2.0, 4, 1, 1)
+    for scene, mesh in (("intact", box), ("trimmed", short)):
+        write_vtu(run / f"{scene}_pressurised.vtu", mesh, point_data={"u": 0.1 * _bend(mesh.points, 0.01)})
+        write_vtu(run / f"{scene}_deflected.vtu", mesh, point_data={"u": _bend(mesh.points, 0.01)})
+    scenes = {
+        "intact": {"Q_MPa": 0.03, "delta_l_mm": 0.1, "solved_delta_mm": [0, 1, 2], "eps_line": [0, 0.01, 0.02],
+                   "gauge": {"x_ss": 2.0, "e": 2.0}, "contact_x": 9.5},
+        "trimmed": {"Q_MPa": 0.0, "trim": 2.0, "solved_delta_mm": [0, 1, 2], "eps_line": [0, 0.012, 0.025]},
+        "f1": 0.004,
+    }
+    (run / "scenes.json").write_text(json.dumps(scenes))
+    (run / "curve.csv").write_text("delta_mm,eps_intact,eps_trimmed\n0,0,0\n1,0.01,0.012\n2,0.02,0.025\n")
+    return run
+
+
+def test_discover_run_directory(tmp_path, box):
+    run = _pair_dir(tmp_path, box)
+    c = V.discover(run)
+    assert c.groups == ["."]
+    assert c.scene_names(".") == ["intact", "trimmed"]
+    assert [f.state for f in c.states(".", "intact")] == ["pressurised", "deflected"]
+    info = c.info(".", "intact")
+    assert info.Q == 0.03 and info.gauge == V.GaugeSpot(2.0, 2.0, 20.0) and info.contact_x == 9.5
+    assert info.reading("deflected") == (2.0, 0.02)
+    assert c.info(".", "trimmed").trim == 2.0
+    assert [f.state for f in c.select(".", state="press")] == ["pressurised", "pressurised"]
+    with pytest.raises(V.ViewerError, match=r"no state 'bent'.*pressurised"):
+        c.select(".", state="bent")
+    with pytest.raises(V.ViewerError, match=r"no scene 'vented'.*intact"):
+        c.select(".", scenes=["vented"])
+    (run / "scenes.json").write_text("{broken")
+    with pytest.raises(V.ViewerError, match="scenes.json: not valid JSON"):
+        V.discover(run)
+
+
+def test_rank_and_eval_selection(tmp_path, box):
+    run = tmp_path / "run"
+    write_vtu(run / "best" / "intact_deflected.vtu", box, point_data={"u": _bend(box.points, 0.01)})
+    write_vtu(run / "eval_7" / "intact_deflected.vtu", box, point_data={"u": _bend(box.points, 0.02)})
+    (run / "evaluations.csv").write_text(
+        "eval_id,generation,alpha,l,t,Q_i,f1,F_p,status,reason,time_s,cache_hit\n"
+        "3,0,2,15,3,0.03,0.01,0.5,ok,,1,False\n"
+        "7,0,2.5,14,3,0.03,0.005,0.2,ok,,1,False\n"
+        "9,1,3,16,3,0.03,,1e9,solve_failed,diverged,1,False\n"
+    )
+    c = V.discover(run)
+    assert c.default_group() == "best"
+    assert V.evaluation_row(run, rank=1)["eval_id"] == "7"
+    assert V.evaluation_row(run, eval_id=3)["F_p"] == "0.5"
+    assert V.group_for_evaluation(c, "7") == "eval_7"
+    with pytest.raises(V.ViewerError, match=r"rank 3 out of range: 1\.\.2"):
+        V.evaluation_row(run, rank=3)
+    with pytest.raises(V.ViewerError, match="no meshes stored for evaluation 3"):
+        V.group_for_evaluation(c, "3")
+
+
+# ------------------------------------------------------------------ rendering
+def test_screenshot_written_not_blank_and_follows_displacement(tmp_path, box):
+    shots = []
+    for k, a in enumerate((0.0, 0.03)):
+        path = write_vtu(tmp_path / f"s{k}.vtu", box, point_data={"displacement": _bend(box.points, a)})
+        sv = V.prepare_state(path)
+        out = V.render([sv], field="displacement", screenshot=tmp_path / f"shot{k}.png", window_size=WS)
+        assert out.is_file() and out.stat().st_size > 0
+        img = _image(out)
+        assert img.shape[:2] == (WS[1], WS[0])
+        assert img[..., :3].var() > 1e-3  # not blank: background is uniform white
+        shots.append(img)
+    diff = np.abs(shots[0][..., :3] - shots[1][..., :3]).mean()
+    assert diff > 1e-3
+
+
+def test_side_by_side_compare_with_markers(tmp_path, box):
+    run = _pair_dir(tmp_path, box)
+    c = V.discover(run)
+    views = V.load_views(c, ".")
+    assert [v.title for v in views] == ["intact · deflected", "trimmed · deflected"]
+    assert V.gauge_patch(views[0]) is not None and V.contact_point(views[0]) is not None
+    assert V.gauge_patch(views[1]) is None
+    f = V.resolve_field(views[0].grid, None)
+    lo, hi = V.shared_clim(views, f)
+    for v in views:
+        r = v.field_range(f[0])
+        assert lo <= r[0] and r[1] <= hi
+    for cav in V.CAVITY_MODES:
+        out = V.render(views, screenshot=tmp_path / f"cmp_{cav}.png", window_size=(320, 360), cavity=cav)
+        img = _image(out)
+        assert img.shape[:2] == (360, 320) and img[..., :3].var() > 1e-3
+    with pytest.raises(V.ViewerError, match="cavity='open'"):
+        V.render(views, screenshot=tmp_path / "x.png", window_size=WS, cavity="open")
+
+
+def test_interactive_plotter_steps_states_offscreen(tmp_path, box):
+    run = _pair_dir(tmp_path, box)
+    c = V.discover(run)
+    series = [[V.prepare_state(f.path, c.info(".", f.scene), f.state) for f in c.select(".", state=s)]
+              for s in ("pressurised", "deflected")]
+    p, set_step = V.interactive_plotter(series, "displacement", off_screen=True, window_size=(320, 360))
+    img_last = p.screenshot()
+    set_step(0)
+    img_first = p.screenshot()
+    p.close()
+    assert np.abs(img_last.astype(float) - img_first.astype(float)).mean() > 0.1
+
+
+# ------------------------------------------------------------------ command line
+def _args(*argv):
+    ap = argparse.ArgumentParser()
+    V.VIEW_COMMAND[1](ap)
+    return ap.parse_args([str(a) for a in argv])
+
+
+def test_cli_screenshot_list_plots_and_errors(tmp_path, box, capsys):
+    run = _pair_dir(tmp_path, box)
+    out = tmp_path / "shots" / "view.png"
+    assert V.VIEW_COMMAND[2](_args(run, "--screenshot", out, "--window-size", 320, 360, "--plots")) == 0
+    assert out.is_file() and (tmp_path / "shots" / "curves.png").is_file()
+    assert V.VIEW_COMMAND[2](_args(run, "--list")) == 0
+    assert "scene intact" in capsys.readouterr().out
+    missing = tmp_path / "gone"
+    assert V.VIEW_COMMAND[2](_args(missing)) == 2
+    assert str(missing) in capsys.readouterr().err
+    assert V.VIEW_COMMAND[2](_args(run, "--field", "stress", "--screenshot", out)) == 2
+    assert "no field 'stress'" in capsys.readouterr().err
+
+
+def test_headless_detection_and_missing_pyvista(monkeypatch):
+    assert V.is_headless({}, "linux")
+    assert not V.is_headless({"DISPLAY": ":0"}, "linux")
+    assert not V.is_headless({"WAYLAND_DISPLAY": "wayland-0"}, "linux")
+    assert not V.is_headless({}, "darwin")
+    monkeypatch.setitem(sys.modules, "pyvista", None)
+    with pytest.raises(V.ViewerUnavailable, match=r"whisker-opt\[viewer\]"):
+        V.require_pyvista()
+
+
+def test_cli_without_screenshot_headless_and_with_display(tmp_path, box, monkeypatch, capsys):
+    run = _pair_dir(tmp_path, box)
+    monkeypatch.setattr(V, "is_headless", lambda *a, **k: True)
+    assert V.VIEW_COMMAND[2](_args(run, "--window-size", 320, 360)) == 0
+    assert (run / "view.png").is_file()
+    assert "no display found" in capsys.readouterr().err
+    # a display: the interactive plotter with the state slider (pv.OFF_SCREEN keeps it off-screen here)
+    monkeypatch.setattr(V, "is_headless", lambda *a, **k: False)
+    assert V.VIEW_COMMAND[2](_args(run, "--scene", "intact", "--window-size", 320, 200)) == 0
+    assert V.VIEW_COMMAND[2](_args(run, "--scene", "vented", "--window-size", 320, 200)) == 2
+    assert "no scene 'vented'" in capsys.readouterr().err
+
+
+def test_registers_in_the_cli(tmp_path, box, monkeypatch):
+    from whisker_opt import cli, commands
+
+    monkeypatch.setitem(commands.REGISTRY, "view", V.VIEW_COMMAND)
+    run = _pair_dir(tmp_path, box)
+    out = tmp_path / "v.png"
+    assert cli.main(["view", str(run), "--screenshot", str(out), "--state", "pressurised", "--field", "|u|",
+                     "--window-size", "320", "360"]) == 0
+    assert out.is_file()
+    assert cli.main(["view", str(tmp_path / "missing")]) == 2
+
+
+def test_von_mises_uniaxial_closed_form(box):
+    lam, c10 = 1.4, 0.14
+    X = box.points
+    Fu = np.diag([lam, lam**-0.5, lam**-0.5])  # incompressible uniaxial stretch
+    F, used = V.nodal_deformation_gradient(X, box.cells, X @ Fu.T - X)
+    assert used.all()
+    np.testing.assert_allclose(V.von_mises_neo_hookean(F, c10), 2 * c10 * (lam**2 - 1 / lam), rtol=1e-12)
+    # a superposed rigid rotation changes nothing
+    th = 0.7
+    R = np.array([[1, 0, 0], [0, math.cos(th), -math.sin(th)], [0, math.sin(th), math.cos(th)]])
+    np.testing.assert_allclose(V.von_mises_neo_hookean(R @ F, c10), 2 * c10 * (lam**2 - 1 / lam), rtol=1e-12)
+
+
+def test_run_directory_best_without_scenes_json(tmp_path, box):
+    """A `whisker-opt run` directory: best/ meshes, best.json, best_curves.csv, config.yaml."""
+    run = tmp_path / "run"
+    for scene in ("intact", "trimmed"):
+        for state, a in (("pressurised", 0.001), ("deflected", 0.01)):
+            write_vtu(run / "best" / f"{scene}_{state}.vtu", box, point_data={"displacement": _bend(box.points, a)},
+                      cell_data={"pressure": np.zeros(box.n_elements)})
+    (run / "config.yaml").write_text(
+        "design: {D: 2.5, L: 10.0, alpha_deg: 1.0, c: 1.0, l: 6.0, t: 0.5, x_ss: 2.0, e: 1.0}\n"
+        "material: {C10: 0.14, D1: 0.0}\nscene: {contact_ratio: 1.0}\noptimiser: {delta_max: 2.0}\n"
+    )
+    (run / "best.json").write_text(json.dumps(
+        {"genes": {"alpha": 1.5, "l": 5.5, "t": 0.6, "Q_i": 0.02}, "f1": 0.003, "F_p": 0.004, "eval_id": 11}))
+    (run / "best_curves.csv").write_text("delta_mm,eps_i,eps_c\n0,0,0\n1,0.01,0.011\n2,0.02,0.023\n")
+    c = V.discover(run)
+    assert c.default_group() == "best" and c.c10 == 0.14
+    intact, trimmed = c.info("best", "intact"), c.info("best", "trimmed")
+    assert intact.design["alpha_deg"] == 1.5 and intact.design["t"] == 0.6 and intact.Q == 0.02
+    assert trimmed.trim == 2.0 and trimmed.Q == 0.0 and trimmed.reading("deflected") == (2.0, 0.023)
+    assert intact.notes["F_p"] == 0.004 and intact.contact_x == pytest.approx(10.0)
+    views = V.load_views(c, "best")
+    assert V.MISES_FIELD in V.field_names(views[0].grid) and "pressure" in V.field_names(views[0].grid)
+    assert len(V.fibre_lines(views[0])) == 2
+    out = tmp_path / "best.png"
+    assert V.VIEW_COMMAND[2](_args(run, "--screenshot", out, "--field", "mises", "--window-size", 320, 360)) == 0
+    assert _image(out)[..., :3].var() > 1e-3
