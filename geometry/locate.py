@@ -14,7 +14,7 @@ For a query point q:
 
 A point is "found" when that minimum barycentric coordinate is >= ``-tol``. Points not
 found, or found only within the tolerance (slightly negative barycentric coordinate),
-are retried with 4 and 16 times as many candidates, Newton from each (stretched or
+are retried with 4 and 16 times as many candidates and 8 x as many Newton starts (stretched or
 curved elements, e.g. of the swept mesh, can have their centroids far from points near
 their faces, and a straight-tet guess may rank the true host low).
 """
@@ -97,11 +97,11 @@ class PointLocator:
         loc = self._locate(q, k, n_newton, tol)
         for factor in (4, 16):
             lam = _min_bary(loc.local_coords)
-            miss = np.nonzero(~loc.inside | (lam < -1e-12))[0]  # not found, or only nearly inside
+            miss = np.nonzero(~loc.inside | (lam < -1e-9))[0]  # not found, or only nearly inside
             if len(miss) == 0 or k >= len(self.cells):
                 break
             k2 = min(len(self.cells), k * factor)
-            sub = self._locate(q[miss], k2, k2, tol)  # Newton from every candidate: curved elements
+            sub = self._locate(q[miss], k2, min(k2, 8 * factor), tol)
             better = (sub.inside & ~loc.inside[miss]) | (
                 (sub.inside == loc.inside[miss]) & (_min_bary(sub.local_coords) > lam[miss])
             )

@@ -36,6 +36,7 @@ Regenerate them with ``python3 -m geometry.template`` (seconds).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import logging
 import math
@@ -222,17 +223,26 @@ def make_template(design: WhiskerDesign, sizing: MeshSizing, num_threads: int = 
         from geometry.swept import build_swept
 
         pts, tets = build_swept(design, sizing)
-    elif method == "fresh":
-        from geometry.tetrahedralize import tetrahedralize
-
-        pts, tets = tetrahedralize(design, sizing, num_threads=num_threads)
-    else:
+    elif method != "fresh":
         raise ValueError(f"make_template: method={method!r}, allowed ('swept', 'fresh')")
-    pts, tets = _renumber(pts, tets)
-    _, cells, _ = p1_to_p2(pts, tets)
-    _, _, faces6 = boundary_faces(cells)
-    cls = bd.classify_faces(design, pts, faces6[:, :3])
-    pts, n_unproj = _project_safely(design, pts, tets, faces6[:, :3], cls)
+    # fTetWild leaves the boundary within its envelope; projecting a vertex onto the exact surface can invert
+    # a flat tet under it. Then retry with a tighter envelope (fTetWild is not deterministic either).
+    eps = sizing.epsilon
+    for attempt in range(4 if method == "fresh" else 1):
+        if method == "fresh":
+            from geometry.tetrahedralize import tetrahedralize
+
+            pts, tets = tetrahedralize(design, dataclasses.replace(sizing, epsilon=eps), num_threads=num_threads)
+        pts, tets = _renumber(pts, tets)
+        _, cells, _ = p1_to_p2(pts, tets)
+        _, _, faces6 = boundary_faces(cells)
+        cls = bd.classify_faces(design, pts, faces6[:, :3])
+        pts, n_unproj = _project_safely(design, pts, tets, faces6[:, :3], cls)
+        if not n_unproj:
+            break
+        logger.warning("template for %s: %d vertices could not be projected (epsilon %.2g, attempt %d)",
+                       design.describe(), n_unproj, eps, attempt + 1)
+        eps = max(1e-5, 0.5 * eps)
     if n_unproj:
         raise RuntimeError(f"template for {design.describe()}: {n_unproj} vertices could not be projected")
     name = f"{sizing.name}_a{design.alpha_deg:g}_t{design.t:g}"

@@ -16,7 +16,7 @@ from geometry.design import InvalidDesignError, WhiskerDesign
 from geometry.mesh import MeshSizing, TemplateError, WhiskerMesh, build_mesh
 from geometry.quality import radius_ratio
 from geometry.swept import core_radius
-from geometry.template import TEMPLATE_DIR, load_templates, map_points
+from geometry.template import TEMPLATE_DIR, available_sizings, load_templates, map_points, select_template
 
 
 @pytest.fixture(scope="module")
@@ -28,6 +28,18 @@ def test_templates_are_shipped_and_small():
     files = list(TEMPLATE_DIR.glob("*.npz"))
     assert len(files) >= 6
     assert sum(f.stat().st_size for f in files) < 2e6
+    assert set(available_sizings()) == {"coarse", "default", "fine"}
+    for name in ("coarse", "default", "fine"):  # every preset is served by a template
+        assert select_template(WhiskerDesign(), MeshSizing.preset(name)) is not None
+
+
+@pytest.mark.parametrize(("preset", "lo", "hi"), [("coarse", 800, 1500), ("default", 1500, 3000), ("fine", 5000, 9000)])
+def test_preset_sizes_of_the_default_design(preset, lo, hi):
+    """Element budgets of the presets (speed target), wall layers and accuracy."""
+    r = build_mesh(WhiskerDesign(), MeshSizing.preset(preset), method="template").report
+    assert lo <= r.n_elements <= hi
+    assert r.wall_layers == pytest.approx(PRESET_LAYERS[preset], rel=0.05)
+    assert abs(r.volume_error) < 1e-3 and abs(r.cavity_area_error) < 1e-3
 
 
 def test_node_order_and_positive_jacobians(wm):
@@ -37,16 +49,20 @@ def test_node_order_and_positive_jacobians(wm):
     for deg in (2, 3):
         assert (jacobian_determinants(m.points, m.cells, tet_rule(deg).points) > 0).all()
     # mid-edge nodes in VTK order (0,1),(1,2),(0,2),(0,3),(1,3),(2,3): for the swept/template mesh each
-    # lies at the cylindrical midpoint of its edge (x and r averaged, theta halved) when both ends are in
-    # the wall region r >= r_core(x), else at the straight midpoint (geometry.quadratic, cylindrical=True)
+    # lies at the cylindrical midpoint of its edge (x averaged, theta halved, r averaged along a ring or
+    # quadratic mean across rings) when both ends are in the wall region r >= r_core(x), else at the
+    # straight midpoint (geometry.quadratic, cylindrical=True)
     X = m.points[m.cells]
     A, B = X[:, element.EDGES[:, 0]].reshape(-1, 3), X[:, element.EDGES[:, 1]].reshape(-1, 3)
     straight = 0.5 * (A + B)
     xa, ra, ta = bd.to_meridian(A)
     xb, rb, tb = bd.to_meridian(B)
     d = wm.design
-    wall = (ra >= core_radius(d, xa) * (1 - 1e-7)) & (rb >= core_radius(d, xb) * (1 - 1e-7))
-    cyl = bd.from_meridian(0.5 * (xa + xb), 0.5 * (ra + rb), ta + 0.5 * np.angle(np.exp(1j * (tb - ta))))
+    rca, rcb = core_radius(d, xa), core_radius(d, xb)
+    wall = (ra >= rca * (1 - 1e-7)) & (rb >= rcb * (1 - 1e-7))
+    fa, fb = (ra - rca) / (d.r_outer(xa) - rca), (rb - rcb) / (d.r_outer(xb) - rcb)
+    rm = np.where(np.abs(fa - fb) > 1e-6, np.sqrt(0.5 * (ra**2 + rb**2)), 0.5 * (ra + rb))
+    cyl = bd.from_meridian(0.5 * (xa + xb), rm, ta + 0.5 * np.angle(np.exp(1j * (tb - ta))))
     expect = np.where(wall[:, None], cyl, straight)
     h = np.linalg.norm(B - A, axis=1)
     assert np.abs(X[:, 4:].reshape(-1, 3) - expect).max() < 1e-9 * d.D
@@ -136,7 +152,7 @@ def test_report(wm):
     assert abs(r.volume_error) < 5e-3 and abs(r.cavity_area_error) < 1e-2
     assert r.quality_min > 0.05 and r.jacobian_ratio_min > 0.25
     assert r.elements_through_wall >= 3
-    assert r.wall_layers > 1.5
+    assert r.wall_layers == pytest.approx(2.0, rel=0.05)
     assert r.method.startswith("template:")
     assert r.volume_analytic == pytest.approx(analytic.solid_volume(d))
     assert set(r.as_dict()) >= {"n_nodes", "volume_error", "elements_through_wall", "quality_min"}
@@ -195,7 +211,14 @@ def test_map_takes_surfaces_onto_surfaces():
     assert np.allclose(xm, dst.c) and (rm <= dst.r_inner(dst.c) + 1e-12).all()
 
 
-def test_fast_path_100_random_designs_in_the_ga_box():
+#: structured wall layers of each preset's templates (MeshSizing.wall_layers rounded)
+PRESET_LAYERS = {"coarse": 1, "default": 2, "fine": 3}
+
+
+@pytest.mark.parametrize("preset", ["coarse", "default", "fine"])
+def test_fast_path_100_random_designs_in_the_ga_box(preset):
+    sizing = MeshSizing.preset(preset)
+    layers = PRESET_LAYERS[preset]
     rng = np.random.default_rng(2024)
     worst_vol, worst_area, worst_q = 0.0, 0.0, 1.0
     for _ in range(100):
@@ -205,14 +228,17 @@ def test_fast_path_100_random_designs_in_the_ga_box():
             t=rng.uniform(2.0, 6.0),
             trim=float(rng.choice([0.0, rng.uniform(5.0, 10.0)])),
         )
-        wm = build_mesh(d, method="template")
+        wm = build_mesh(d, sizing, method="template")  # raises if the quality gate fails
         r = wm.report
         worst_vol = max(worst_vol, abs(r.volume_error))
         worst_area = max(worst_area, abs(r.cavity_area_error))
         worst_q = min(worst_q, r.quality_min)
         assert (jacobian_determinants(wm.mesh.points, wm.mesh.cells, tet_rule(2).points) > 0).all()
-        assert r.elements_through_wall >= 3
-    assert worst_vol <= 5e-3 and worst_area <= 1e-2 and worst_q > 0.05
+        assert r.wall_layers == pytest.approx(layers, rel=0.05)
+        # a radial line crosses >= 2 of the 3 tets a wall prism is split into, per layer
+        assert r.elements_through_wall >= 2 * layers
+        assert len(wm.fibres) == 2 and len(wm.face_sets["gauge"]) >= 2
+    assert worst_vol <= 1e-3 and worst_area <= 1e-3 and worst_q > 0.08
 
 
 def test_template_refuses_absolute_sizing():

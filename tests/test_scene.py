@@ -56,12 +56,31 @@ def test_trimmed_whisker_reads_more_strain(runner):
     assert trimmed.eps_line[-1] > 1.05 * intact.eps_line[-1]
 
 
-def test_small_deflection_agrees_with_beam_model(runner):
-    """Unpressurised intact whisker, δ = 0.5 mm: FE ε/δ within 15 % of the beam model (SPEC §8)."""
-    r = runner.run(spec(Q=0.0, delta_max=0.5, n_deflection_steps=1))
+def test_small_deflection_against_beam_model(runner):
+    """Unpressurised intact whisker without fibres, δ = 0.5 mm, against the beam model (SPEC §8).
+
+    The beam model has no fibres, so neither has this whisker. Gauge ε/δ within the
+    issue's 15 % (measured 0.905 on the coarse preset) and global stiffness (base reaction
+    for the tip deflection) within 5 % of Castigliano's tapered/tube beam (measured 0.968).
+    With the fibres in, the stiffer chamber reads 0.80 (coarse) to 0.82 (fine) of the
+    fibre-less beam value.
+    """
+    from fem.assembly import Assembler
+    from whisker_opt.beam import deflection_at_contact
+    from whisker_opt.scene import make_problem
+
+    d = WhiskerDesign(n_fibres=0)
+    r = run_scene(spec(design=d, Q=0.0, delta_max=0.5, n_deflection_steps=1), keep_states=True)
+    st = r.states["deflected"]
+    R = Assembler(make_problem(r.mesh, r.spec, None)).evaluate(st.u, st.p, (), False)[0]
+    force = R[: 3 * r.mesh.mesh.n_nodes].reshape(-1, 3)[r.mesh.node_sets["base"], 1].sum()
+    model = BeamModel(E=6 * 0.14, calibration=3.9, soften_unpressurised=False)
+    beam_force = 0.5 / deflection_at_contact(d, 1.0, 1.0, 0.0, model=model)
     fe = r.eps_line[-1] / 0.5
-    beam = sensitivity(WhiskerDesign(), a=1.0, Q=0.0, model=BeamModel(calibration=3.9))
-    print(f"FE eps/delta = {fe:.5g} 1/mm, beam = {beam:.5g} 1/mm, ratio {fe / beam:.4f}")
+    beam = sensitivity(d, a=1.0, Q=0.0, model=model)
+    print(f"tip force FE {force:.5g} N, beam {beam_force:.5g} N (ratio {force / beam_force:.4f}); "
+          f"gauge eps/delta FE {fe:.5g}, beam {beam:.5g} (ratio {fe / beam:.4f})")
+    assert abs(force / beam_force - 1) < 0.05
     assert abs(fe / beam - 1) < 0.15
 
 
