@@ -315,7 +315,9 @@ def run_scene(spec: SceneSpec, wm: WhiskerMesh | None = None, keep_states: bool 
             LoadState((0.0,), (zeros_base,)),
             LoadState((spec.Q,), (zeros_base,)),
             fractions=fr,
-            options=spec.solve_options,
+            # full Newton: pressurising a fibre-wound chamber is strongly nonlinear, where
+            # a reused tangent converges slowly (measured: benchmarks/bench_scene.py)
+            options=replace(spec.solve_options, reuse_tangent=0.0),
         )
         state = states[-1]
         reports.extend(rep)

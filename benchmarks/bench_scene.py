@@ -1,0 +1,91 @@
+"""Scene benchmark: time of one GA evaluation and the gauge error of each fidelity preset.
+
+One evaluation = intact whisker at Q_i = 0.2 MPa + trimmed (Δ = 5 mm) vented, a = 1,
+δ to 5 mm (SPEC §6). For each preset: wall time (median of --repeat runs) with its
+breakdown, and the gauge reading ε(5 mm) of the intact scene against the Richardson
+extrapolation of the three presets (observed order printed). Also: the curve
+interpolation error (preset's solved increments + cubic spline against 20 solved
+increments) and the speed-up of the mapped template mesh over a fresh fTetWild mesh.
+
+Usage::
+
+    python3 benchmarks/bench_scene.py [--repeat 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+
+import numpy as np
+
+from geometry.design import WhiskerDesign
+from geometry.mesh import MeshSizing, build_mesh
+from whisker_opt.fidelity import PRESETS
+from whisker_opt.scene import SceneSpec, run_scene
+
+
+def evaluation(preset: str, design: WhiskerDesign):
+    sizing = MeshSizing.preset(preset)
+    n = PRESETS[preset].n_deflection_steps
+    t = time.perf_counter()
+    r_i = run_scene(SceneSpec(design, Q=0.2, sizing=sizing, n_deflection_steps=n))
+    r_c = run_scene(SceneSpec(design.trimmed(5.0) if hasattr(design, "trimmed") else design, Q=0.0, sizing=sizing,
+                              n_deflection_steps=n))
+    wall = time.perf_counter() - t
+    br = {}
+    for r in (r_i, r_c):
+        for k, v in r.timings.items():
+            br[k] = br.get(k, 0.0) + v
+        for rep in r.reports:
+            br["assembly"] = br.get("assembly", 0.0) + rep.time_assembly
+            br["factorize"] = br.get("factorize", 0.0) + rep.time_factorize
+    return wall, br, r_i, r_c
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--repeat", type=int, default=3)
+    args = ap.parse_args()
+    d = WhiskerDesign()
+    rows = {}
+    print(f"{'preset':>8} {'elements':>8} {'eval [s]':>9} {'mesh':>6} {'pressur.':>8} {'deflect':>8} "
+          f"{'assembly':>8} {'factor':>7} {'eps_i(5)':>10} {'eps_c(5)':>10}")
+    for preset in ("coarse", "default", "fine"):
+        walls = []
+        for _ in range(args.repeat if preset != "fine" else 1):
+            wall, br, r_i, r_c = evaluation(preset, d)
+            walls.append(wall)
+        n_el = build_mesh(d, MeshSizing.preset(preset)).mesh.n_elements
+        rows[preset] = (r_i.eps_line[-1], r_c.eps_line[-1])
+        print(f"{preset:>8} {n_el:>8d} {statistics.median(walls):>9.2f} {br['mesh']:>6.2f} {br['pressurise']:>8.2f} "
+              f"{br['deflect']:>8.2f} {br['assembly']:>8.2f} {br['factorize']:>7.2f} {rows[preset][0]:>10.6f} "
+              f"{rows[preset][1]:>10.6f}")
+    for k, name in ((0, "intact Q=0.2"), (1, "trimmed Q=0")):
+        c, m, f = (rows[p][k] for p in ("coarse", "default", "fine"))
+        ratio = (m - c) / (f - m) if f != m else float("inf")
+        # refinement factor ~ (elements ratio)^(1/3) between successive presets
+        ext = f + (f - m) / (ratio - 1) if ratio > 1 else f
+        print(f"{name}: observed convergence ratio {ratio:.2f}, extrapolated eps(5) = {ext:.6f}; errors: "
+              + ", ".join(f"{p} {(rows[p][k] - ext) / ext:+.2%}" for p in ("coarse", "default", "fine")))
+    # interpolation error of the default preset's increments
+    sizing = MeshSizing.preset("default")
+    ref = run_scene(SceneSpec(d, Q=0.2, sizing=sizing, n_deflection_steps=20))
+    few = run_scene(SceneSpec(d, Q=0.2, sizing=sizing, n_deflection_steps=PRESETS["default"].n_deflection_steps))
+    dd = np.linspace(0.01, 5.0, 500)
+    err = np.abs(few.curve(dd) - ref.curve(dd)).max() / ref.eps_line[-1]
+    print(f"curve interpolation ({PRESETS['default'].n_deflection_steps} vs 20 solved increments): "
+          f"max error {err:.2e} of eps(5)")
+    # template vs fresh mesh
+    t = time.perf_counter()
+    build_mesh(d, sizing, method="template")
+    t_tpl = time.perf_counter() - t
+    t = time.perf_counter()
+    build_mesh(d, sizing, method="fresh")
+    t_fresh = time.perf_counter() - t
+    print(f"mesh: template {t_tpl:.3f} s, fresh fTetWild {t_fresh:.2f} s (speed-up {t_fresh / t_tpl:.0f}x)")
+
+
+if __name__ == "__main__":
+    main()
