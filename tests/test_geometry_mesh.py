@@ -258,3 +258,14 @@ def test_radius_ratio_of_regular_tet_is_one():
     if signed_volumes_linear(P, t)[0] < 0:
         t = t[:, [0, 2, 1, 3]]
     assert radius_ratio(P, t)[0] == pytest.approx(1.0)
+
+
+def test_node_rings_at_the_gauge_window_and_contact_positions():
+    """Whole element layers over the gauge window; node rings at x = f L' (f = contact_fractions)."""
+    for d in (WhiskerDesign(), WhiskerDesign(alpha_deg=5.6, l=10.4, t=5.5, trim=8.3)):
+        sizing = MeshSizing()
+        wm = build_mesh(d, sizing, method="template")
+        x = wm.mesh.points[:, 0]
+        for xk in (d.x_ss, d.x_ss + d.e, *(f * d.length for f in sizing.contact_fractions)):
+            ring = np.abs(x - xk) < 1e-9
+            assert ring.sum() >= 2 * sizing.n_theta  # a full node ring across the section

@@ -87,15 +87,17 @@ def test_swept_mesh_is_a_valid_conforming_mesh(default_swept):
 
 def test_axial_stations_hit_the_knots():
     d = WhiskerDesign(l=11.3, trim=7.0)
-    st = axial_stations(d, h_cap=2.0, dz=1.5, h_body=8.0, grading=0.5)
+    st = axial_stations(d, h_cap=2.0, dz=1.5, h_body=8.0, grading=0.5, contact_fractions=(0.75, 0.5))
     assert st[0] == 0.0 and st[-1] == d.length and (np.diff(st) > 0).all()
-    for k in axial_knots(d):
+    knots = axial_knots(d, (0.5, 0.75))
+    assert len(knots) == 8 and knots[5:7] == [0.5 * d.length, 0.75 * d.length]
+    for k in knots:
         assert np.min(np.abs(st - k)) < 1e-12
     g = st[(st >= d.x_ss - 1e-12) & (st <= d.x_ss + d.e + 1e-12)]
     assert len(g) >= 3  # the gauge window holds >= 2 whole layers
     body = np.diff(st[st >= d.l])
-    # graded from ~dz up to ~h_body (the layer count is rounded: sizes within ~1/(2 n) of the target)
-    assert body.max() <= 8.0 * 1.1 and body[0] < 2 * 1.5 and (np.diff(body) > -1e-9).all()
+    # graded from ~dz up to ~h_body (the layer counts are rounded per knot interval)
+    assert body.max() <= 8.0 * 1.25 and body[0] < 2 * 1.5
 
 
 def test_swept_tet10_exact_volume_and_curved_jacobians():
@@ -117,8 +119,9 @@ def test_template_map_of_a_swept_mesh_is_the_swept_mesh_of_the_target():
     """The template map moves the structure of one design onto another: ring nodes stay on their rings."""
     src = WhiskerDesign(alpha_deg=3.3, t=3.6, l=12.5)
     dst = WhiskerDesign(alpha_deg=5.1, t=2.3, l=14.2, trim=6.0)
-    pts, tets = build_swept(src, MeshSizing())
-    m = map_points(src, dst, pts)
+    sizing = MeshSizing()
+    pts, tets = build_swept(src, sizing)
+    m = map_points(src, dst, pts, sizing.contact_fractions)
     assert (signed_volumes_linear(m, tets) > 0).all()
     xs, rs, ts = bd.to_meridian(pts)
     xm, rm, tm = bd.to_meridian(m)
@@ -130,7 +133,7 @@ def test_template_map_of_a_swept_mesh_is_the_swept_mesh_of_the_target():
     on = rs > 1e-9
     assert np.abs(np.angle(np.exp(1j * (ts[on] - tm[on])))).max() < 1e-12
     # the gauge window and the region knots map onto the target's
-    for ks, kd in zip(axial_knots(src), axial_knots(dst)):
+    for ks, kd in zip(axial_knots(src, sizing.contact_fractions), axial_knots(dst, sizing.contact_fractions)):
         assert np.all(np.abs(xm[np.abs(xs - ks) < 1e-12] - kd) < 1e-9)
 
 
