@@ -220,7 +220,7 @@ def _template(design: WhiskerDesign, sizing: MeshSizing, gate: QualityGate) -> W
             f"no template mesh for sizing {sizing.name!r} (template_key={sizing.template_key()}); "
             f"available: {tpl.available_sizings()}"
         )
-    pts, tets, face_class = tpl.map_template(found, design)
+    pts, tets, face_class = tpl.map_template(found, design, sizing.contact_fractions)
     qm = upgrade(design, pts, tets, face_class=face_class, cylindrical=found.structured,
                  topology=tpl.template_topology(found))
     wm = finish_mesh(design, sizing, qm, f"template:{found.name}", t0)

@@ -13,11 +13,21 @@ background tet mesh (``bg_vertices``, ``bg_tets``, ``bg_values``) and interpolat
 linearly inside each background tet; the background mesh here is a Kuhn-split
 structured grid with an x-node at every region boundary.
 
+The structured swept mesher (:mod:`geometry.swept`, also the shipped templates) reads
+the same fields differently: ``round(wall_layers)`` radial element layers through the
+wall, ``n_theta`` sectors around, chamber layers ``axial_pitch_fraction * fibre_pitch``
+long (the embedded fibre helices stiffen the wall with the period of their pitch, and
+the gauge reading converges with the axial layer size relative to it), a cap
+of ``round(c / h_cap)`` layers and body layers graded from the chamber size by
+``grading`` up to ``h_body`` (and at most ``min(1.5, 3 / n_wall) r_o(x)``), with node
+rings at the gauge window ends and at ``contact_fractions`` of the length.
+
 A note on "elements through the wall": for unstructured tets a radial line of length
 t crosses about ``t / (0.27 h)`` elements (0.27 h = mean chord of a regular tet of edge
-h, ``4 V / A``), i.e. ~3.7 x the number of edge lengths through the wall. The report
-gives both the crossing count and ``t / median radial extent`` of the wall elements
-(the layer count); ``wall_layers`` below sets the latter approximately.
+h, ``4 V / A``), i.e. ~3.7 x the number of edge lengths through the wall; in the swept
+mesh each wall layer is a layer of prisms cut into 3 tets, so a line crosses 1-3 tets
+per layer. The report gives both the crossing count and ``t / median radial extent``
+of the wall elements (the layer count).
 """
 
 from __future__ import annotations
@@ -56,8 +66,12 @@ class MeshSizing:
     n_theta : int
         Swept mesher (:mod:`geometry.swept`): angular sectors of the cross-section
         (even, >= 6). Unused by fTetWild.
-    axial_factor : float
-        Swept mesher: axial layer size in the chamber, ``dz = axial_factor * h_wall``.
+    axial_pitch_fraction : float
+        Swept mesher: axial layer size in the chamber as a fraction of the fibre pitch,
+        ``dz = axial_pitch_fraction * design.fibre_pitch``.
+    contact_fractions : tuple of float
+        Swept mesher: fractions f of the (trimmed) length where the body gets a node
+        ring (x = f L'), so a scene's contact band at a = f finds nodes; each in (0, 1).
     epsilon : float
         fTetWild envelope (maximum surface deviation) relative to the bounding-box
         diagonal; boundary nodes are projected onto the exact surfaces afterwards.
@@ -68,11 +82,12 @@ class MeshSizing:
     wall_layers: float = 2.0
     h_wall: float | None = None
     h_cap: float | None = None
-    cap_factor: float = 1.25
+    cap_factor: float = 1.0
     h_body: float = 8.0
     grading: float = 0.5
-    n_theta: int = 12
-    axial_factor: float = 1.33
+    n_theta: int = 8
+    axial_pitch_fraction: float = 0.25
+    contact_fractions: tuple = (0.5, 0.75)
     epsilon: float = 1e-3
     name: str = "default"
 
@@ -83,8 +98,14 @@ class MeshSizing:
             ("h_body", self.h_body, 0.05, 50.0),
             ("grading", self.grading, 0.0, 10.0),
             ("epsilon", self.epsilon, 1e-5, 1e-2),
-            ("axial_factor", self.axial_factor, 0.2, 10.0),
+            ("axial_pitch_fraction", self.axial_pitch_fraction, 0.02, 5.0),
         ]
+        fr = self.contact_fractions
+        if not isinstance(fr, tuple):  # e.g. a list from JSON: keep the dataclass hashable
+            object.__setattr__(self, "contact_fractions", tuple(fr))
+        for f in self.contact_fractions:
+            if not (isinstance(f, (int, float)) and 0.0 < f < 1.0):
+                raise ValueError(f"MeshSizing.contact_fractions={self.contact_fractions!r}: each must be in (0, 1)")
         if not (isinstance(self.n_theta, int) and 6 <= self.n_theta <= 256 and self.n_theta % 2 == 0):
             raise ValueError(f"MeshSizing.n_theta={self.n_theta!r} must be an even integer in [6, 256]")
         for opt in ("h_wall", "h_cap"):
@@ -99,14 +120,15 @@ class MeshSizing:
     def preset(cls, name: str) -> "MeshSizing":
         """Named presets: 'coarse' (fast GA screening), 'default', 'fine' (verification).
 
-        Element counts of the swept/template meshes of the default design (TET10):
-        coarse ~1.3k, default ~3.1k, fine ~9k (see /tmp notes and ``benchmarks``).
+        TET10 element counts of the default design's template meshes: coarse 1200 (1 wall
+        layer, 10 sectors), default 2808 (2 layers, 12 sectors), fine 7680 (3 layers,
+        16 sectors); the templates of the GA box span coarse 1200-1560, default
+        2304-3312, fine 6720-10080 (:mod:`geometry.template`).
         """
         presets = {
-            "coarse": cls(wall_layers=1.0, cap_factor=1.0, n_theta=10, axial_factor=1.0, h_body=10.0,
-                          grading=0.5, name="coarse"),
+            "coarse": cls(wall_layers=1.0, n_theta=8, axial_pitch_fraction=0.5, h_body=10.0, name="coarse"),
             "default": cls(),
-            "fine": cls(wall_layers=3.0, n_theta=16, axial_factor=1.2, h_body=5.0, grading=0.35, name="fine"),
+            "fine": cls(wall_layers=3.0, n_theta=12, axial_pitch_fraction=0.17, h_body=10.0, name="fine"),
         }
         if name not in presets:
             raise ValueError(f"MeshSizing.preset: name={name!r}, allowed {sorted(presets)}")

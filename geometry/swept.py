@@ -18,10 +18,12 @@ with ``r_core(x)`` the cavity radius ``r_i(x)`` on ``[c, l]`` and fractions of `
 outside (:func:`core_radius`; the same radial map as :mod:`geometry.template`, so a
 swept mesh maps onto the swept mesh of another design).
 
-*Axial stations*: knots ``0, c, x_ss, x_ss + e, l, L'`` (the gauge window is a whole
-number of layers, at least two, when ``c < x_ss`` and ``x_ss + e < l``); the cap gets
+*Axial stations*: knots ``0, c, x_ss, x_ss + e, l, f_k L', L'`` (the gauge window is a
+whole number of layers, at least two, when ``c < x_ss`` and ``x_ss + e < l``; the
+``contact_fractions`` f_k of :class:`geometry.sizing.MeshSizing`, default 0.5 and 0.75,
+give a node ring at those contact positions ``a L'`` of the scene); the cap gets
 ``round(c / h_cap)`` layers, each chamber interval ``round(length / dz)`` with
-``dz = axial_factor * h_wall``; the body is graded, layer size
+``dz = axial_pitch_fraction * fibre_pitch``; the body is graded, layer size
 ``h(s) = min(h_body, dz + grading * s, max(dz, min(1.5, 3 / n_wall) r_o))`` at distance ``s``
 from the chamber end (the last bound keeps the elements of a slender tip from getting
 long and thin: about 6 ring thicknesses at most).
@@ -158,12 +160,21 @@ def core_radius(d: WhiskerDesign, x: np.ndarray) -> np.ndarray:
     return np.where(x < d.c, rho_c * ro, np.where(x > d.l, rho_b * ro, ro - d.t))
 
 
-def axial_knots(d: WhiskerDesign) -> list[float]:
-    """``[0, c, x_ss, x_ss + e, l, L']`` (gauge knots only when strictly inside (c, l))."""
+def axial_knots(d: WhiskerDesign, contact_fractions: tuple[float, ...] = ()) -> list[float]:
+    """``[0, c, x_ss, x_ss + e, l, f_1 L', f_2 L', ..., L']``.
+
+    The gauge knots only when strictly inside (c, l); a contact knot ``f L'`` only when
+    it lies in the body more than 1 mm from both ``l`` and the tip.
+    """
     k = [0.0, d.c]
     if d.c < d.x_ss and d.x_ss + d.e < d.l:
         k += [d.x_ss, d.x_ss + d.e]
-    return k + [d.l, d.length]
+    k.append(d.l)
+    for f in sorted(set(float(f) for f in contact_fractions)):
+        x = f * d.length
+        if d.l + 1.0 < x < d.length - 1.0 and x > k[-1] + 1.0:
+            k.append(x)
+    return k + [d.length]
 
 
 def axial_stations(
@@ -174,26 +185,31 @@ def axial_stations(
     grading: float,
     min_gauge_layers: int = 2,
     radius_factor: float = 1.5,
+    contact_fractions: tuple[float, ...] = (),
 ) -> np.ndarray:
     """Axial node positions (see module docstring), shape (n_z + 1,), increasing."""
-    knots = axial_knots(d)
+    knots = axial_knots(d, contact_fractions)
     xs = [np.array([0.0])]
     xs.append(np.linspace(0.0, d.c, max(1, round(d.c / h_cap)) + 1)[1:])
-    chamber = knots[1:-1]  # c, [x_ss, x_ss + e,] l
+    chamber = [k for k in knots if d.c <= k <= d.l]  # c, [x_ss, x_ss + e,] l
     gauge = (d.x_ss, d.x_ss + d.e)
     for x0, x1 in zip(chamber[:-1], chamber[1:]):
         n_min = min_gauge_layers if (x0, x1) == gauge else 1
         xs.append(np.linspace(x0, x1, max(n_min, round((x1 - x0) / dz)) + 1)[1:])
-    # body: h(s) = min(h_body, dz + g s); N(s) = int_0^s ds'/h(s') layers
+    # body: h(s) = min(h_body, dz + g s, max(dz, radius_factor r_o)); N(s) = int_0^s ds'/h(s') layers,
+    # distributed over the body intervals between knots (each a whole number of layers)
     Lb = d.length - d.l
     hb = max(h_body, dz)
-    s = np.linspace(0.0, Lb, 2001)
+    s = np.linspace(0.0, Lb, 4001)
     h = np.minimum(np.minimum(hb, dz + grading * s), np.maximum(dz, radius_factor * d.r_outer(d.l + s)))
     N = np.concatenate([[0.0], np.cumsum(0.5 * (1.0 / h[1:] + 1.0 / h[:-1]) * np.diff(s))])
-    n = max(1, round(N[-1]))
-    xb = d.l + np.interp(np.linspace(0.0, N[-1], n + 1), N, s)
-    xb[-1] = d.length
-    xs.append(xb[1:])
+    body = [k for k in knots if k >= d.l]
+    for x0, x1 in zip(body[:-1], body[1:]):
+        n0, n1 = np.interp([x0 - d.l, x1 - d.l], s, N)
+        n = max(1, round(n1 - n0))
+        xb = d.l + np.interp(np.linspace(n0, n1, n + 1), N, s)
+        xb[0], xb[-1] = x0, x1
+        xs.append(xb[1:])
     return np.concatenate(xs)
 
 
@@ -271,13 +287,14 @@ def build_swept(design: WhiskerDesign, sizing) -> tuple[np.ndarray, np.ndarray]:
 
     ``n_wall = max(1, round(wall_layers))`` radial layers (``round(t / h_wall)`` for an
     absolute ``h_wall``), ``n_theta`` sectors, axial layers from ``h_cap``,
-    ``axial_factor * h_wall``, ``h_body``, ``grading`` and ``radius_factor = min(1.5, 3 / n_wall)``
+    ``axial_pitch_fraction * fibre_pitch``, ``h_body``, ``grading`` and
+    ``radius_factor = min(1.5, 3 / n_wall)``
     (module docstring).
     """
     hw = sizing.wall_size(design)
     n_wall = max(1, round(design.t / hw))
     st = axial_stations(
-        design, sizing.cap_size(design), sizing.axial_factor * hw, sizing.h_body, sizing.grading,
-        radius_factor=min(1.5, 3.0 / n_wall),
+        design, sizing.cap_size(design), sizing.axial_pitch_fraction * design.fibre_pitch, sizing.h_body, sizing.grading,
+        radius_factor=min(1.5, 3.0 / n_wall), contact_fractions=tuple(sizing.contact_fractions),
     )
     return swept_mesh(design, int(sizing.n_theta), n_wall, st)

@@ -7,7 +7,7 @@ each boundary face. For a design N the vertices are moved by a continuous,
 piecewise-smooth map that takes every patch of T onto the same patch of N:
 
 *Axial*, piecewise linear per region (cap, chamber split at the gauge window
-``x_ss .. x_ss + e``, body)::
+``x_ss .. x_ss + e``, body split at the contact knots ``f L'``)::
 
     x' = x c'/c                                     0 <= x <= c
     x' = c' + (x - c)(l' - c')/(l - c)               c <= x <= l   (per sub-interval)
@@ -167,16 +167,20 @@ def _core_radius(d: WhiskerDesign, x: np.ndarray) -> np.ndarray:
     return core_radius(d, x)
 
 
-def map_axial(src: WhiskerDesign, dst: WhiskerDesign, x: np.ndarray) -> np.ndarray:
-    """Piecewise-linear axial map with knots (0, c, [x_ss, x_ss + e,] l, L') -> (0, c', ..., L'').
+def map_axial(
+    src: WhiskerDesign, dst: WhiskerDesign, x: np.ndarray, contact_fractions: tuple[float, ...] = ()
+) -> np.ndarray:
+    """Piecewise-linear axial map with knots (0, c, [x_ss, x_ss + e,] l, [f L',] L') -> (0, c', ..., L'').
 
-    The gauge knots are used when both designs have them strictly inside (c, l)
+    The gauge and contact knots are used when both designs have the same ones
     (:func:`geometry.swept.axial_knots`), so a gauge window made of whole element layers
-    stays one.
+    stays one and a node ring at a contact position ``f L'`` stays at ``f L''``.
     """
     from geometry.swept import axial_knots
 
-    ks, kd = axial_knots(src), axial_knots(dst)
+    ks, kd = axial_knots(src, contact_fractions), axial_knots(dst, contact_fractions)
+    if len(ks) != len(kd):
+        ks, kd = axial_knots(src), axial_knots(dst)
     if len(ks) != len(kd):
         ks = [0.0, src.c, src.l, src.length]
         kd = [0.0, dst.c, dst.l, dst.length]
@@ -191,11 +195,13 @@ def _pwl(x: np.ndarray, xs: list[float], ys: list[float]) -> np.ndarray:
     return ys[i] + (x - xs[i]) * (ys[i + 1] - ys[i]) / (xs[i + 1] - xs[i])
 
 
-def map_points(src: WhiskerDesign, dst: WhiskerDesign, points: np.ndarray) -> np.ndarray:
+def map_points(
+    src: WhiskerDesign, dst: WhiskerDesign, points: np.ndarray, contact_fractions: tuple[float, ...] = ()
+) -> np.ndarray:
     """Apply the region-wise map of the module docstring to points of ``src``, shape (n, 3)."""
     x = points[:, 0]
     r = np.hypot(points[:, 1], points[:, 2])
-    xn = map_axial(src, dst, x)
+    xn = map_axial(src, dst, x, contact_fractions)
     rc, ro = _core_radius(src, x), src.r_outer(x)
     rcn, ron = _core_radius(dst, xn), dst.r_outer(xn)
     inner = r <= rc
@@ -207,9 +213,14 @@ def map_points(src: WhiskerDesign, dst: WhiskerDesign, points: np.ndarray) -> np
     return np.stack([xn, points[:, 1] * scale, points[:, 2] * scale], axis=1)
 
 
-def map_template(tpl: Template, design: WhiskerDesign) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Mapped vertices, tets and boundary-face classes for ``design``."""
-    return map_points(tpl.design, design, tpl.points), tpl.tets, tpl.face_class
+def map_template(
+    tpl: Template, design: WhiskerDesign, contact_fractions: tuple[float, ...] = ()
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Mapped vertices, tets and boundary-face classes for ``design``.
+
+    ``contact_fractions``: those of the template's sizing (axial knots kept in place).
+    """
+    return map_points(tpl.design, design, tpl.points, contact_fractions), tpl.tets, tpl.face_class
 
 
 # ---------------------------------------------------------------------- generation

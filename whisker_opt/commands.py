@@ -58,7 +58,7 @@ def new_run_dir(cfg: WhiskerConfig, config_path: Path, kind: str) -> Path:
 def _mesh_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("config", type=Path, help="YAML run file (design + fidelity sections are used)")
     p.add_argument("--trim", type=float, default=None, help="mesh the design trimmed by this length [mm]")
-    p.add_argument("--method", choices=["auto", "fresh", "template"], default=None, help="override fidelity.mesh_method")
+    p.add_argument("--method", choices=["auto", "fresh", "template", "swept"], default=None, help="override fidelity.mesh_method")
     p.add_argument("--step", action="store_true", help="also export the CAD solid as STEP and STL")
     p.add_argument("--out", type=Path, default=None, help="output directory (default: a new run directory)")
 

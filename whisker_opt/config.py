@@ -90,8 +90,10 @@ class FidelityConfig(StrictModel):
     n_pressure_steps: int | None = Field(
         None, ge=1, le=1000, description="override: solved pressure increments [-], 1..1000"
     )
-    mesh_method: Literal["auto", "fresh", "template"] = Field(
-        "auto", description="'template' maps a stored template mesh; 'fresh' re-tetrahedralises"
+    mesh_method: Literal["auto", "fresh", "template", "swept"] = Field(
+        "auto",
+        description="'template' maps a stored template mesh; 'swept' builds a structured swept mesh; "
+        "'fresh' re-tetrahedralises with fTetWild; 'auto' tries them in that order",
     )
 
 
