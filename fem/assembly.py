@@ -140,6 +140,17 @@ class Assembler:
         self.topo = topology_for(problem)
         self.pattern = self.topo.pattern
 
+    def scatter_index(self) -> np.ndarray:
+        """Data positions of all tangent contributions, in the order ``evaluate`` stacks them (cached)."""
+        idx = getattr(self.topo, "_scatter_index", None)
+        if idx is None:
+            pat = self.pattern
+            parts = [pat.elem_uu.ravel(), pat.elem_up.ravel(), pat.elem_pu.ravel(), pat.elem_pp]
+            parts += [pos.ravel() for pos in self.topo.pressure_pos] + [pos.ravel() for pos in self.topo.truss_pos]
+            idx = np.concatenate(parts)
+            self.topo._scatter_index = idx
+        return idx
+
     # ------------------------------------------------------------------ kinematics
     def deformation(self, u: np.ndarray):
         """F, J, G = F⁻¹ at every quadrature point; raises InvertedElements if J ≤ 0."""
@@ -258,13 +269,7 @@ class Assembler:
             Kpp = np.ones(n_el)
 
         pat = self.pattern
-        parts_idx = [pat.elem_uu.ravel(), pat.elem_up.ravel(), pat.elem_pu.ravel(), pat.elem_pp]
         parts_val = [Ke.reshape(n_el, 30, 30).ravel(), Kup.ravel(), Kup.ravel(), Kpp]
-        for pos, Kf in zip(topo.pressure_pos, pres_out):
-            parts_idx.append(pos.ravel())
-            parts_val.append(Kf.ravel())
-        for pos, Kt in zip(topo.truss_pos, truss_out):
-            parts_idx.append(pos.ravel())
-            parts_val.append(Kt.ravel())
-        data = np.bincount(np.concatenate(parts_idx), np.concatenate(parts_val), minlength=pat.nnz)
+        parts_val += [Kf.ravel() for Kf in pres_out] + [Kt.ravel() for Kt in truss_out]
+        data = np.bincount(self.scatter_index(), np.concatenate(parts_val), minlength=pat.nnz)
         return R, data, min_j
