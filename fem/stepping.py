@@ -65,6 +65,10 @@ class SolveOptions:
         iteration reduces the residual by at least the factor r; otherwise the tangent
         is re-assembled and re-factorised. Fewer factorisations for mildly nonlinear
         paths (the deflection step), same converged answer (same residual criteria).
+    extrapolate : bool
+        Start each increment after the first from the secant extrapolation of the last
+        two converged states (falls back to the last converged state if that start
+        inverts elements or fails to converge).
     """
 
     rtol: float = 1e-8
@@ -79,6 +83,7 @@ class SolveOptions:
     line_search: bool = True
     linear_solver: str = "auto"
     reuse_tangent: float = 0.0
+    extrapolate: bool = True
 
     def __post_init__(self) -> None:
         checks = [("rtol", self.rtol, 0.0, 1.0), ("atol", self.atol, 0.0, 1e6), ("etol", self.etol, 0.0, 1.0),
@@ -225,6 +230,7 @@ def solve_path(problem: Problem, state0: State, load0: LoadState, load1: LoadSta
     ds = min(options.initial_step, options.max_step)
     states, reports = [], []
     n_cut_total = 0
+    hist = None  # (x, s) of the previous converged state, for the secant predictor
     for target in fr:
         rep = StepReport(fraction=target, linear_solver=getattr(solver, "name", "?"))
         t_start = time.perf_counter()
@@ -233,10 +239,22 @@ def solve_path(problem: Problem, state0: State, load0: LoadState, load1: LoadSta
             if target - s_new < 0.05 * ds:  # avoid a sliver increment
                 s_new = target
             lo_, ln_ = load0.interpolate(load1, s), load0.interpolate(load1, s_new)
-            x_new, inc = _increment(asm, con, solver, x, lo_, ln_, options, vol, rep, fact)
+            x_start = x
+            if options.extrapolate and hist is not None and s - hist[1] > 0:
+                # secant predictor: continue the last converged increment's direction
+                cand = x + (x - hist[0]) * ((s_new - s) / (s - hist[1]))
+                if asm.min_jacobian(cand[: problem.n_u].reshape(-1, 3)) > 0.05:
+                    x_start = cand
+            x_new, inc = _increment(asm, con, solver, x_start, lo_, ln_, options, vol, rep, fact)
+            if not inc.converged and x_start is not x:
+                # the extrapolated start failed: retry this increment from the converged state
+                x_new, inc2 = _increment(asm, con, solver, x, lo_, ln_, options, vol, rep, fact)
+                inc2.reason = inc2.reason or inc.reason
+                inc = inc2
             inc.s_start, inc.s_end = s, s_new
             rep.increments.append(inc)
             if inc.converged:
+                hist = (x, s)
                 x = x_new
                 s = s_new
                 rep.min_j = inc.min_j if np.isnan(rep.min_j) else min(rep.min_j, inc.min_j)
