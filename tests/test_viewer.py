@@ -366,3 +366,14 @@ def test_run_directory_best_without_scenes_json(tmp_path, box):
     out = tmp_path / "best.png"
     assert V.VIEW_COMMAND[2](_args(run, "--screenshot", out, "--field", "mises", "--window-size", 320, 360)) == 0
     assert _image(out)[..., :3].var() > 1e-3
+
+
+def test_repeated_loads_and_renders_keep_the_heap_intact(tmp_path, box):
+    """Regression: surfaces once shared VTK-backed arrays with their source grid, which
+    corrupted the heap (segfault / free(): invalid pointer within a few iterations)."""
+    c = V.discover(_pair_dir(tmp_path, box))
+    for k in range(5):
+        views = V.load_views(c, ".", edges=bool(k % 2))
+        V.render(views, screenshot=tmp_path / "loop.png", window_size=(200, 240), show_edges=False,
+                 cavity="translucent")
+    assert (tmp_path / "loop.png").is_file()

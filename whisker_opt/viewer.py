@@ -850,7 +850,7 @@ def add_derived_fields(grid, disp: str | None, c10: float | None = None) -> None
     stored = [k for k in grid.point_data.keys() if k.lower() in STORED_STRAIN_NAMES]
     if stored:
         if stored[0] != STRAIN_FIELD:
-            grid.point_data[STRAIN_FIELD] = np.asarray(grid.point_data[stored[0]])
+            grid.point_data[STRAIN_FIELD] = np.array(grid.point_data[stored[0]], dtype=float)
     if not len(cells) or (stored and c10 is None):
         return
     F, used = nodal_deformation_gradient(grid.points, cells, u)
@@ -1010,11 +1010,13 @@ def _surface_components(faces6: np.ndarray, points: np.ndarray) -> np.ndarray:
 def _tri6_surface(points: np.ndarray, faces6: np.ndarray, source, elem: np.ndarray, subdivision: int):
     """Subdivided PolyData of 6-node triangles with the source's point data and owning-cell data."""
     pv = require_pyvista()
-    tri = pv.UnstructuredGrid({pv.CellType.QUADRATIC_TRIANGLE: faces6}, points)
+    # copies, not views: handing one dataset's VTK-backed arrays to another corrupts the heap
+    # (pyvista 0.49 / VTK 9.6, reproduced with MALLOC_CHECK_=3)
+    tri = pv.UnstructuredGrid({pv.CellType.QUADRATIC_TRIANGLE: faces6}, np.array(points, dtype=float))
     for k in source.point_data.keys():
-        tri.point_data[k] = np.asarray(source.point_data[k])
+        tri.point_data[k] = np.array(source.point_data[k])
     for k in source.cell_data.keys():
-        tri.cell_data[k] = np.asarray(source.cell_data[k])[elem]
+        tri.cell_data[k] = np.array(source.cell_data[k])[elem]
     return tri.extract_surface(
         pass_pointid=False, pass_cellid=False, nonlinear_subdivision=subdivision, algorithm="dataset_surface"
     )
@@ -1135,7 +1137,7 @@ def displaced(sv: StateView, points_ref: np.ndarray) -> np.ndarray:
     if sv.displacement is None or len(X) == 0:
         return X.copy()
     probe = pv.PolyData(X).sample(sv.grid, tolerance=1e-6 * sv.grid.length)
-    u = np.asarray(probe.point_data[sv.displacement], dtype=float)
+    u = np.array(probe.point_data[sv.displacement], dtype=float)
     ok = np.asarray(probe.point_data.get("vtkValidPointMask", np.ones(len(X))), dtype=bool)
     if not ok.all():
         idx = [sv.grid.find_closest_point(x) for x in X[~ok]]
