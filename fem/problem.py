@@ -19,6 +19,14 @@ class ProblemError(ValueError):
     """Inconsistent problem definition (names the field and the offending value)."""
 
 
+def _tri6_faces(owner: str, faces) -> np.ndarray:
+    """``faces`` as a contiguous int64 (n_faces, 6) array, or a ProblemError naming ``owner``."""
+    f = np.ascontiguousarray(faces, dtype=np.int64)
+    if f.ndim != 2 or f.shape[1] != 6:
+        raise ProblemError(f"{owner}.faces: shape {f.shape}, expected (n_faces, 6)")
+    return f
+
+
 @dataclass(frozen=True)
 class Dirichlet:
     """Prescribed displacement components on a node set.
@@ -72,10 +80,7 @@ class FollowerPressure:
     name: str = "pressure"
 
     def __post_init__(self) -> None:
-        f = np.ascontiguousarray(self.faces, dtype=np.int64)
-        if f.ndim != 2 or f.shape[1] != 6:
-            raise ProblemError(f"FollowerPressure({self.name}).faces: shape {f.shape}, expected (n_faces, 6)")
-        object.__setattr__(self, "faces", f)
+        object.__setattr__(self, "faces", _tri6_faces(f"FollowerPressure({self.name})", self.faces))
 
 
 @dataclass(frozen=True)
@@ -96,10 +101,7 @@ class DeadTraction:
     name: str = "traction"
 
     def __post_init__(self) -> None:
-        f = np.ascontiguousarray(self.faces, dtype=np.int64)
-        if f.ndim != 2 or f.shape[1] != 6:
-            raise ProblemError(f"DeadTraction({self.name}).faces: shape {f.shape}, expected (n_faces, 6)")
-        object.__setattr__(self, "faces", f)
+        object.__setattr__(self, "faces", _tri6_faces(f"DeadTraction({self.name})", self.faces))
 
 
 @dataclass(frozen=True)

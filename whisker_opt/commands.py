@@ -200,8 +200,9 @@ def _run_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
-def _finish_best(run_dir: Path, cfg: WhiskerConfig, best_genes: dict | None) -> None:
-    """Re-run the best design with curves and deformed meshes (VTU) into ``run_dir/best``."""
+def _finish_best(run_dir: Path, cfg: WhiskerConfig, summary) -> None:
+    """Re-run the best design of a run summary with curves and deformed meshes (VTU) into ``run_dir/best``."""
+    best_genes = summary.best.get("genes") if isinstance(summary.best, dict) else None
     if not best_genes:
         return
     import numpy as np
@@ -243,7 +244,7 @@ def _run_run(args: argparse.Namespace) -> int:
     if not (run_dir / "config.yaml").exists():
         (run_dir / "config.yaml").write_text(dump_config(cfg))
     summary = run_optimisation(opt, run_dir, ev, opt.resolve_seed(cfg.seed), progress=not args.no_progress)
-    _finish_best(run_dir, cfg, summary.best.get("genes") if isinstance(summary.best, dict) else None)
+    _finish_best(run_dir, cfg, summary)
     from whisker_opt.runner import report
 
     print(report(run_dir))
@@ -265,7 +266,7 @@ def _resume_run(args: argparse.Namespace) -> int:
     cfg = load_config(cfg_path)
     summary = resume_optimisation(args.run_dir, evaluator_from_config(cfg), progress=not args.no_progress)
     if not (args.run_dir / "best").is_dir():
-        _finish_best(args.run_dir, cfg, summary.best.get("genes") if isinstance(summary.best, dict) else None)
+        _finish_best(args.run_dir, cfg, summary)
     print(report(args.run_dir))
     return 0
 
