@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
@@ -69,6 +69,11 @@ class SolveOptions:
         Start each increment after the first from the secant extrapolation of the last
         two converged states (falls back to the last converged state if that start
         inverts elements or fails to converge).
+    intermediate_rtol : float or None
+        Residual tolerance for increments that end *between* requested fractions (their
+        states are never returned; the next increment's Newton iterations remove what
+        is left). The energy tolerance becomes its square. None: ``rtol`` everywhere.
+        Requested fractions are always converged to ``rtol``/``etol``.
     """
 
     rtol: float = 1e-8
@@ -84,6 +89,7 @@ class SolveOptions:
     linear_solver: str = "auto"
     reuse_tangent: float = 0.0
     extrapolate: bool = True
+    intermediate_rtol: float | None = None
 
     def __post_init__(self) -> None:
         checks = [("rtol", self.rtol, 0.0, 1.0), ("atol", self.atol, 0.0, 1e6), ("etol", self.etol, 0.0, 1.0),
@@ -94,6 +100,9 @@ class SolveOptions:
         for name, v, lo, hi in checks:
             if not (lo <= v <= hi):
                 raise ValueError(f"SolveOptions.{name}={v!r} outside the allowed range [{lo}, {hi}]")
+        if self.intermediate_rtol is not None and not (self.rtol <= self.intermediate_rtol < 1.0):
+            raise ValueError(f"SolveOptions.intermediate_rtol={self.intermediate_rtol!r} outside the allowed "
+                             f"range [rtol={self.rtol}, 1)")
 
 
 @dataclass
@@ -231,6 +240,9 @@ def solve_path(problem: Problem, state0: State, load0: LoadState, load1: LoadSta
     states, reports = [], []
     n_cut_total = 0
     hist = None  # (x, s) of the previous converged state, for the secant predictor
+    loose = options
+    if options.intermediate_rtol is not None:
+        loose = replace(options, rtol=options.intermediate_rtol, etol=max(options.etol, options.intermediate_rtol**2))
     for target in fr:
         rep = StepReport(fraction=target, linear_solver=getattr(solver, "name", "?"))
         t_start = time.perf_counter()
@@ -245,10 +257,11 @@ def solve_path(problem: Problem, state0: State, load0: LoadState, load1: LoadSta
                 cand = x + (x - hist[0]) * ((s_new - s) / (s - hist[1]))
                 if asm.min_jacobian(cand[: problem.n_u].reshape(-1, 3)) > 0.05:
                     x_start = cand
-            x_new, inc = _increment(asm, con, solver, x_start, lo_, ln_, options, vol, rep, fact)
+            opts_inc = options if s_new >= target else loose
+            x_new, inc = _increment(asm, con, solver, x_start, lo_, ln_, opts_inc, vol, rep, fact)
             if not inc.converged and x_start is not x:
                 # the extrapolated start failed: retry this increment from the converged state
-                x_new, inc2 = _increment(asm, con, solver, x, lo_, ln_, options, vol, rep, fact)
+                x_new, inc2 = _increment(asm, con, solver, x, lo_, ln_, opts_inc, vol, rep, fact)
                 inc2.reason = inc2.reason or inc.reason
                 inc = inc2
             inc.s_start, inc.s_end = s, s_new
