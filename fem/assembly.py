@@ -213,7 +213,7 @@ class Assembler:
         mat = self.problem.material
         n_el = topo.n_el
         F, J, G = self.deformation(u)
-        P_iso, A = mat.stress_tangent(F, G, J, need_tangent)  # (n_el,n_qp,3,3), (n_el,n_qp,3,3,3,3)
+        P_iso, coef = mat.stress_coefficients(F, G, J)  # (n_el, n_qp, 3, 3), dict of (n_el, n_qp)
         Gt = np.swapaxes(G, -1, -2)  # (n_el, n_qp, 3, 3) [i, J] = G_Ji
         disp = self.problem.formulation == "displacement"
         # pressure at the quadrature points: element unknown (mixed) or 2(J − 1)/D1 (displacement)
@@ -222,7 +222,8 @@ class Assembler:
         P = P_iso + pJ[..., None, None] * Gt  # (n_el, n_qp, 3, 3)
         w = topo.wdet  # (n_el, n_qp)
         dN = topo.dNdX  # (n_el, n_qp, 10, 3)
-        Re = np.einsum("eq,eqiJ,eqaJ->eai", w, P, dN)  # (n_el, 10, 3)
+        # R_e[a, i] = Σ_q w Σ_J P_iJ dN_aJ
+        Re = np.matmul(dN, np.swapaxes(P * w[..., None, None], -1, -2)).sum(axis=1)  # (n_el, 10, 3)
         R = np.zeros(self.pattern.n_dofs)
         R[: 3 * topo.n_nodes] = np.bincount(topo.edofs.ravel(), Re.ravel(), minlength=3 * topo.n_nodes)
         if disp:  # inert element pressures: R_p = p, K_pp = 1
@@ -249,20 +250,39 @@ class Assembler:
         if not need_tangent:
             return R, None, min_j
 
-        # volumetric geometric part added to the material tangent
-        A = A + pJ[..., None, None, None, None] * (
-            np.einsum("eqJi,eqLk->eqiJkL", G, G) - np.einsum("eqJk,eqLi->eqiJkL", G, G)
-        )  # (n_el, n_qp, 3, 3, 3, 3)
-        if disp:  # ∂p_q/∂F = (2/D1) J Gᵀ  →  + (2/D1) J² G_Ji G_Lk
-            A = A + ((2.0 / mat.d1) * J**2)[..., None, None, None, None] * np.einsum("eqJi,eqLk->eqiJkL", G, G)
+        # Tangent A_iJkL = ∂P_iJ/∂F_kL (material.stress_coefficients) plus the volumetric part
+        # ∂(pJ G_Ji)/∂F_kL = pJ (G_Ji G_Lk − G_Jk G_Li) [+ (2/D1) J² G_Ji G_Lk, displacement form].
+        # With g[a, i] = Σ_J dN_aJ G_Ji and f[a, i] = Σ_J dN_aJ F_iJ, each dyad X⊗Y contracts to
+        # the outer product of two 30-vectors and the "swap" term G_Jk G_Li to g[a, k] g[b, i]:
+        #   K[ai, bk] = Σ_q w [ a (dN_a·dN_b) δ_ik + b' g_ai g_bk + g' g_ak g_bi
+        #                        + h (f_ai g_bk + g_ai f_bk) + d2f dI_ai dI_bk ]
         nq = w.shape[1]
-        # T[e,q,a,i,k,L] = Σ_J dN[a,J] A[i,J,k,L]
-        A2 = A.transpose(0, 1, 3, 2, 4, 5).reshape(n_el, nq, 3, 27)  # (n_el, n_qp, J, i·k·L)
-        T = np.matmul(dN, A2).reshape(n_el, nq, 10, 3, 3, 3)  # (n_el, n_qp, a, i, k, L)
-        dNw = dN * w[..., None, None]  # (n_el, n_qp, 10, 3)
-        Ke = np.matmul(T.reshape(n_el, nq, 90, 3), np.swapaxes(dNw, -1, -2))  # (n_el, n_qp, a·i·k, b)
-        Ke = Ke.sum(axis=1).reshape(n_el, 10, 3, 3, 10).transpose(0, 1, 2, 4, 3)  # (n_el, a, i, b, k)
-        Kup = np.einsum("eq,eqJi,eqaJ->eai", w * J, G, dN).reshape(n_el, 30)  # (n_el, 30)
+        gv = np.matmul(dN, G)  # (n_el, n_qp, 10, 3)  g[a, i]
+        fv = np.matmul(dN, np.swapaxes(F, -1, -2))  # (n_el, n_qp, 10, 3)  f[a, i]
+        b = coef["b"] + pJ  # (n_el, n_qp)
+        if disp:
+            b = b + (2.0 / mat.d1) * J**2
+        gsw = coef["g"] - pJ  # (n_el, n_qp)
+        gflat = gv.reshape(n_el, nq, 30)
+        left = [gflat * (w * b)[..., None], fv.reshape(n_el, nq, 30) * (w * coef["h"])[..., None],
+                gflat * (w * coef["h"])[..., None]]
+        right = [gflat, gflat, fv.reshape(n_el, nq, 30)]
+        if np.any(coef["d2f"] != 0.0):
+            dv = np.matmul(dN, np.swapaxes(coef["dI"], -1, -2)).reshape(n_el, nq, 30)  # (n_el, n_qp, 30)
+            left.append(dv * (w * coef["d2f"])[..., None])
+            right.append(dv)
+        Lm = np.concatenate(left, axis=1)  # (n_el, n_terms·n_qp, 30)
+        Rm = np.concatenate(right, axis=1)  # (n_el, n_terms·n_qp, 30)
+        Ke = np.matmul(np.swapaxes(Lm, 1, 2), Rm).reshape(n_el, 10, 3, 10, 3)  # (n_el, a, i, b, k)
+        S = np.matmul(np.swapaxes(gflat * (w * gsw)[..., None], 1, 2), gflat)  # (n_el, 30, 30) [a k, b i]
+        Ke += S.reshape(n_el, 10, 3, 10, 3).transpose(0, 1, 4, 3, 2)  # [a, i, b, k] = S[a, k, b, i]
+        dNf = dN.transpose(0, 2, 1, 3).reshape(n_el, 10, 3 * nq)  # (n_el, 10, n_qp·3)
+        dNw = (dN * (w * coef["a"])[..., None, None]).transpose(0, 2, 1, 3).reshape(n_el, 10, 3 * nq)
+        Kid = np.matmul(dNw, np.swapaxes(dNf, 1, 2))  # (n_el, 10, 10)  Σ_q w a dN_a·dN_b
+        Ke[:, :, 0, :, 0] += Kid
+        Ke[:, :, 1, :, 1] += Kid
+        Ke[:, :, 2, :, 2] += Kid
+        Kup = np.einsum("eq,eqai->eai", w * J, gv).reshape(n_el, 30)  # (n_el, 30)  Σ_q w J g[a, i]
         Kpp = -0.5 * mat.d1 * topo.vol  # (n_el,)
         if disp:
             Kup = np.zeros_like(Kup)

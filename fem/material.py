@@ -102,6 +102,45 @@ class IsochoricI1Material:
         return P, A
 
 
+    def stress_coefficients(self, F: np.ndarray, G: np.ndarray, J: np.ndarray):
+        """First Piola stress and the scalar coefficients of its tangent.
+
+        The tangent of :meth:`stress_tangent` is a sum of an identity term and dyads of
+        F and Gᵀ (Holzapfel 2000, eqs. 6.80–6.90 written in F)::
+
+            A_iJkL = a δ_ik δ_JL + b (Gᵀ⊗Gᵀ)_iJkL + g G_Jk G_Li
+                     + h (F⊗Gᵀ + Gᵀ⊗F)_iJkL + d2f (dĪ1 ⊗ dĪ1)_iJkL
+
+        with c = 2 J^{-2/3}: a = c f', b = (2/9) c f' I1, g = (1/3) c f' I1,
+        h = −(2/3) c f', dĪ1 = c (F − (I1/3) Gᵀ). An element tangent then needs only
+        the vectors dN·F and dN·G at each quadrature point (no 4th-order array):
+        see :meth:`fem.assembly.Assembler.evaluate`. Same tangent as
+        :meth:`stress_tangent` (tests/test_fem_tangent.py).
+
+        Parameters
+        ----------
+        F, G : ndarray (..., 3, 3)
+        J : ndarray (...)
+
+        Returns
+        -------
+        P : ndarray (..., 3, 3)
+        coef : dict of ndarray (...)
+            'a', 'b', 'g', 'h', 'd2f'; and 'dI' (..., 3, 3).
+        """
+        I1 = np.einsum("...iJ,...iJ->...", F, F)  # (...)
+        jm23 = J ** (-2.0 / 3.0)  # (...)
+        _, df, d2f = self.f_derivatives(jm23 * I1)
+        Gt = np.swapaxes(G, -1, -2)  # G_Ji as [i, J]
+        c = 2.0 * jm23
+        dI = c[..., None, None] * (F - (I1 / 3.0)[..., None, None] * Gt)  # (..., 3, 3)
+        P = df[..., None, None] * dI
+        cdf = c * df
+        coef = {"a": cdf, "b": (2.0 / 9.0) * cdf * I1, "g": (1.0 / 3.0) * cdf * I1, "h": (-2.0 / 3.0) * cdf,
+                "d2f": d2f, "dI": dI}
+        return P, coef
+
+
 @dataclass(frozen=True)
 class NeoHookean(IsochoricI1Material):
     """Neo-Hookean solid, W = C10 (Ī1 − 3) + (1/D1)(J − 1)² (SPEC §4; Abaqus form).
