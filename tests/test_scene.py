@@ -72,6 +72,7 @@ def test_small_deflection_against_beam_model(runner):
     d = WhiskerDesign(n_fibres=0)
     r = run_scene(spec(design=d, Q=0.0, delta_max=0.5, n_deflection_steps=1), keep_states=True)
     st = r.states["deflected"]
+    assert list(r.states) == ["pressurised", "deflected", "delta_0.50"] and r.states["delta_0.50"] is st
     R = Assembler(make_problem(r.mesh, r.spec, None)).evaluate(st.u, st.p, (), False)[0]
     force = R[: 3 * r.mesh.mesh.n_nodes].reshape(-1, 3)[r.mesh.node_sets["base"], 1].sum()
     model = BeamModel(E=6 * 0.14, calibration=3.9, soften_unpressurised=False)

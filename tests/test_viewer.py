@@ -242,7 +242,7 @@ def test_side_by_side_compare_with_markers(tmp_path, box):
     run = _pair_dir(tmp_path, box)
     c = V.discover(run)
     views = V.load_views(c, ".")
-    assert [v.title for v in views] == ["intact · deflected", "trimmed · deflected"]
+    assert [v.title for v in views] == ["intact · deflected", "trimmed, vented · deflected"]
     assert V.gauge_patch(views[0]) is not None and V.contact_point(views[0]) is not None
     assert V.gauge_patch(views[1]) is None
     f = V.resolve_field(views[0].grid, None)
@@ -377,3 +377,192 @@ def test_repeated_loads_and_renders_keep_the_heap_intact(tmp_path, box):
         V.render(views, screenshot=tmp_path / "loop.png", window_size=(200, 240), show_edges=False,
                  cavity="translucent")
     assert (tmp_path / "loop.png").is_file()
+
+
+# ------------------------------------------------------------------ three panels, deflection states, other evaluations
+class _FakeResult:
+    """What :func:`whisker_opt.commands.write_scene_vtus` needs of a SceneResult."""
+
+    def __init__(self, mesh: TetMesh, deltas, amplitude: float, pre: float = 0.0):
+        from types import SimpleNamespace
+
+        st = lambda a: SimpleNamespace(u=_bend(mesh.points, a), p=np.zeros(mesh.n_elements))  # noqa: E731
+        self.mesh = SimpleNamespace(mesh=mesh)
+        self.states = {"pressurised": st(pre)}
+        for d in deltas:
+            self.states[f"delta_{d:.2f}"] = st(pre + amplitude * d)
+        self.states["deflected"] = self.states[f"delta_{deltas[-1]:.2f}"]
+
+
+def _write_triple(folder, box, with_json=True):
+    """A scene folder as `simulate`/`run` write it: intact at Q_i, trimmed uncompensated, trimmed vented,
+    solved at delta = 1, 2, 3 mm."""
+    from whisker_opt.commands import write_scene_vtus
+
+    short = box_mesh(8.0, 2.0, 2.0, 4, 1, 1)
+    deltas = [1.0, 2.0, 3.0]
+    cases = {  # name: (mesh, Q, trim, eps per delta, bend per mm)
+        "intact": (box, 0.03, 0.0, [0, 0.010, 0.020, 0.030], 0.004),
+        "trimmed_uncompensated": (short, 0.03, 2.0, [0, 0.014, 0.028, 0.042], 0.006),
+        "trimmed": (short, 0.0, 2.0, [0, 0.011, 0.021, 0.031], 0.0045),
+    }
+    entries = {}
+    for name, (mesh, q, trim, eps, amp) in cases.items():
+        paths = write_scene_vtus(folder, name, _FakeResult(mesh, deltas, amp, pre=0.0005 if q else 0.0))
+        assert len(paths) == 4  # pressurised, delta_1.00, delta_2.00, deflected (delta_3.00 is the same state)
+        entries[name] = {"Q_MPa": q, "trim": trim, "solved_delta_mm": [0.0, *deltas], "eps_line": eps,
+                         "eps_centroid": [e * 0.9 for e in eps], "gauge_variant": "line"}
+    if with_json:
+        (folder / "scenes.json").write_text(json.dumps({**entries, "f1": 0.001}))
+    return entries
+
+
+def test_three_panel_intact_uncompensated_vented(tmp_path, box):
+    run = tmp_path / "sim"
+    _write_triple(run, box)
+    c = V.discover(run)
+    assert c.scene_names(".") == ["intact", "trimmed_uncompensated", "trimmed"]
+    views = V.load_views(c, ".")
+    assert [v.title for v in views] == ["intact · deflected", "trimmed, uncompensated · deflected",
+                                        "trimmed, vented · deflected"]
+    texts = [V._text_lines(v) for v in views]
+    assert [t[1].splitlines()[0] for t in texts] == [
+        "gauge eps = 0.03 at delta = 3 mm", "gauge eps = 0.042 at delta = 3 mm", "gauge eps = 0.031 at delta = 3 mm"]
+    assert "Q=0.03 MPa" in texts[1][0] and "trim=2 mm" in texts[1][0] and "Q=0 MPa" in texts[2][0]
+    f = V.resolve_field(views[0].grid, None)
+    lo, hi = V.shared_clim(views, f)
+    assert all(lo <= v.field_range(f[0])[0] and v.field_range(f[0])[1] <= hi for v in views)
+    out = tmp_path / "three.png"
+    assert V.VIEW_COMMAND[2](_args(run, "--screenshot", out, "--window-size", 300, 540)) == 0
+    img = _image(out)
+    assert img.shape[:2] == (540, 300)
+    for k in range(3):  # a long whisker: one panel per row, each drawn
+        assert img[180 * k: 180 * (k + 1), :, :3].var() > 1e-3
+    # the centroid gauge when the run used it
+    data = json.loads((run / "scenes.json").read_text())
+    data["trimmed"]["gauge_variant"] = "centroid"
+    (run / "scenes.json").write_text(json.dumps(data))
+    assert V.discover(run).info(".", "trimmed").reading("deflected") == pytest.approx((3.0, 0.031 * 0.9))
+
+
+def test_delta_states_select_step_and_screenshot(tmp_path, box, capsys):
+    run = tmp_path / "sim"
+    _write_triple(run, box)
+    c = V.discover(run)
+    sts = c.states(".", "trimmed_uncompensated")
+    assert [f.state for f in sts] == ["pressurised", "delta_1.00", "delta_2.00", "deflected"]
+    assert [c.delta_of(f) for f in sts] == [0.0, 1.0, 2.0, 3.0]
+    assert [f.state for f in c.select_delta(".", 2.0)] == ["delta_2.00"] * 3
+    assert [f.state for f in c.select_delta(".", 3.0, ["intact"])] == ["deflected"]
+    assert [f.state for f in c.select_delta(".", 0)] == ["pressurised"] * 3
+    with pytest.raises(V.ViewerError, match=r"no state at delta=1\.5 mm; states exist at delta = \[0\.0, 1\.0, 2\.0"):
+        c.select_delta(".", 1.5)
+    steps = c.delta_steps(".")
+    assert [d for d, _ in steps] == [0.0, 1.0, 2.0, 3.0]
+    assert [f.state for f in steps[1][1]] == ["delta_1.00"] * 3
+    views = V.load_views(c, ".", files=steps[2][1])
+    assert views[0].title == "intact · delta = 2 mm"
+    assert V._text_lines(views[0])[1].startswith("gauge eps = 0.02 at delta = 2 mm")
+    assert [v.title for v in V.load_views(c, ".", files=steps[0][1])] == [
+        "intact · pressurised", "trimmed, uncompensated · pressurised", "trimmed, vented · not pressurised (Q = 0)"]
+    # screenshots at two deflections differ; same size, not blank
+    shots = []
+    for d in (1, 3):
+        out = tmp_path / f"d{d}.png"
+        assert V.VIEW_COMMAND[2](_args(run, "--delta", d, "--screenshot", out, "--window-size", 300, 540)) == 0
+        img = _image(out)
+        assert img.shape[:2] == (540, 300) and img[..., :3].var() > 1e-3
+        shots.append(img)
+    assert np.abs(shots[0][..., :3] - shots[1][..., :3]).mean() > 1e-3
+    assert V.VIEW_COMMAND[2](_args(run, "--delta", 1.5, "--screenshot", tmp_path / "x.png")) == 2
+    assert "states exist at delta" in capsys.readouterr().err
+    assert V.VIEW_COMMAND[2](_args(run, "--delta", 1, "--state", "deflected", "--screenshot", tmp_path / "x.png")) == 2
+    assert "--state and --delta are exclusive" in capsys.readouterr().err
+    # the interactive slider runs over delta
+    series = [V.load_views(c, ".", files=files) for _, files in steps]
+    p, set_step = V.interactive_plotter(series, "displacement", off_screen=True, window_size=(300, 540),
+                                        step_values=[d for d, _ in steps], start=1)
+    img1 = p.screenshot()
+    set_step(3)
+    img3 = p.screenshot()
+    p.close()
+    assert np.abs(img1.astype(float) - img3.astype(float)).mean() > 0.1
+
+
+def test_delta_steps_without_metadata_go_by_index(tmp_path, box):
+    run = tmp_path / "sim"
+    _write_triple(run, box, with_json=False)
+    c = V.discover(run)
+    steps = c.delta_steps(".", ["intact"])
+    assert [d for d, _ in steps] == [None] * 4  # 'deflected' has no known delta without scenes.json
+    assert [f.state for _, (f,) in steps] == ["pressurised", "delta_1.00", "delta_2.00", "deflected"]
+
+
+def _fake_run(tmp_path, box):
+    """A run directory: best/ (= evaluation 7), evaluations.csv, best.json, config.yaml."""
+    run = tmp_path / "run"
+    _write_triple(run / "best", box)
+    (run / "evaluations.csv").write_text(
+        "eval_id,generation,alpha,l,t,Q_i,f1,F_p,status,reason,time_s,cache_hit\n"
+        "3,0,2,15,3,0.03,0.01,0.5,ok,,1,False\n"
+        "7,0,2.5,14,3,0.03,0.005,0.2,ok,,1,False\n"
+        "9,1,3,16,3,0.03,,1e9,solve_failed,diverged,1,False\n"
+    )
+    (run / "best.json").write_text(json.dumps(
+        {"genes": {"alpha": 2.5, "l": 14, "t": 3, "Q_i": 0.03}, "f1": 0.005, "F_p": 0.2, "eval_id": 7}))
+    (run / "config.yaml").write_text("fidelity: {preset: coarse}\noptimiser: {delta_max: 2.0}\n")
+    return run
+
+
+def test_rank_and_eval_rerun_into_a_cached_folder(tmp_path, box, monkeypatch, capsys, caplog):
+    from geometry.design import InvalidDesignError
+    from whisker_opt import commands
+
+    run = _fake_run(tmp_path, box)
+    calls = []
+
+    def fake_write(out, cfg, genes, specs=None):
+        calls.append((out, genes))
+        assert out.name.startswith(".") and cfg.optimiser.delta_max == 2.0  # a hidden folder, the run's config
+        if genes["alpha"] == 3.0:
+            raise InvalidDesignError(["alpha=3.0: cone tip radius < 0"], {"alpha"})
+        _write_triple(out, box)
+
+    monkeypatch.setattr(commands, "write_design_scenes", fake_write)
+    out = tmp_path / "eval3.png"
+    with caplog.at_level("WARNING", logger="whisker_opt.viewer"):
+        assert V.VIEW_COMMAND[2](_args(run, "--eval", 3, "--screenshot", out, "--window-size", 300, 540)) == 0
+    assert "evaluation 3" in caplog.text and "re-running its scenes" in caplog.text and "eval_3" in caplog.text
+    assert len(calls) == 1 and calls[0][1] == {"alpha": 2.0, "l": 15.0, "t": 3.0, "Q_i": 0.03}
+    assert (run / "eval_3" / "scenes.json").is_file() and not (run / ".eval_3.partial").exists()
+    assert _image(out)[..., :3].var() > 1e-3
+    c = V.discover(run)
+    assert c.groups == ["best", "eval_3"] and c.scene_names("eval_3") == ["intact", "trimmed_uncompensated", "trimmed"]
+    # cached: shown again without solving; rank 2 is evaluation 3
+    assert V.VIEW_COMMAND[2](_args(run, "--rank", 2, "--screenshot", out, "--delta", 2)) == 0
+    assert len(calls) == 1
+    # rank 1 is the best design, stored in best/
+    c2, group = V.evaluation_group(c, V.evaluation_row(run, rank=1))
+    assert group == "best" and len(calls) == 1
+    views = V.load_views(c2, group, notes={"eval_id": "7"})
+    assert len(views) == 3
+    # a design that cannot be re-run: a clear error, nothing left behind
+    assert V.VIEW_COMMAND[2](_args(run, "--eval", 9, "--screenshot", out)) == 2
+    err = capsys.readouterr().err
+    assert "evaluation 9" in err and "cannot be re-run" in err and "cone tip radius" in err
+    assert not (run / "eval_9").exists() and not (run / ".eval_9.partial").exists()
+    with pytest.raises(V.ViewerError, match="no meshes stored for evaluation 9"):
+        V.evaluation_group(c, V.evaluation_row(run, eval_id=9), rerun=False)
+
+
+def test_design_scene_specs_three_scenes():
+    from whisker_opt.commands import UNCOMPENSATED, design_scene_specs
+    from whisker_opt.config import WhiskerConfig
+
+    cfg = WhiskerConfig.model_validate({"optimiser": {"delta_max": 4.0}, "fidelity": {"preset": "coarse"}})
+    genes = {"alpha": 2.0, "l": 20.0, "t": 1.6, "Q_i": 0.15}
+    specs = design_scene_specs(cfg, genes)
+    assert list(specs) == ["intact", UNCOMPENSATED, "trimmed"] and UNCOMPENSATED == V.UNCOMPENSATED
+    assert [(s.Q, s.design.trim) for s in specs.values()] == [(0.15, 0.0), (0.15, 4.0), (0.0, 4.0)]
+    assert specs[UNCOMPENSATED].design == specs["trimmed"].design
+    assert list(design_scene_specs(cfg, dict(genes, Q_i=0.0))) == ["intact", "trimmed"]

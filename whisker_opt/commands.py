@@ -124,58 +124,147 @@ def _simulate_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", type=Path, default=None, help="output directory (default: a new run directory)")
 
 
+UNCOMPENSATED = "trimmed_uncompensated"
+"""Scene name of the trimmed whisker still at the intact pressure Q_i (no compensation)."""
+
+
+def write_scene_vtus(out: Path, name: str, res) -> list[Path]:
+    """Write the kept states of a scene result as ``<out>/<name>_<state>.vtu``.
+
+    One file per state of :attr:`whisker_opt.scene.SceneResult.states`: ``pressurised``,
+    ``delta_<δ>`` for every solved deflection increment but the last, and ``deflected``
+    (the last increment, written once). Point array ``displacement`` [mm], cell array
+    ``pressure`` (the element pressure unknown) [MPa].
+
+    Parameters
+    ----------
+    out : Path
+    name : str
+        Scene name (file prefix).
+    res : whisker_opt.scene.SceneResult
+        Solved with ``keep_states=True``.
+
+    Returns
+    -------
+    list of Path
+    """
+    from fem.io import write_vtu
+
+    if not res.states:
+        raise ValueError(f"scene {name!r}: no states kept; solve it with run_scene(..., keep_states=True)")
+    last = res.states.get("deflected")
+    paths = []
+    for state_name, st in res.states.items():
+        if state_name.startswith("delta_") and st is last:
+            continue  # the same state as 'deflected'
+        paths.append(write_vtu(out / f"{name}_{state_name}.vtu", res.mesh.mesh, point_data={"displacement": st.u},
+                               cell_data={"pressure": st.p}))
+    return paths
+
+
+def scene_entry(spec, res, gauge_variant: str = "line", **extra) -> dict:
+    """The ``scenes.json`` entry of a solved scene (read by :mod:`whisker_opt.viewer`).
+
+    Parameters
+    ----------
+    spec : whisker_opt.scene.SceneSpec
+    res : whisker_opt.scene.SceneResult
+    gauge_variant : {'line', 'centroid'}
+        Which gauge reading the curves use.
+    **extra
+        Further keys (e.g. ``wall_s``, ``genes``).
+    """
+    entry = {
+        "design": spec.design.as_dict(),
+        "Q_MPa": spec.Q,
+        "trim": spec.design.trim,
+        "delta_l_mm": res.delta_l,
+        "length_q_mm": res.length_q,
+        "radial_growth_mm": res.radial_growth,
+        "solved_delta_mm": res.delta.tolist(),
+        "eps_line": res.eps_line.tolist(),
+        "eps_centroid": res.eps_centroid.tolist(),
+        "gauge_variant": gauge_variant,
+        "timings_s": {k: round(v, 4) for k, v in res.timings.items()},
+    }
+    if res.mesh is not None:
+        entry["mesh"] = res.mesh.report.as_dict()
+    entry["reports"] = [r.as_dict() if hasattr(r, "as_dict") else str(r) for r in res.reports]
+    entry.update(extra)
+    return entry
+
+
+def solve_scenes(out: Path, specs: dict, gauge_variant: str = "line", **extra) -> tuple[dict, dict]:
+    """Solve scenes keeping their states; write their VTUs into ``out``.
+
+    Parameters
+    ----------
+    out : Path
+        Created when missing.
+    specs : dict of str -> whisker_opt.scene.SceneSpec
+        Scene name -> spec, solved in order.
+    gauge_variant : {'line', 'centroid'}
+    **extra
+        Added to every ``scenes.json`` entry.
+
+    Returns
+    -------
+    results : dict of str -> SceneResult
+    entries : dict of str -> dict
+        ``scenes.json`` entries (:func:`scene_entry`, with ``wall_s``).
+    """
+    from whisker_opt.scene import run_scene
+
+    out.mkdir(parents=True, exist_ok=True)
+    results, entries = {}, {}
+    for name, spec in specs.items():
+        t0 = time.perf_counter()
+        res = run_scene(spec, keep_states=True)
+        wall = time.perf_counter() - t0
+        write_scene_vtus(out, name, res)
+        results[name] = res
+        entries[name] = scene_entry(spec, res, gauge_variant, wall_s=round(wall, 3), **extra)
+        logger.info("scene %s: Q=%.4g MPa, trim=%.4g mm, eps(delta_max)=%.6g, %.2f s", name, spec.Q,
+                    spec.design.trim, res.eps_line[-1], wall)
+    return results, entries
+
+
 def _simulate_run(args: argparse.Namespace) -> int:
     import numpy as np
-
-    from fem.io import write_vtu
-    from whisker_opt.scene import run_scene
 
     cfg = load_config(args.config)
     sc = cfg.scene
     if sc.pair:
         if sc.trim <= 0:
             raise ConfigError(f"{args.config}: scene.trim: must be > 0 for a pair (got {sc.trim})")
-        scenes = {
-            "intact": scene_spec_from_config(cfg, design_from_config(cfg, 0.0), sc.Q),
-            "trimmed": scene_spec_from_config(cfg, design_from_config(cfg, sc.trim), 0.0),
-        }
+        trimmed = design_from_config(cfg, sc.trim)
+        scenes = {"intact": scene_spec_from_config(cfg, design_from_config(cfg, 0.0), sc.Q)}
+        if sc.Q > 0:  # the trimmed whisker still at Q_i: what trimming alone does to the reading
+            scenes[UNCOMPENSATED] = scene_spec_from_config(cfg, trimmed, sc.Q)
+        scenes["trimmed"] = scene_spec_from_config(cfg, trimmed, 0.0)
     else:
         scenes = {"scene": scene_spec_from_config(cfg, design_from_config(cfg, sc.trim), sc.Q)}
     out = args.out or new_run_dir(cfg, args.config, "simulate")
-    out.mkdir(parents=True, exist_ok=True)
     delta = np.round(np.arange(0.0, sc.delta_max + 0.5 * sc.delta_step, sc.delta_step), 10)
+    results, summary = solve_scenes(out, scenes, sc.gauge_variant)
     cols = {"delta_mm": delta}
-    summary = {}
-    for name, spec in scenes.items():
-        t0 = time.perf_counter()
-        res = run_scene(spec, keep_states=True)
-        wall = time.perf_counter() - t0
+    for name, res in results.items():
+        spec = scenes[name]
         cols[f"eps_{name}"] = res.curve(delta, sc.gauge_variant)
         cols[f"eps_{name}_solved_line"] = np.interp(delta, res.delta, res.eps_line)
-        for state_name, st in res.states.items():
-            write_vtu(out / f"{name}_{state_name}.vtu", res.mesh.mesh, point_data={"u": st.u})
-        summary[name] = {
-            "design": spec.design.as_dict(),
-            "Q_MPa": spec.Q,
-            "delta_l_mm": res.delta_l,
-            "length_q_mm": res.length_q,
-            "radial_growth_mm": res.radial_growth,
-            "solved_delta_mm": res.delta.tolist(),
-            "eps_line": res.eps_line.tolist(),
-            "eps_centroid": res.eps_centroid.tolist(),
-            "timings_s": {k: round(v, 4) for k, v in res.timings.items()},
-            "wall_s": round(wall, 3),
-            "mesh": res.mesh.report.as_dict(),
-            "reports": [r.as_dict() if hasattr(r, "as_dict") else str(r) for r in res.reports],
-        }
         print(
             f"{name:8s} Q={spec.Q:.4g} MPa  L={spec.design.length:.4g} mm  dl(Q)={res.delta_l:.5g} mm  "
-            f"eps(delta_max)={res.eps_line[-1]:.6g} (centroid {res.eps_centroid[-1]:.6g})  {wall:.2f} s"
+            f"eps(delta_max)={res.eps_line[-1]:.6g} (centroid {res.eps_centroid[-1]:.6g})  "
+            f"{summary[name]['wall_s']:.2f} s"
         )
     if sc.pair:
         f1 = float(np.mean(np.abs(cols["eps_intact"][1:] - cols["eps_trimmed"][1:])))
         summary["f1"] = f1
         print(f"f1 = mean |eps_i - eps_c| = {f1:.6g}")
+        if UNCOMPENSATED in results:
+            f1u = float(np.mean(np.abs(cols["eps_intact"][1:] - cols[f"eps_{UNCOMPENSATED}"][1:])))
+            summary["f1_uncompensated"] = f1u
+            print(f"uncompensated (trimmed at Q_i): mean |eps_i - eps_u| = {f1u:.6g}")
     header = ",".join(cols)
     np.savetxt(out / "curve.csv", np.column_stack(list(cols.values())), delimiter=",", header=header, comments="")
     (out / "scenes.json").write_text(json.dumps(summary, indent=2, default=float))
@@ -200,6 +289,61 @@ def _run_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
+def design_scene_specs(cfg: WhiskerConfig, genes: dict) -> dict:
+    """The scenes shown for a genome: intact at Q_i, trimmed uncompensated (still at Q_i) and
+    trimmed vented (Q = 0, the GA's compensated state).
+
+    The uncompensated scene is left out when Q_i = 0 (it would equal the vented one).
+
+    Parameters
+    ----------
+    cfg : WhiskerConfig
+    genes : dict
+        ``alpha`` [deg], ``l``, ``t`` [mm], ``Q_i`` [MPa] (numbers or numeric strings).
+
+    Returns
+    -------
+    dict of str -> whisker_opt.scene.SceneSpec
+        Keys ``intact``, ``trimmed_uncompensated`` (when Q_i > 0), ``trimmed``.
+
+    Raises
+    ------
+    geometry.design.InvalidDesignError
+        The genome's intact or trimmed geometry is impossible.
+    """
+    from dataclasses import replace
+
+    intact, trimmed = evaluator_from_config(cfg).specs(genes)
+    specs = {"intact": intact}
+    if intact.Q > 0:
+        specs[UNCOMPENSATED] = replace(trimmed, Q=intact.Q)
+    specs["trimmed"] = trimmed
+    return specs
+
+
+def write_design_scenes(out: Path, cfg: WhiskerConfig, genes: dict, specs: dict | None = None) -> dict:
+    """Solve the scenes of a genome (:func:`design_scene_specs`) and write them into ``out``:
+    one VTU per state (:func:`write_scene_vtus`) and ``scenes.json`` with the gauge readings.
+
+    Parameters
+    ----------
+    out : Path
+    cfg : WhiskerConfig
+    genes : dict
+    specs : dict, optional
+        Precomputed :func:`design_scene_specs` of ``genes``.
+
+    Returns
+    -------
+    dict of str -> whisker_opt.scene.SceneResult
+    """
+    specs = design_scene_specs(cfg, genes) if specs is None else specs
+    clean = {k: float(v) for k, v in genes.items() if k in ("alpha", "l", "t", "Q_i")}
+    results, entries = solve_scenes(out, specs, cfg.scene.gauge_variant, genes=clean)
+    (out / "scenes.json").write_text(json.dumps(entries, indent=2, default=float))
+    return results
+
+
 def _finish_best(run_dir: Path, cfg: WhiskerConfig, summary) -> None:
     """Re-run the best design of a run summary with curves and deformed meshes (VTU) into ``run_dir/best``."""
     best_genes = summary.best.get("genes") if isinstance(summary.best, dict) else None
@@ -207,26 +351,16 @@ def _finish_best(run_dir: Path, cfg: WhiskerConfig, summary) -> None:
         return
     import numpy as np
 
-    from fem.io import write_vtu
-    from whisker_opt.scene import run_scene
     from whisker_opt.storage import write_best_curves
 
-    ev = evaluator_from_config(cfg, keep_curves=True)
     try:
-        intact, trimmed = ev.specs(best_genes)
+        specs = design_scene_specs(cfg, best_genes)
     except Exception as exc:  # the best of a run where every design failed
         logger.warning("best design cannot be re-run: %s", exc)
         return
-    out = run_dir / "best"
-    out.mkdir(exist_ok=True)
-    delta = ev.samples()
-    curves = {}
-    for name, spec in (("intact", intact), ("trimmed", trimmed)):
-        res = run_scene(spec, keep_states=True)
-        curves[name] = res.curve(delta, cfg.scene.gauge_variant)
-        for state_name, st in res.states.items():
-            write_vtu(out / f"{name}_{state_name}.vtu", res.mesh.mesh, point_data={"displacement": st.u},
-                      cell_data={"pressure": st.p})
+    results = write_design_scenes(run_dir / "best", cfg, best_genes, specs)
+    delta = evaluator_from_config(cfg).samples()
+    curves = {name: results[name].curve(delta, cfg.scene.gauge_variant) for name in ("intact", "trimmed")}
     write_best_curves(run_dir, np.concatenate([[0.0], delta]), np.concatenate([[0.0], curves["intact"]]),
                       np.concatenate([[0.0], curves["trimmed"]]),
                       f"best design {', '.join(f'{k}={v:.4g}' for k, v in best_genes.items())}")

@@ -281,7 +281,9 @@ def run_scene(spec: SceneSpec, wm: WhiskerMesh | None = None, keep_states: bool 
     wm : WhiskerMesh, optional
         A mesh of ``spec.design``; built when not given.
     keep_states : bool
-        Keep the pressurised and final states (for VTU output).
+        Keep the pressurised and final states and every solved deflection increment
+        (keys ``pressurised``, ``deflected`` and ``delta_<δ>`` with δ in mm to two
+        decimals, e.g. ``delta_1.00``; the last is the ``deflected`` state), for VTU output.
 
     Raises
     ------
@@ -362,7 +364,9 @@ def run_scene(spec: SceneSpec, wm: WhiskerMesh | None = None, keep_states: bool 
     timings["readout"] = t_read[0]
     arr = np.array(readings)
     delta = np.concatenate([[0.0], np.asarray(fractions) * spec.delta_max])
-    kept = {"pressurised": state, "deflected": states2[-1]} if keep_states else None
+    kept = ({"pressurised": state, "deflected": states2[-1],
+             **{f"delta_{f * spec.delta_max:.2f}": st for f, st in zip(fractions, states2)}}
+            if keep_states else None)
     logger.debug("scene %s: %s", design, timings)
     return SceneResult(
         spec=spec,

@@ -27,7 +27,18 @@ What a view shows (issue 6)
 * The design parameters, the scene (Q, trim) and the gauge reading as text.
 
 Side-by-side views (:func:`render`) put one scene per panel with linked cameras and a
-shared colour range: intact at Q_i, trimmed (uncompensated), trimmed vented.
+shared colour range: intact at Q_i, trimmed uncompensated (``trimmed_uncompensated``: the
+trimmed whisker still at Q_i) and trimmed vented (``trimmed`` at Q = 0, the GA's compensated
+state), each with its gauge reading.
+
+Deflection states ``<scene>_delta_<δ>.vtu`` (every solved increment, δ in mm) sit between
+``pressurised`` (δ = 0) and ``deflected`` (the last increment); :meth:`RunContents.select_delta`
+picks every scene at one δ (``--delta``), :meth:`RunContents.delta_steps` orders them for the
+interactive slider (and the ``n`` / ``b`` keys).
+
+For a run directory ``--rank N`` / ``--eval ID`` show another evaluation: its ``eval_<id>/``
+folder, or ``best/`` when it is the best design, else its scenes are solved anew with the
+run's ``config.yaml`` into ``eval_<id>/`` (:func:`evaluation_group`), kept for later views.
 
 Only :func:`require_pyvista` imports pyvista; importing this module does not, so the CLI
 can register the command without the optional ``viewer`` extra installed.
@@ -81,7 +92,19 @@ STATE_ORDER = (
 SCENE_ORDER = (
     "intact", "uncompensated", "trimmed_uncompensated", "trimmed", "vented", "trimmed_vented", "compensated", "scene",
 )
+UNCOMPENSATED = "trimmed_uncompensated"  # the trimmed whisker still at Q_i (whisker_opt.commands.UNCOMPENSATED)
+SCENE_TITLES = {
+    "intact": "intact",
+    "uncompensated": "trimmed, uncompensated",
+    UNCOMPENSATED: "trimmed, uncompensated",
+    "vented": "trimmed, vented",
+    "trimmed_vented": "trimmed, vented",
+    "compensated": "trimmed, compensated",
+}
+DELTA_TOL = 0.0051
+"""Tolerance [mm] matching a requested or file-name δ to a solved one (file names carry δ to 0.01 mm)."""
 CAVITY_MODES = ("clip", "translucent", "hidden")
+FIBRE_COLOURS = ("darkorange", "saddlebrown")  # alternate, so the interleaved helices of a double helix stand apart
 META_FILES = ("scenes.json", "best.json", "config.yaml", "evaluations.csv", "curve.csv")
 
 
@@ -190,20 +213,33 @@ class SceneInfo:
     length_q: float | None = None
     notes: dict = field(default_factory=dict)
 
+    def delta_of(self, state: str) -> float | None:
+        """Deflection δ [mm] of a state: 0 for the pressurised state, δ parsed from names like
+        ``delta_1.50`` (snapped to a solved δ within :data:`DELTA_TOL`), the last solved δ for
+        ``deflected``/``final``; None when unknown (and for the reference state)."""
+        s = state.lower()
+        if s in ("pressurised", "pressurized", "inflated"):
+            return 0.0
+        if s in ("deflected", "final"):
+            return self.delta[-1] if self.delta else None
+        d = _number_in(s) if ("delta" in s or s.startswith("d")) else None
+        if d is None:
+            return None
+        if self.delta:
+            k = int(np.argmin(np.abs(np.asarray(self.delta) - d)))
+            if abs(self.delta[k] - d) <= DELTA_TOL:
+                return self.delta[k]
+        return d
+
     def reading(self, state: str) -> tuple[float, float] | None:
-        """(δ, ε) shown for a state: δ_max for ``deflected``/``final``, 0 for the pressurised state,
-        or δ parsed from names like ``delta_1.5``; None when unknown."""
+        """(δ, ε) shown for a state (δ from :meth:`delta_of`, ε interpolated in the solved
+        readings); None when unknown."""
         if not self.delta or len(self.delta) != len(self.eps):
             return None
-        s = state.lower()
-        if s in ("deflected", "final"):
-            return self.delta[-1], self.eps[-1]
-        if s in ("pressurised", "pressurized", "inflated"):
-            return 0.0, float(np.interp(0.0, self.delta, self.eps))
-        d = _number_in(s)
-        if d is not None and ("delta" in s or s.startswith("d")) and self.delta[0] <= d <= self.delta[-1]:
-            return d, float(np.interp(d, self.delta, self.eps))
-        return None
+        d = self.delta_of(state)
+        if d is None or not (self.delta[0] - DELTA_TOL <= d <= self.delta[-1] + DELTA_TOL):
+            return None
+        return d, float(np.interp(d, self.delta, self.eps))
 
 
 def _float(v: Any) -> float | None:
@@ -225,8 +261,9 @@ def scene_info_from_dict(name: str, d: Mapping[str, Any], defaults: Mapping[str,
     """Build a :class:`SceneInfo` from one ``scenes.json`` entry (tolerant of missing keys).
 
     Recognised keys: ``design`` (dict), ``Q`` or ``Q_MPa``, ``trim``, ``contact_x``,
-    ``gauge`` ({x_ss, e, half_angle_deg}), ``solved_delta_mm`` or ``delta``, ``eps_line`` or
-    ``eps``, ``delta_l_mm``, ``length_q_mm``; ``defaults`` may give ``contact_ratio``.
+    ``gauge`` ({x_ss, e, half_angle_deg}), ``solved_delta_mm`` or ``delta``, ``eps_line`` (or
+    ``eps_centroid`` when ``gauge_variant`` is ``centroid``) or ``eps``, ``delta_l_mm``,
+    ``length_q_mm``; ``defaults`` may give ``contact_ratio``.
     """
     defaults = defaults or {}
     design = d.get("design") if isinstance(d.get("design"), dict) else None
@@ -239,7 +276,8 @@ def scene_info_from_dict(name: str, d: Mapping[str, Any], defaults: Mapping[str,
     elif design and _float(design.get("x_ss")) is not None and _float(design.get("e")) is not None:
         gauge = GaugeSpot(float(design["x_ss"]), float(design["e"]), _float(design.get("gauge_half_angle_deg")) or 20.0)
     delta = d.get("solved_delta_mm", d.get("delta")) or ()
-    eps = d.get("eps_line", d.get("eps")) or ()
+    eps_key = "eps_centroid" if d.get("gauge_variant") == "centroid" and "eps_centroid" in d else "eps_line"
+    eps = d.get(eps_key, d.get("eps")) or ()
     try:
         delta = tuple(float(x) for x in delta)
         eps = tuple(float(x) for x in eps)
@@ -320,7 +358,8 @@ def _section(cfg: Mapping[str, Any], name: str) -> dict[str, Any]:
 def scenes_from_genes(cfg: Mapping[str, Any], genes: Mapping[str, Any],
                       curves: tuple[Sequence[float], Sequence[float], Sequence[float]] | None = None,
                       notes: Mapping[str, Any] | None = None) -> dict[str, SceneInfo]:
-    """The intact (Q = Q_i) and trimmed vented (trim = optimiser.delta_max, Q = 0) scenes of a genome.
+    """The intact (Q = Q_i), trimmed uncompensated (trim = optimiser.delta_max, Q = Q_i; only
+    when Q_i > 0) and trimmed vented (Q = 0) scenes of a genome.
 
     Mirrors :meth:`whisker_opt.evaluator.SceneEvaluator.specs`: the ``design`` section of
     ``cfg`` with ``alpha_deg, l, t`` from the genes ``alpha, l, t``.
@@ -332,7 +371,7 @@ def scenes_from_genes(cfg: Mapping[str, Any], genes: Mapping[str, Any],
     genes : mapping
         ``alpha`` [deg], ``l``, ``t`` [mm], ``Q_i`` [MPa].
     curves : (delta, eps_i, eps_c), optional
-        Gauge responses (e.g. ``best_curves.csv``).
+        Gauge responses of the intact and the vented scene (e.g. ``best_curves.csv``).
     notes : mapping, optional
         Shown as text (f1, F_p, ...).
     """
@@ -350,10 +389,14 @@ def scenes_from_genes(cfg: Mapping[str, Any], genes: Mapping[str, Any],
     trim = _float(_section(cfg, "optimiser").get("delta_max")) or 5.0
     ratio = _float(_section(cfg, "scene").get("contact_ratio")) or 1.0
     out = {}
-    for name, tr, q, k in (("intact", 0.0, _float(genes.get("Q_i")), 1), ("trimmed", trim, 0.0, 2)):
+    q_i = _float(genes.get("Q_i"))
+    cases = [("intact", 0.0, q_i, 1), (UNCOMPENSATED, trim, q_i, None), ("trimmed", trim, 0.0, 2)]
+    for name, tr, q, k in cases:
+        if name == UNCOMPENSATED and not (q_i and q_i > 0):
+            continue
         d = dict(design, trim=tr)
         entry: dict[str, Any] = {"design": d, "Q": q, "trim": tr, "contact_ratio": ratio}
-        if curves is not None:
+        if curves is not None and k is not None:
             entry.update(delta=list(curves[0]), eps=list(curves[k]))
         out[name] = dataclasses.replace(scene_info_from_dict(name, entry), notes=dict(notes or {}))
     return out
@@ -477,6 +520,8 @@ class RunContents:
         for g in ("best", "."):
             if g in gs:
                 return g
+        if not gs:
+            raise ViewerError(f"{self.root}: no *.vtu file found (searched recursively)")
         return gs[0]
 
     def scene_names(self, group: str) -> list[str]:
@@ -524,6 +569,63 @@ class RunContents:
             out.append(hit[0])
         return out
 
+    def delta_of(self, f: StateFile) -> float | None:
+        """Deflection δ [mm] of a state file (:meth:`SceneInfo.delta_of`); None when unknown."""
+        return self.info(f.group, f.scene).delta_of(f.state)
+
+    def select_delta(self, group: str, delta: float, scenes: Sequence[str] | None = None) -> list[StateFile]:
+        """One state per scene at the deflection ``delta`` [mm] (within :data:`DELTA_TOL`).
+
+        Raises
+        ------
+        ViewerError
+            Unknown group or scene, or a scene without a state at ``delta`` (the message
+            lists the deflections it has).
+        """
+        if not math.isfinite(delta) or delta < 0:
+            raise ViewerError(f"delta={delta!r}: must be a finite deflection >= 0 mm")
+        out = []
+        for f in self.select(group, scenes):
+            known = [(d, x) for x in self.states(group, f.scene) if (d := self.delta_of(x)) is not None]
+            best = min(known, key=lambda dx: abs(dx[0] - delta), default=None)
+            if best is None or abs(best[0] - delta) > DELTA_TOL:
+                have = sorted({round(d, 4) for d, _ in known})
+                raise ViewerError(
+                    f"{self.root / group}: scene {f.scene!r} has no state at delta={delta:g} mm; "
+                    + (f"states exist at delta = {have} mm" if have else
+                       f"no state with a known deflection (states: {[x.state for x in self.states(group, f.scene)]})")
+                )
+            out.append(best[1])
+        return out
+
+    def delta_steps(self, group: str,
+                    scenes: Sequence[str] | None = None) -> list[tuple[float | None, list[StateFile]]]:
+        """The steps of the δ slider: ``(δ, one state per scene)``, increasing δ.
+
+        Every δ at which some selected scene has a state is a step; a scene without a state
+        there shows its state at the largest δ below. When a scene has a (non-reference)
+        state of unknown δ (no metadata), steps go by index instead (step k: each scene's
+        k-th state, its last when it has fewer) with δ None.
+        """
+        chosen = self.select(group, scenes)
+        per = []
+        for f in chosen:
+            sts = self.states(group, f.scene)
+            ds = [self.delta_of(x) for x in sts]
+            per.append((sts, {round(d, 6): x for d, x in reversed(list(zip(ds, sts))) if d is not None},
+                        any(d is None and x.state != "reference" for d, x in zip(ds, sts))))
+        if any(unknown or not known for _, known, unknown in per):
+            n = max(len(sts) for sts, _, _ in per)
+            return [(None, [sts[min(k, len(sts) - 1)] for sts, _, _ in per]) for k in range(n)]
+        steps = []
+        for d in sorted(set().union(*(known for _, known, _ in per))):
+            files = []
+            for _, known, _ in per:
+                below = [k for k in known if k <= d]
+                files.append(known[max(below)] if below else known[min(known)])
+            steps.append((d, files))
+        return steps
+
     def describe(self) -> str:
         """Multi-line listing of groups, scenes and states."""
         lines = [f"{self.root}"]
@@ -543,13 +645,16 @@ class RunContents:
         return "\n".join(lines)
 
 
-def discover(source: str | Path) -> RunContents:
+def discover(source: str | Path, allow_empty: bool = False) -> RunContents:
     """Find the VTU states and metadata of a results directory or a single VTU file.
 
     Parameters
     ----------
     source : path-like
         A directory searched recursively for ``*.vtu``, or one ``.vtu`` file.
+    allow_empty : bool
+        Accept a directory without VTU files (a run directory whose evaluations are to be
+        re-run, :func:`evaluation_group`).
 
     Returns
     -------
@@ -571,9 +676,11 @@ def discover(source: str | Path) -> RunContents:
         root, vtus, single = source.parent, [source], True
     else:
         root = source
-        vtus = sorted(p for p in source.rglob("*.vtu") if p.is_file() and not p.name.startswith("."))
+        # hidden files and folders (e.g. a re-run in progress, .eval_12.partial/) are not results
+        vtus = sorted(p for p in source.rglob("*.vtu")
+                      if p.is_file() and not any(part.startswith(".") for part in p.relative_to(source).parts))
         single = False
-        if not vtus:
+        if not vtus and not allow_empty:
             present = sorted(p.name for p in source.iterdir())[:20]
             raise FileNotFoundError(
                 f"{source}: no *.vtu file found (searched recursively); it holds {present}. "
@@ -664,6 +771,97 @@ def group_for_evaluation(contents: RunContents, eval_id: str | int) -> str:
             f"folders with VTU files: {contents.groups}"
         )
     return hits[0]
+
+
+GENE_NAMES = ("alpha", "l", "t", "Q_i")
+
+
+def _same_design(best: Mapping[str, Any] | None, row: Mapping[str, Any]) -> bool:
+    """Whether ``best.json`` describes the evaluation ``row`` (same eval_id, else same genes)."""
+    if not best:
+        return False
+    if best.get("eval_id") is not None and str(row.get("eval_id", "")).strip():
+        return str(best["eval_id"]).strip() == str(row["eval_id"]).strip()
+    genes = best.get("genes")
+    if not isinstance(genes, Mapping):
+        return False
+    pairs = [(_float(genes.get(k)), _float(row.get(k))) for k in GENE_NAMES]
+    return all(a is not None and b is not None and math.isclose(a, b, rel_tol=1e-9, abs_tol=1e-12) for a, b in pairs)
+
+
+def evaluation_group(contents: RunContents, row: Mapping[str, Any], rerun: bool = True) -> tuple[RunContents, str]:
+    """The group holding the meshes of an evaluation, solving its scenes when none are stored.
+
+    Looked for in order: a folder named like ``eval_<id>`` (:func:`group_for_evaluation`);
+    ``best`` when ``best.json`` describes this evaluation; else, with ``rerun``, the
+    evaluation's scenes (intact at Q_i, trimmed uncompensated, trimmed vented) are solved
+    with the run's ``config.yaml`` by :func:`whisker_opt.commands.write_design_scenes` into
+    ``eval_<id>/`` of the run directory (through a hidden ``.eval_<id>.partial/`` folder
+    renamed when complete), where later views find them.
+
+    Parameters
+    ----------
+    contents : RunContents
+        A run directory of ``whisker-opt run``.
+    row : mapping
+        The evaluation's row of ``evaluations.csv`` (:func:`evaluation_row`).
+    rerun : bool
+        Solve the scenes when no meshes are stored (else :class:`ViewerError`).
+
+    Returns
+    -------
+    contents, group
+        ``contents`` re-discovered after a re-run.
+
+    Raises
+    ------
+    ViewerError
+        No stored meshes and ``rerun`` is False, genes that are not numbers, or the
+        scenes cannot be solved (invalid geometry, unconverged solve).
+    FileNotFoundError
+        A re-run without the run's ``config.yaml``.
+    """
+    eid = str(row.get("eval_id", "")).strip()
+    try:
+        return contents, group_for_evaluation(contents, eid)
+    except ViewerError:
+        if _same_design(contents.best, row) and "best" in contents.groups:
+            return contents, "best"
+        if not rerun:
+            raise
+    root = contents.root
+    where = f"{root / 'evaluations.csv'}: evaluation {eid or '?'}"
+    genes = {}
+    for k in GENE_NAMES:
+        genes[k] = _float(row.get(k))
+        if genes[k] is None:
+            raise ViewerError(f"{where}: gene {k}={row.get(k)!r} is not a number; cannot re-run its scenes")
+    cfg_path = root / "config.yaml"
+    if not cfg_path.is_file():
+        raise FileNotFoundError(f"{cfg_path}: no such file; re-running the scenes of evaluation {eid} needs the "
+                                "run's config")
+    from whisker_opt import commands
+    from whisker_opt.config import ConfigError, load_config
+
+    final = root / f"eval_{eid or '_'.join(f'{genes[k]:.6g}' for k in GENE_NAMES)}"
+    tmp = root / f".{final.name}.partial"
+    logger.warning("%s (status %s, F_p %s): no meshes stored; re-running its scenes (%s) into %s, "
+                   "kept there for later views", where, row.get("status", "?"), row.get("F_p", "?"),
+                   ", ".join(f"{k}={v:.5g}" for k, v in genes.items()), final)
+    shutil.rmtree(tmp, ignore_errors=True)
+    try:
+        commands.write_design_scenes(tmp, load_config(cfg_path), genes)
+    except ConfigError as exc:
+        raise ViewerError(f"{cfg_path}: {exc}") from exc
+    except Exception as exc:  # noqa: BLE001 - invalid geometry, unconverged solve, mesher failure
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise ViewerError(f"{where}: its scenes cannot be re-run ({type(exc).__name__}: {exc})") from exc
+    final.mkdir(exist_ok=True)  # it may exist without VTU files; nothing in it is overwritten but ours
+    for f in tmp.iterdir():
+        f.replace(final / f.name)
+    tmp.rmdir()
+    contents = discover(root)
+    return contents, final.name
 
 
 # ============================================================================ fields
@@ -1124,9 +1322,31 @@ def prepare_state(
         if sec.n_points:
             outline = sec.extract_feature_edges(boundary_edges=True, feature_edges=False, manifold_edges=False,
                                                 non_manifold_edges=False)
-    title = info.name + (f" · {state}" if state else "")
+    title = scene_title(info) + (f" · {state_title(info, state)}" if state else "")
     return StateView(title, grid, warped, outer, cavity, edge_poly, outline, disp, float(scale), info, state, path,
                      cut_z)
+
+
+def scene_title(info: SceneInfo) -> str:
+    """A scene's role as a panel title: ``intact``, ``trimmed, uncompensated`` (trimmed, still
+    at Q_i), ``trimmed, vented`` (a trimmed scene at Q = 0), else the scene name."""
+    if info.name in SCENE_TITLES:
+        return SCENE_TITLES[info.name]
+    if info.name == "trimmed" and info.Q == 0.0:
+        return "trimmed, vented"
+    return info.name
+
+
+def state_title(info: SceneInfo, state: str) -> str:
+    """A state as a panel title: ``delta_2.00`` becomes ``delta = 2 mm``, the pressurised state
+    of a scene at Q = 0 ``not pressurised (Q = 0)``; other names unchanged."""
+    if state.lower() in ("pressurised", "pressurized", "inflated") and info.Q == 0.0:
+        return "not pressurised (Q = 0)"
+    if state.lower().startswith("delta"):
+        d = info.delta_of(state)
+        if d is not None:
+            return f"delta = {d:.3g} mm"
+    return state
 
 
 def displaced(sv: StateView, points_ref: np.ndarray) -> np.ndarray:
@@ -1324,7 +1544,8 @@ def add_state(
         for k, line in enumerate(fibre_lines(sv)):
             line = _clip(line, clip, sv.cut_z)
             if line is not None and line.n_points:
-                plotter.add_mesh(line.tube(radius=r_tube, n_sides=10), color="darkorange", name=f"{prefix}fibre{k}")
+                plotter.add_mesh(line.tube(radius=r_tube, n_sides=10), color=FIBRE_COLOURS[k % len(FIBRE_COLOURS)],
+                                 name=f"{prefix}fibre{k}")
     if show_gauge:
         patch = gauge_patch(sv)  # drawn whole even when the body is cut: it is a marker
         if patch is not None and patch.n_points:
@@ -1521,6 +1742,7 @@ def interactive_plotter(
     layout: str = "auto",
     camera: str = "iso",
     start: int | None = None,
+    step_values: Sequence[float] | None = None,
     **kw,
 ) -> tuple[Any, Callable[[int], None]]:
     """A plotter that steps through states with a slider and the keys ``n`` / ``b``.
@@ -1528,9 +1750,13 @@ def interactive_plotter(
     Parameters
     ----------
     series : sequence of sequence of StateView
-        ``series[k]`` are the panels shown at step k (e.g. every scene at its k-th state).
+        ``series[k]`` are the panels shown at step k (e.g. every scene at its k-th state,
+        or every scene at the k-th deflection).
     start : int, optional
         Initial step (default the last).
+    step_values : sequence of float, optional
+        The deflection δ [mm] of each step: the slider then runs over δ and snaps to the
+        nearest step (default: over the step index).
 
     Returns
     -------
@@ -1557,8 +1783,16 @@ def interactive_plotter(
     if len(series[0]) > 1:
         p.link_views()
     if len(series) > 1:
-        p.add_slider_widget(set_step, [0, len(series) - 1], value=current["k"], title="state (n / b keys)",
-                            pointa=(0.55, 0.92), pointb=(0.95, 0.92), fmt="%.0f", style="modern")
+        if step_values is not None:
+            if len(step_values) != len(series):
+                raise ViewerError(f"step_values: {len(step_values)} values for {len(series)} steps")
+            vals = np.asarray(step_values, dtype=float)
+            p.add_slider_widget(lambda v: set_step(int(np.argmin(np.abs(vals - v)))), [vals[0], vals[-1]],
+                                value=vals[current["k"]], title="delta [mm] (n / b keys)", pointa=(0.55, 0.92),
+                                pointb=(0.95, 0.92), fmt="%.2f", style="modern")
+        else:
+            p.add_slider_widget(set_step, [0, len(series) - 1], value=current["k"], title="state (n / b keys)",
+                                pointa=(0.55, 0.92), pointb=(0.95, 0.92), fmt="%.0f", style="modern")
         p.add_key_event("n", lambda: set_step(current["k"] + 1))
         p.add_key_event("b", lambda: set_step(current["k"] - 1))
     return p, set_step
@@ -1628,15 +1862,33 @@ def load_views(
     scenes: Sequence[str] | None = None,
     state: str | None = None,
     notes: Mapping[str, Any] | None = None,
+    files: Sequence[StateFile] | None = None,
     **kw,
 ) -> list[StateView]:
-    """:func:`prepare_state` for one state of each selected scene of a group."""
+    """:func:`prepare_state` for one state of each selected scene of a group.
+
+    Parameters
+    ----------
+    contents : RunContents
+    group : str
+    scenes : sequence of str, optional
+        Default: every scene of the group.
+    state : str, optional
+        See :meth:`RunContents.select`.
+    notes : mapping, optional
+        Added to each scene's text.
+    files : sequence of StateFile, optional
+        The states to load (overrides ``group``, ``scenes`` and ``state``), e.g. from
+        :meth:`RunContents.select_delta`.
+    **kw
+        Passed to :func:`prepare_state` (``c10`` defaults to the run's).
+    """
     out = []
-    for f in contents.select(group, scenes, state):
-        info = contents.info(group, f.scene)
+    kw.setdefault("c10", contents.c10)
+    for f in (contents.select(group, scenes, state) if files is None else files):
+        info = contents.info(f.group, f.scene)
         if notes:
             info = dataclasses.replace(info, notes={**info.notes, **notes})
-        kw.setdefault("c10", contents.c10)
         out.append(prepare_state(f.path, info=info, state=f.state, **kw))
     return out
 
@@ -1651,8 +1903,13 @@ def _view_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scene", action="append", default=None,
                    help="scene(s) to show (repeatable; default all, side by side)")
     p.add_argument("--state", default=None, help="state to show, e.g. pressurised or deflected (default: the last)")
+    p.add_argument("--delta", type=float, default=None, metavar="MM",
+                   help="show every scene at this solved deflection [mm] (0 = pressurised); in a window, the "
+                        "slider and the n / b keys step through the deflections")
     p.add_argument("--rank", type=int, default=None, help="show the N-th best design of a run (1 = best)")
-    p.add_argument("--eval", dest="eval_id", default=None, help="show the evaluation with this eval_id")
+    p.add_argument("--eval", dest="eval_id", default=None,
+                   help="show the evaluation with this eval_id (with --rank: its scenes are solved into "
+                        "RUN_DIR/eval_<id>/ when the run stored no meshes for it)")
     p.add_argument("--group", default=None,
                    help="sub-folder of the results holding the VTU files (default: best/ or the root)")
     p.add_argument("--scale", type=float, default=1.0, help="displacement magnification (default 1 = true scale)")
@@ -1678,17 +1935,19 @@ def _view_run(args: argparse.Namespace) -> int:
 
 
 def _view_main(args: argparse.Namespace) -> int:
-    contents = discover(args.source)
+    other = args.rank is not None or args.eval_id is not None
+    if args.rank is not None and args.eval_id is not None:
+        raise ViewerError("--rank and --eval are exclusive; give one")
+    # --rank/--eval: a run directory may hold no meshes yet (they are solved on demand)
+    contents = discover(args.source, allow_empty=other and not args.list)
     if args.list:
         print(contents.describe())
         return 0
     notes: dict[str, Any] = {}
-    group = args.group or contents.default_group()
-    if args.rank is not None or args.eval_id is not None:
-        if args.rank is not None and args.eval_id is not None:
-            raise ViewerError("--rank and --eval are exclusive; give one")
+    group = args.group or (None if other else contents.default_group())
+    if other:
         row = evaluation_row(contents.root, rank=args.rank, eval_id=args.eval_id)
-        group = group_for_evaluation(contents, row.get("eval_id", ""))
+        contents, group = evaluation_group(contents, row)
         notes = {"eval_id": row.get("eval_id"), "F_p": row.get("F_p"), "f1": row.get("f1")}
         if not contents.scenes.get(group):  # no scenes.json there: the design from config + genes
             contents.scenes[group] = scenes_from_genes(contents.config, row)
@@ -1706,32 +1965,30 @@ def _view_main(args: argparse.Namespace) -> int:
     pv = require_pyvista()
     # headless: VTK first tries X and warns before falling back to EGL; keep only its errors
     quiet = pv.vtk_verbosity("error") if headless else contextlib.nullcontext()
+    if args.state is not None and args.delta is not None:
+        raise ViewerError("--state and --delta are exclusive; give one")
     if screenshot is not None:
-        views = load_views(contents, group, args.scene, args.state, notes, scale=args.scale)
+        files = None if args.delta is None else contents.select_delta(group, args.delta, args.scene)
+        views = load_views(contents, group, args.scene, args.state, notes, files=files, scale=args.scale)
         with quiet:
             out = render(views, args.field, screenshot=screenshot, window_size=ws, layout=args.layout,
                          camera=args.camera, **kw)
         print(f"screenshot written to {out}")
         out_dir = Path(out).parent
     else:
-        chosen = contents.select(group, args.scene, args.state)  # validates the names
         if args.state is not None:
-            files_per_step = [chosen]
-        else:  # step k shows every scene at its k-th state (its last one when it has fewer)
-            per_scene = [contents.states(group, f.scene) for f in chosen]
-            n = max(len(s) for s in per_scene)
-            files_per_step = [[sts[min(k, len(sts) - 1)] for sts in per_scene] for k in range(n)]
-        series = []
-        for files in files_per_step:
-            step = []
-            for f in files:
-                info = contents.info(group, f.scene)
-                if notes:
-                    info = dataclasses.replace(info, notes={**info.notes, **notes})
-                step.append(prepare_state(f.path, info=info, state=f.state, scale=args.scale, c10=contents.c10))
-            series.append(step)
+            steps = [(None, contents.select(group, args.scene, args.state))]
+        else:  # step k shows every scene at the k-th deflection (or its k-th state)
+            steps = contents.delta_steps(group, args.scene)
+        start = None
+        if args.delta is not None:
+            at = contents.select_delta(group, args.delta, args.scene)  # validates the deflection
+            start = next((k for k, (_, files) in enumerate(steps) if files == at), None)
+        series = [load_views(contents, group, notes=notes, files=files, scale=args.scale) for _, files in steps]
+        values = [d for d, _ in steps]
         p, _ = interactive_plotter(series, args.field, off_screen=False, window_size=ws, layout=args.layout,
-                                   camera=args.camera, **kw)
+                                   camera=args.camera, start=start,
+                                   step_values=None if None in values else values, **kw)
         p.show()
         out_dir = contents.root
     if args.plots:
