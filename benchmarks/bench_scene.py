@@ -29,9 +29,10 @@ from whisker_opt.scene import SceneSpec, run_scene
 def evaluation(preset: str, design: WhiskerDesign):
     sizing = MeshSizing.preset(preset)
     n = PRESETS[preset].n_deflection_steps
+    n_p = PRESETS[preset].n_pressure_steps  # as the GA evaluates (whisker_opt.commands.spec_for)
     t = time.perf_counter()
-    r_i = run_scene(SceneSpec(design, Q=0.2, sizing=sizing, n_deflection_steps=n))
-    r_c = run_scene(SceneSpec(design.trimmed(5.0) if hasattr(design, "trimmed") else design, Q=0.0, sizing=sizing,
+    r_i = run_scene(SceneSpec(design, Q=0.2, sizing=sizing, n_pressure_steps=n_p, n_deflection_steps=n))
+    r_c = run_scene(SceneSpec(design.trimmed(5.0), Q=0.0, sizing=sizing, n_pressure_steps=n_p,
                               n_deflection_steps=n))
     wall = time.perf_counter() - t
     br = {}

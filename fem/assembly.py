@@ -29,6 +29,7 @@ from fem.pressure import PressureKernel
 from fem.problem import Problem
 from fem.quadrature import tet_rule, tri_rule
 from fem.sparsity import Pattern, build_pattern
+from fem.tensor3 import det3, det_inv3
 from fem.truss import TrussKernel
 
 logger = logging.getLogger(__name__)
@@ -159,18 +160,17 @@ class Assembler:
         F[..., 0, 0] += 1.0
         F[..., 1, 1] += 1.0
         F[..., 2, 2] += 1.0
-        J = np.linalg.det(F)  # (n_el, n_qp)
+        J, G = det_inv3(F)  # (n_el, n_qp), (n_el, n_qp, 3, 3)
         if not np.all(np.isfinite(J)) or np.any(J <= 0):
             bad = int(np.sum(~(J > 0)))
             raise InvertedElements(bad, float(np.nanmin(J)) if np.any(np.isfinite(J)) else float("nan"))
-        G = np.linalg.inv(F)  # (n_el, n_qp, 3, 3)
         return F, J, G
 
     def min_jacobian(self, u: np.ndarray) -> float:
         """Smallest det F over all quadrature points (may be ≤ 0)."""
         ue = u[self.topo.cells]
         F = np.einsum("eai,eqaJ->eqiJ", ue, self.topo.dNdX) + np.eye(3)
-        return float(np.min(np.linalg.det(F)))
+        return float(np.min(det3(F)))
 
     # ------------------------------------------------------------------ energy
     def energy(self, u: np.ndarray, p: np.ndarray, pressures=()) -> float:

@@ -176,8 +176,15 @@ def make_problem(wm: WhiskerMesh, spec: SceneSpec, band_nodes: np.ndarray | None
     )
 
 
-def locate_gauge(wm: WhiskerMesh, design: WhiskerDesign, n: int = 4) -> GaugeGeometry:
-    """Host elements and local coordinates of the gauge's Gauss points and its centre."""
+def locate_gauge(wm: WhiskerMesh, design: WhiskerDesign, n: int = 16) -> GaugeGeometry:
+    """Host elements and local coordinates of the gauge's Gauss points and its centre.
+
+    ``n`` Gauss–Legendre points along the gauge: the axial strain is piecewise
+    polynomial and discontinuous across the elements the gauge crosses, so few points
+    integrate it poorly. Measured on the default design (Q = 0, δ = 5 mm, swept meshes
+    of 1128–9648 elements): 4 points differ from 64 by up to 0.46 % of the reading,
+    16 points by at most 0.05 %.
+    """
     from geometry.locate import PointLocator
 
     pts, w, tangent = gauge_points(design.x_ss, design.e, design.r_outer, design.alpha_deg, n)
