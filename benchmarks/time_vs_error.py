@@ -1,0 +1,407 @@
+"""Run time against error of the whisker scene (issue #7): what each setting and shortcut buys.
+
+One *evaluation* is what the GA pays per design (SPEC §6): the intact whisker at
+Q_i = 0.2 MPa and the same design trimmed by 5 mm and vented, contact at the tip, δ to
+5 mm. Its wall time (meshing included) is set against the relative errors of
+
+(a) Δl, the axial extension at Q = 0.2 MPa (intact scene);
+(b) ε(5 mm), the calibrated gauge reading (line variant) of the intact scene;
+(c) f1 = mean over δ_k = 0.01 … 5 mm of |ε_i(δ_k) − ε_c(δ_k)| (the definition of
+    :class:`whisker_opt.evaluator.SceneEvaluator`, curves by its spline);
+
+against references extrapolated (Richardson) from the finest levels of a mesh study.
+
+Configurations (families)
+-------------------------
+``mesh``
+    Structured swept meshes (``mesh_method="swept"``), level k = 1 … 4:
+    ``wall_layers = k``, ``n_theta = 8, 10, 12, 16``, ``axial_pitch_fraction = 0.5/k``,
+    ``h_body = 10/k`` (nominal size h = 1/k), 10 deflection and 2 pressure steps, the
+    default solver options. The reference of each quantity is the Richardson
+    extrapolation of the three finest levels (observed order p from their ratio; p = 2,
+    the P2 rate, from the two finest when the three are not monotone).
+``preset``
+    The fidelity presets coarse / default / fine (``whisker_opt.fidelity``; template
+    meshes).
+``increments``
+    The default preset with 2, 3, 10, 20 deflection steps (5 is the preset).
+``rtol``
+    The default preset with Newton tolerance ``SolveOptions.rtol`` = 1e-4, 1e-6, 1e-10.
+``shortcut``
+    The default preset without one shortcut each: swept mesh instead of the mapped
+    template; a fresh fTetWild mesh (1 thread); full Newton (``reuse_tangent = 0``)
+    instead of the modified Newton; no secant predictor (``extrapolate = False``); and
+    with one extra shortcut, loose intermediate increments (``intermediate_rtol = 1e-4``).
+Element order is not a variable: the solver has the 10-node tetrahedron only.
+
+``--ccx`` adds CalculiX on the default preset's mesh of the default design: CalculiX has
+no embedded trusses and no hybrid elements, so both codes solve that mesh *without
+fibres*, at Q = 0, D1 = 2/(1000 μ) (K/μ = 1000), tip face pushed 5 mm in 10 increments;
+the row gives both times and the difference of ε(5 mm) (our mixed P2/P0 formulation
+against C3D10). Skipped when ``ccx`` is not on PATH.
+
+Outputs (``--out``, default ``results/benchmarks/time_vs_error/``): ``runs.csv`` (one row
+per evaluation, appended as it finishes), ``errors.csv`` and ``errors.md`` (errors against
+the references, Pareto flags), ``time_vs_error.png`` (log–log, Pareto front as a line,
+presets as stars). Printed: the table and whether the ``default`` preset is on or near
+(error within 2× of the front at its run time) the Pareto front.
+
+Usage::
+
+    python3 benchmarks/time_vs_error.py --quick      # default design, levels 1-3, ~8 min
+    python3 benchmarks/time_vs_error.py [--ccx]      # default design + 2 GA-box corners
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+import time
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _bench_common import (  # noqa: E402
+    D1_K1000,
+    append_csv,
+    design_from_genes,
+    markdown_table,
+    preset_spec,
+    read_csv,
+    report_stats,
+)
+
+logger = logging.getLogger("time_vs_error")
+
+#: designs: the thesis' default and two opposite corners of the GA box (α, l, t)
+DESIGNS = {
+    "default": (2.862, 15.0, 3.0),
+    "slim-thin": (6.0, 15.0, 2.0),
+    "stout-thick": (2.5, 10.0, 6.0),
+}
+Q_I = 0.2
+TRIM = 5.0
+QUANTITIES = ("delta_l", "eps5", "f1")
+N_THETA = {1: 8, 2: 10, 3: 12, 4: 16}
+
+
+@dataclass(frozen=True)
+class Config:
+    """One scene configuration (applied to both scenes of an evaluation).
+
+    Attributes
+    ----------
+    name : str
+        Label, unique within the run.
+    family : str
+        'mesh', 'preset', 'increments', 'rtol' or 'shortcut'.
+    preset : str
+        Fidelity preset the other settings start from.
+    overrides : dict
+        SceneSpec fields replacing the preset's (sizing, mesh_method, step counts).
+    solve : dict
+        SolveOptions fields replacing the preset's.
+    level : int
+        Mesh level k of the 'mesh' family (0 otherwise).
+    """
+
+    name: str
+    family: str
+    preset: str = "default"
+    overrides: dict = field(default_factory=dict, hash=False)
+    solve: dict = field(default_factory=dict, hash=False)
+    level: int = 0
+
+
+def mesh_level(k: int) -> Config:
+    """Swept mesh of level k (nominal size 1/k), 10 deflection and 2 pressure steps."""
+    from geometry.mesh import MeshSizing
+
+    sizing = MeshSizing(wall_layers=float(k), n_theta=N_THETA[k], axial_pitch_fraction=0.5 / k, h_body=10.0 / k,
+                        name=f"level{k}")
+    return Config(f"mesh L{k}", "mesh", overrides={"sizing": sizing, "mesh_method": "swept",
+                                                   "n_deflection_steps": 10, "n_pressure_steps": 2}, level=k)
+
+
+def configs(quick: bool) -> list[Config]:
+    """The configurations of a run (quick: levels 1-3 and a few variations)."""
+    levels = (1, 2, 3) if quick else (1, 2, 3, 4)
+    out = [mesh_level(k) for k in levels]
+    out += [Config(p, "preset", preset=p) for p in (("coarse", "default") if quick else ("coarse", "default", "fine"))]
+    out += [Config(f"{n} defl. steps", "increments", overrides={"n_deflection_steps": n})
+            for n in ((3,) if quick else (2, 3, 10, 20))]
+    out += [Config(f"rtol {r:g}", "rtol", solve={"rtol": r}) for r in ((1e-5,) if quick else (1e-4, 1e-6, 1e-10))]
+    out += [Config("full Newton", "shortcut", solve={"reuse_tangent": 0.0}),
+            Config("swept mesh", "shortcut", overrides={"mesh_method": "swept"})]
+    if not quick:
+        out += [Config("fresh mesh", "shortcut", overrides={"mesh_method": "fresh"}),
+                Config("no predictor", "shortcut", solve={"extrapolate": False}),
+                Config("interm. rtol 1e-4", "shortcut", solve={"intermediate_rtol": 1e-4})]
+    return out
+
+
+def evaluate(design_name: str, cfg: Config) -> dict:
+    """One evaluation (intact at Q_i + trimmed vented) of a design under ``cfg``; its row.
+
+    Meshes are built here (fresh fTetWild meshes with one thread), so the time includes
+    meshing as in the GA; f1 uses the evaluator's own samples and curve interpolation.
+    """
+    from geometry.mesh import build_mesh
+    from whisker_opt.evaluator import SceneEvaluator
+    from whisker_opt.scene import run_scene
+
+    alpha, l, t = DESIGNS[design_name]
+    base = preset_spec(design_from_genes(alpha, l, t), cfg.preset, **cfg.overrides)
+    if cfg.solve:
+        base = replace(base, solve_options=replace(base.solve_options, **cfg.solve))
+    ev = SceneEvaluator(base, delta_max_trim=TRIM)
+    intact, trimmed = ev.specs({"alpha": alpha, "l": l, "t": t, "Q_i": Q_I})
+    t0 = time.perf_counter()
+    results, n_el, stats = {}, 0, []
+    for name, spec in (("intact", intact), ("trimmed", trimmed)):
+        wm = build_mesh(spec.design, spec.sizing, method=spec.mesh_method, num_threads=1)
+        n_el = n_el or wm.mesh.n_elements
+        results[name] = run_scene(spec, wm)
+        stats.append(report_stats(results[name].reports))
+        if name == "intact":
+            t_intact = time.perf_counter() - t0
+    wall = time.perf_counter() - t0
+    delta = ev.samples()
+    f1 = float(np.mean(np.abs(results["intact"].curve(delta, ev.gauge_variant)
+                              - results["trimmed"].curve(delta, ev.gauge_variant))))
+    return {"design": design_name, "config": cfg.name, "family": cfg.family, "level": cfg.level,
+            "n_elements": n_el, "time_s": wall, "time_intact_s": t_intact,
+            "iterations": sum(s["iterations"] for s in stats), "increments": sum(s["increments"] for s in stats),
+            "delta_l": results["intact"].delta_l, "eps5": float(results["intact"].eps_line[-1]), "f1": f1}
+
+
+# ----------------------------------------------------------------------------- analysis
+def richardson(h, q) -> tuple[float, float, str]:
+    """Extrapolate q(h) → h = 0 from the three finest levels (h decreasing).
+
+    Model q = q∞ + C h^p. The order p solves (q₁ − q₂)/(q₂ − q₃) = (h₁^p − h₂^p)/(h₂^p − h₃^p)
+    (bisection on p ∈ [0.25, 8]); when the differences change sign or no p fits, p = 2
+    (the P2 rate) from the two finest levels.
+
+    Returns
+    -------
+    q_ref : float
+    p : float
+    note : str
+        'observed' or 'assumed p=2'.
+    """
+    h = np.asarray(h, float)[-3:]
+    q = np.asarray(q, float)[-3:]
+    if len(h) < 2:
+        raise ValueError("richardson: need at least two levels")
+    if len(h) == 3:
+        d1, d2 = q[0] - q[1], q[1] - q[2]
+        if d1 * d2 > 0 and abs(d2) > 0:
+            target = d1 / d2
+
+            def g(p):
+                return (h[0] ** p - h[1] ** p) / (h[1] ** p - h[2] ** p) - target
+
+            lo, hi = 0.25, 8.0
+            if g(lo) * g(hi) < 0:
+                for _ in range(100):
+                    mid = 0.5 * (lo + hi)
+                    lo, hi = (mid, hi) if g(lo) * g(mid) > 0 else (lo, mid)
+                p = 0.5 * (lo + hi)
+                return float(q[2] - d2 * h[2] ** p / (h[1] ** p - h[2] ** p)), float(p), "observed"
+    p = 2.0
+    return float(q[-1] + (q[-1] - q[-2]) * h[-1] ** p / (h[-2] ** p - h[-1] ** p)), p, "assumed p=2"
+
+
+def pareto(times, errors) -> np.ndarray:
+    """Boolean mask of the non-dominated points (no other point is at least as fast and as accurate, one strictly)."""
+    t, e = np.asarray(times, float), np.asarray(errors, float)
+    mask = np.ones(len(t), bool)
+    for i in range(len(t)):
+        better = (t <= t[i]) & (e <= e[i]) & ((t < t[i]) | (e < e[i]))
+        mask[i] = not better.any()
+    return mask
+
+
+def front_ratio(times, errors, i) -> float:
+    """Error of point i over the best error reached in no more time by any point (1 = on the front)."""
+    t, e = np.asarray(times, float), np.asarray(errors, float)
+    best = e[t <= t[i]].min()
+    return float(e[i] / best) if best > 0 else (1.0 if e[i] == 0 else float("inf"))
+
+
+ERR_FLOOR = 1e-9  # errors below this (the reference level itself) are drawn at the floor
+
+
+def analyse(rows: list[dict]) -> tuple[list[dict], dict]:
+    """Errors of every row against its design's Richardson references; references by design."""
+    out, refs = [], {}
+    for dname in dict.fromkeys(r["design"] for r in rows):
+        mine = [r for r in rows if r["design"] == dname]
+        levels = sorted((r for r in mine if r["family"] == "mesh"), key=lambda r: int(r["level"]))
+        if len(levels) < 2:
+            logger.warning("design %s: fewer than two mesh levels, no reference", dname)
+            continue
+        h = [1.0 / int(r["level"]) for r in levels]
+        refs[dname] = {q: richardson(h, [float(r[q]) for r in levels]) for q in QUANTITIES}
+        for r in mine:
+            e = {f"err_{q}": abs(float(r[q]) - refs[dname][q][0]) / abs(refs[dname][q][0]) for q in QUANTITIES}
+            out.append({**r, **e})
+        times = [float(r["time_s"]) for r in out if r["design"] == dname]
+        mine_out = [r for r in out if r["design"] == dname]
+        for q in QUANTITIES:
+            errs = [max(r[f"err_{q}"], ERR_FLOOR) for r in mine_out]
+            mask = pareto(times, errs)
+            for i, r in enumerate(mine_out):
+                r[f"front_{q}"] = bool(mask[i])
+                r[f"ratio_{q}"] = front_ratio(times, errs, i)
+    return out, refs
+
+
+def plot(rows: list[dict], path: Path) -> None:
+    """Log–log error against time, one row of panels per design, Pareto front as a line."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    designs = list(dict.fromkeys(r["design"] for r in rows))
+    fams = list(dict.fromkeys(r["family"] for r in rows))
+    colours = dict(zip(fams, plt.rcParams["axes.prop_cycle"].by_key()["color"]))
+    fig, axes = plt.subplots(len(designs), 3, figsize=(14, 4 * len(designs)), squeeze=False)
+    titles = {"delta_l": "(a) Δl at Q = 0.2 MPa", "eps5": "(b) ε(5 mm)", "f1": "(c) f1 (intact 0.2 / trimmed 5)"}
+    for i, dname in enumerate(designs):
+        mine = [r for r in rows if r["design"] == dname]
+        for j, q in enumerate(QUANTITIES):
+            ax = axes[i, j]
+            t = np.array([float(r["time_s"]) for r in mine])
+            e = np.array([max(float(r[f"err_{q}"]), ERR_FLOOR) for r in mine])
+            for fam in fams:
+                sel = [k for k, r in enumerate(mine) if r["family"] == fam and fam != "preset"]
+                if sel:
+                    ax.scatter(t[sel], e[sel], color=colours[fam], label=fam, s=22)
+            front = sorted(k for k, r in enumerate(mine) if r[f"front_{q}"])
+            front.sort(key=lambda k: t[k])
+            ax.step(t[front], e[front], where="post", color="k", lw=1, alpha=0.6, label="Pareto front")
+            for k, r in enumerate(mine):
+                if r["family"] == "preset":
+                    ax.scatter(t[k], e[k], marker="*", s=160, color=colours["preset"], edgecolor="k", zorder=5)
+                    ax.annotate(r["config"], (t[k], e[k]), textcoords="offset points", xytext=(5, 5), fontsize=8)
+            ax.set_xscale("log")
+            ax.set_yscale("log")
+            ax.set_xlabel("evaluation wall time [s]")
+            ax.set_ylabel("relative error")
+            ax.set_title(f"{dname}: {titles[q]}", fontsize=10)
+            ax.grid(True, which="both", alpha=0.3)
+            if i == 0 and j == 0:
+                ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+# ----------------------------------------------------------------------------- CalculiX
+def ccx_point() -> dict | None:
+    """Our solver and CalculiX on the default preset's mesh of the default design, no fibres."""
+    from fem.calculix import CcxCase, ccx_available, run_ccx
+    from geometry.mesh import build_mesh
+    from whisker_opt.gauge import GaugeReader
+    from whisker_opt.scene import locate_gauge, run_scene
+
+    if not ccx_available():
+        print("ccx not on PATH: CalculiX point skipped")
+        return None
+    design = design_from_genes(*DESIGNS["default"], n_fibres=0)
+    spec = preset_spec(design, "default", Q=0.0, d1=D1_K1000, n_deflection_steps=10)
+    wm = build_mesh(design, spec.sizing, method=spec.mesh_method)
+    t = time.perf_counter()
+    ours = run_scene(spec, wm)
+    t_ours = time.perf_counter() - t
+    base, tip = wm.node_sets["base"], wm.node_sets["tip"]
+    case = CcxCase(wm.mesh.points, wm.mesh.cells, spec.c10, spec.d1,
+                   boundary=tuple((base, k, 0.0) for k in range(3)) + ((tip, 1, -spec.delta_max),),
+                   n_increments=10, direct=False, print_reactions=False)
+    try:
+        res = run_ccx(case, threads=1, cleanup=True, timeout=1800)
+    except Exception as exc:  # noqa: BLE001 - a CalculiX failure is reported, not fatal
+        print(f"CalculiX failed: {exc}")
+        return {"t_ours": t_ours, "t_ccx": float("nan"), "eps_ours": float(ours.eps_line[-1]),
+                "eps_ccx": float("nan"), "rel_diff": float("nan"), "n_elements": wm.mesh.n_elements}
+    reader = GaugeReader(wm.mesh, locate_gauge(wm, design), spec.calibration)
+    reader.zero(np.zeros_like(res.displacements))
+    eps_ccx = float(reader.read(res.displacements)[0])
+    eps = float(ours.eps_line[-1])
+    return {"t_ours": t_ours, "t_ccx": res.wall_time, "eps_ours": eps, "eps_ccx": eps_ccx,
+            "rel_diff": (eps - eps_ccx) / eps_ccx, "n_elements": wm.mesh.n_elements}
+
+
+# ----------------------------------------------------------------------------- main
+RUN_FIELDS = ["design", "config", "family", "level", "n_elements", "time_s", "time_intact_s", "iterations",
+              "increments", "delta_l", "eps5", "f1"]
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--quick", action="store_true", help="default design, mesh levels 1-3, a few variations")
+    ap.add_argument("--out", type=Path, default=Path("results/benchmarks/time_vs_error"))
+    ap.add_argument("--ccx", action="store_true", help="add the CalculiX comparison point")
+    ap.add_argument("--fresh", action="store_true", help="discard the rows of an earlier run in --out")
+    args = ap.parse_args(argv)
+    logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
+    args.out.mkdir(parents=True, exist_ok=True)
+    path = args.out / "runs.csv"
+    if args.fresh:
+        path.unlink(missing_ok=True)
+    designs = ["default"] if args.quick else list(DESIGNS)
+    cfgs = configs(args.quick)
+    done = {(r["design"], r["config"]) for r in read_csv(path)}
+    todo = [(d, c) for d in designs for c in cfgs if (d, c.name) not in done]
+    print(f"{len(designs) * len(cfgs)} evaluations ({len(todo)} to run) -> {path}")
+    t0 = time.perf_counter()
+    for i, (d, c) in enumerate(todo, 1):
+        row = evaluate(d, c)
+        append_csv(path, row, RUN_FIELDS)
+        print(f"[{i:>2}/{len(todo)}] {d:<12} {c.name:<18} {row['n_elements']:>6} el {row['time_s']:7.1f} s  "
+              f"dl {row['delta_l']:.6f}  eps5 {row['eps5']:.6f}  f1 {row['f1']:.6e}  "
+              f"({time.perf_counter() - t0:.0f} s)", flush=True)
+    wanted = {(d, c.name) for d in designs for c in cfgs}
+    rows = [r for r in read_csv(path) if (r["design"], r["config"]) in wanted]
+    table, refs = analyse(rows)
+    cols = ["design", "config", "n_elements", "time_s", "err_delta_l", "err_eps5", "err_f1",
+            "front_delta_l", "front_eps5", "front_f1"]
+    lines = ["# Run time against error", "", "References (Richardson, three finest mesh levels):", ""]
+    for dname, ref in refs.items():
+        lines.append(f"- {dname}: " + "; ".join(f"{q} = {v:.7g} (p = {p:.2f}, {note})" for q, (v, p, note) in ref.items()))
+    lines += ["", markdown_table(table, cols), ""]
+    verdicts = []
+    for r in table:
+        if r["config"] == "default":
+            for q in QUANTITIES:
+                ratio = r[f"ratio_{q}"]
+                state = "on the front" if r[f"front_{q}"] else ("near the front" if ratio <= 2 else "OFF the front")
+                verdicts.append(f"- {r['design']}, {q}: default preset {state} (error {r[f'err_{q}']:.2e}, "
+                                f"{ratio:.2f}x the best error reached in ≤ {float(r['time_s']):.1f} s)")
+    lines += ["## Is `default` on the Pareto front?", ""] + verdicts + [""]
+    if args.ccx:
+        cp = ccx_point()
+        if cp is not None:
+            lines += ["## CalculiX (default preset mesh, no fibres, Q = 0, K/μ = 1000, δ = 5 mm)", "",
+                      markdown_table([cp], list(cp)), ""]
+    text = "\n".join(lines)
+    (args.out / "errors.md").write_text(text + "\n")
+    if table:
+        ecols = RUN_FIELDS + [k for k in table[0] if k not in RUN_FIELDS]
+        (args.out / "errors.csv").unlink(missing_ok=True)
+        for r in table:
+            append_csv(args.out / "errors.csv", r, ecols)
+        plot(table, args.out / "time_vs_error.png")
+    print(text)
+    print(f"written {args.out}/errors.md, errors.csv, time_vs_error.png")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
