@@ -321,7 +321,9 @@ def ccx_point() -> dict | None:
     ours = run_scene(spec, wm)
     t_ours = time.perf_counter() - t
     base, tip = wm.node_sets["base"], wm.node_sets["tip"]
-    case = CcxCase(wm.mesh.points, wm.mesh.cells, spec.c10, spec.d1,
+    # fem.calculix writes repr(float): a coordinate like -1.4473103847089728e-15 exceeds CalculiX's
+    # 20-character field ("*ERROR reading *NODE"); rounding to 1e-12 mm keeps every field short
+    case = CcxCase(np.round(wm.mesh.points, 12), wm.mesh.cells, spec.c10, spec.d1,
                    boundary=tuple((base, k, 0.0) for k in range(3)) + ((tip, 1, -spec.delta_max),),
                    n_increments=10, direct=False, print_reactions=False)
     try:
