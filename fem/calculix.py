@@ -352,8 +352,14 @@ def element_faces(cells: np.ndarray, faces6: np.ndarray) -> tuple[np.ndarray, np
 
 
 def _fmt(x: float) -> str:
-    """Shortest round-tripping float text (at most ~24 characters)."""
-    return repr(float(x))
+    """Float text that fits CalculiX's 20-character fields.
+
+    The shortest round-tripping text when it fits; otherwise 13 significant digits
+    (relative rounding ≤ 5e-13). ``repr`` of e.g. −1.4473103847089728e-15 has 23
+    characters and CalculiX rejects the deck.
+    """
+    s = repr(float(x))
+    return s if len(s) <= 20 else f"{float(x):.13g}"
 
 
 def _write_id_lines(f, ids: np.ndarray) -> None:

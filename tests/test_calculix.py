@@ -352,3 +352,13 @@ def test_element_faces_inverts_boundary_faces():
     np.testing.assert_array_equal(lab, local[order] + 1)
     with pytest.raises(ValueError, match="not element faces"):
         element_faces(cells, np.array([[0, 1, 2, 3, 4, 5]]) + len(points) - 6)
+
+
+def test_deck_numbers_fit_calculix_fields():
+    """CalculiX reads at most 20 characters per field; long reprs are rounded to 13 digits."""
+    from fem.calculix import _fmt
+
+    for v in (-1.4473103847089728e-15, 1.0 / 3.0, -123456.78901234567, -2.2250738585072014e-308, 0.1, 70.0):
+        s = _fmt(v)
+        assert len(s) <= 20
+        assert abs(float(s) - v) <= 5e-13 * abs(v)

@@ -100,3 +100,26 @@ def test_memo_returns_identical_result(runner):
     a = runner.run(s)
     hits = runner.memo_hits
     assert runner.run(s) is a and runner.memo_hits == hits + 1
+
+
+def test_contact_band_moves_to_nearest_ring_within_limit(caplog):
+    """A pressurised whisker shifts its node rings by ~Δl: the band falls back to the
+    nearest nodes (warning) within 5 % of the length, and refuses a larger shift."""
+    from geometry.mesh import build_mesh
+    from whisker_opt.scene import contact_band
+
+    d = WhiskerDesign()
+    wm = build_mesh(d, COARSE)
+    X = wm.mesh.points
+    ring = 0.5 * d.length
+    assert np.any(np.abs(X[:, 0] - ring) < 1e-9)  # the mesh has a ring at a = 0.5
+    u = np.zeros_like(X)
+    u[:, 0] = np.where(X[:, 0] > d.l, 2.2, 0.0)  # rigid shift of everything past the chamber
+    nodes = contact_band(wm, np.zeros_like(X), ring, 1.0, at_tip=False)
+    assert np.allclose(X[nodes, 0], ring, atol=0.5)
+    with caplog.at_level("WARNING"):
+        moved = contact_band(wm, u, ring, 0.2, at_tip=False)
+    assert "holds no node" in caplog.text
+    assert np.all(np.abs(X[moved, 0] + u[moved, 0] - ring) <= 2.2 + 0.1 + 1e-9)
+    with pytest.raises(ValueError, match="beyond the allowed shift"):
+        contact_band(wm, u, ring, 0.2, at_tip=False, max_shift=0.5)
