@@ -179,3 +179,101 @@ def test_compare_sensitivity(tmp_path):
     rows = list(csv.DictReader(paths["csv"].open()))
     assert len(rows) == 6 and float(rows[0]["rel_diff"]) == pytest.approx(1 / 1.1 - 1)
     assert paths["png"].stat().st_size > 1000
+
+
+# ----------------------------------------------------------------------------- point measures
+def test_table_measures_at_reference_deflection(tmp_path):
+    # non-linear stand-in: ε = S(Q) δ / (1 + 0.15 δ); the point measures at δ = 1 mm by hand
+    d, trim = WhiskerDesign(), 4.0
+
+    def resp(design, Q, deltas):
+        deltas = np.asarray(deltas, dtype=float)
+        return beam.sensitivity(design, 1.0, Q) * deltas / (1.0 + 0.15 * deltas)
+
+    table = comp.compensation_table(d, 0.2, trim, resp, step=trim, method="root", xatol=1e-7)
+    pm = table.measures_at(1.0)
+    so = beam.sensitivity(d, 1.0, 0.2) / 1.15
+    sb = beam.sensitivity(d.trimmed(trim), 1.0, 0.2) / 1.15
+    sc = beam.sensitivity(d.trimmed(trim), 1.0, table.rows[1].Q) / 1.15
+    np.testing.assert_allclose([pm["eps_target"][1], pm["eps_broken"][1], pm["eps_compensated"][1]], [so, sb, sc],
+                               rtol=1e-12)
+    assert pm["recovery_rate"][1] == pytest.approx((1 - abs((sc - so) / (sb - so))) * 100, rel=1e-12)
+    assert np.isnan(pm["recovery_rate"][0])  # Δ = 0: nothing to recover
+    with pytest.raises(ValueError, match="not a sample"):
+        table.measures_at(1.1)
+    paths = comp.write_table(tmp_path, table, delta_ref=1.0)
+    rows = list(csv.DictReader(paths["csv"].open()))
+    assert float(rows[1]["delta_ref_mm"]) == 1.0
+    assert float(rows[1]["eps_b_ref"]) == pytest.approx(sb, rel=1e-9)
+    assert float(rows[1]["recovery_rate_ref_pct"]) == pytest.approx(pm["recovery_rate"][1], rel=1e-9)
+    assert float(rows[1]["eps_b_mean"]) == pytest.approx(np.mean(table.rows[1].eps_broken), rel=1e-9)
+    meta = json.loads(paths["json"].read_text())
+    assert meta["delta_ref_mm"] == 1.0 and len(meta["curves"][1]["eps_c"]) == table.deltas.size
+
+
+# ----------------------------------------------------------------------------- the command
+class _FakeResult:
+    def __init__(self, spec, model):
+        self.spec, self.model = spec, model
+        self.delta_l = beam.chamber_extension(spec.design, spec.Q, model)
+
+    def curve(self, deltas, variant="line"):
+        s = beam.sensitivity(self.spec.design, self.spec.contact_ratio, self.spec.Q, self.model)
+        return s * np.asarray(deltas, dtype=float)
+
+
+class _FakeRunner:
+    """SceneRunner stand-in: the beam model (ξ = 3.9) as the 'FE' scene; records the specs it ran."""
+
+    specs: list = []
+
+    def __init__(self, *a, **k):
+        self.model = BeamModel(calibration=3.9)
+
+    def run(self, spec, keep_states=False):
+        _FakeRunner.specs.append(spec)
+        return _FakeResult(spec, self.model)
+
+
+def test_compensate_command_writes_table_and_comparison(tmp_path, monkeypatch, capsys):
+    from whisker_opt import scene
+    from whisker_opt.cli import main
+
+    monkeypatch.setattr(scene, "SceneRunner", _FakeRunner)
+    _FakeRunner.specs = []
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text("fidelity:\n  preset: coarse\nscene:\n  Q: 0.2\noptimiser:\n  delta_max: 4.0\n")
+    out = tmp_path / "out"
+    assert main(["compensate", str(cfg), "--step", "2", "--out", str(out), "--compare-a", "0.5", "1",
+                 "--compare-Q", "0", "0.2"]) == 0
+    for name in ("compensation_table.csv", "compensation_table.png", "sensitivity_comparison.csv",
+                 "sensitivity_comparison.png"):
+        assert (out / name).stat().st_size > 100, name
+    rows = list(csv.DictReader((out / "compensation_table.csv").open()))
+    assert [float(r["trim_mm"]) for r in rows] == [0.0, 2.0, 4.0]
+    # 'FE' = beam with the same ξ: both compensation pressures agree (root method, xatol 1e-4 MPa)
+    for r in rows[1:]:
+        assert abs(float(r["Q_minus_Q_analytic_MPa"])) < 2e-4
+        assert float(r["recovery_rate_ref_pct"]) > 99.0
+    cmp = list(csv.DictReader((out / "sensitivity_comparison.csv").open()))
+    assert len(cmp) == 4 and max(abs(float(r["rel_diff"])) for r in cmp) < 1e-12
+    # off-tip contact: the mesh's contact ring placed at f·L with f·L + Δl = a·(L + Δl)
+    off = [s for s in _FakeRunner.specs if s.contact_ratio < 1.0]
+    assert {s.Q for s in off} == {0.0, 0.2}
+    for s in off:
+        dl = beam.chamber_extension(s.design, s.Q, BeamModel(calibration=3.9))
+        (f,) = s.sizing.contact_fractions
+        assert f * 70.0 + dl == pytest.approx(0.5 * (70.0 + dl), abs=1e-12)
+    assert "max |relative difference| = 0.0%" in capsys.readouterr().out
+
+
+def test_scene_sensitivity_off_tip_contact_coarse_fe():
+    """Real coarse FE at a = 0.5, Q = 0.1: the contact band finds the moved ring (it found no node before)."""
+    from whisker_opt.commands import scene_sensitivity
+    from whisker_opt.config import WhiskerConfig
+    from whisker_opt.scene import SceneRunner
+
+    cfg = WhiskerConfig.model_validate({"fidelity": {"preset": "coarse"}})
+    s = scene_sensitivity(cfg, SceneRunner(), 1.0)(WhiskerDesign(), 0.5, 0.1)
+    # measured 0.05414 1/mm (coarse, 2026); the beam model reads 0.06842 (26 % above)
+    assert 0.045 < s < 0.062

@@ -419,17 +419,74 @@ def _report_run(args: argparse.Namespace) -> int:
 
 
 # ----------------------------------------------------------------------------- compensate
+def scene_response(cfg: WhiskerConfig, runner):
+    """``response(design, Q, deltas) -> ε(δ)``: the config's scene at ``cfg.scene.contact_ratio``.
+
+    ``runner`` is a :class:`whisker_opt.scene.SceneRunner` (its memo shares scenes between calls).
+    """
+    import numpy as np
+
+    def response(d, Q, deltas):
+        res = runner.run(scene_spec_from_config(cfg, d, float(Q)))
+        return res.curve(np.asarray(deltas, dtype=float), cfg.scene.gauge_variant)
+
+    return response
+
+
+def scene_sensitivity(cfg: WhiskerConfig, runner, delta_ref: float = 1.0):
+    """``sensitivity(design, a, Q) -> ε(δ_ref)/δ_ref`` [1/mm] from the config's scene at contact ratio a.
+
+    The scene pushes at x = a·L_Q of the pressurised whisker, while the mesh's contact
+    node ring sits at f·L of the reference length (``MeshSizing.contact_fractions``) and
+    moves to f·L + Δl(Q) when pressurised; with the coarse body elements (h_body = 10 mm)
+    the 1 mm contact band then holds no node at Q > 0 (measured: a = 0.5, Q = 0.1 ->
+    "contact band ... holds no node"). For a < 1 the ring is therefore placed where the
+    contact will be, f·L + Δl = a·(L + Δl), with Δl the tip extension of the same whisker
+    at Q from its a = 1 scene (the body beyond the chamber only translates). A sizing with
+    such a fraction has no template mesh, so ``mesh_method='auto'`` builds the swept mesh
+    (at a = 1 it reads 0.6-0.7 % above the template mesh, coarse preset, Q = 0 and 0.2).
+    """
+    import dataclasses
+
+    import numpy as np
+
+    def sensitivity(d, a, Q):
+        spec = scene_spec_from_config(cfg, d, float(Q))
+        if a < 1.0:
+            dl = runner.run(spec).delta_l
+            f = (a * (d.length + dl) - dl) / d.length
+            spec = dataclasses.replace(spec, contact_ratio=float(a),
+                                       sizing=dataclasses.replace(spec.sizing, contact_fractions=(f,)))
+        eps = runner.run(spec).curve(np.array([delta_ref]), cfg.scene.gauge_variant)
+        return float(eps[0]) / delta_ref
+
+    return sensitivity
+
+
 def _compensate_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("config", type=Path, help="YAML run file (design, scene.Q = Q_i, optimiser.delta_max = largest trim)")
     p.add_argument("--step", type=float, default=1.0, help="trim step of the table [mm]")
+    p.add_argument("--delta-ref", type=float, default=1.0,
+                   help="deflection of the point measures and of the sensitivity ε(δ)/δ [mm] (SPEC §8: 1)")
+    p.add_argument("--compare-a", type=float, nargs="+", default=[0.5, 0.75, 1.0], metavar="A",
+                   help="contact ratios of the beam-vs-FE sensitivity comparison")
+    p.add_argument("--compare-Q", type=float, nargs="+", default=[0.0, 0.1, 0.2], metavar="Q",
+                   help="pressures [MPa] of the beam-vs-FE sensitivity comparison")
+    p.add_argument("--no-compare", action="store_true", help="skip the beam-vs-FE sensitivity comparison")
     p.add_argument("--out", type=Path, default=None, help="output directory")
 
 
 def _compensate_run(args: argparse.Namespace) -> int:
+    """Δ → Q table (FE, with the analytic Q beside it) and the beam-vs-FE sensitivity comparison.
+
+    Writes ``compensation_table.{csv,json,png}`` and, unless ``--no-compare``,
+    ``sensitivity_comparison.{csv,png}`` and prints both. The FE deflection samples are
+    δ_max/10 … δ_max (10 points), with ``--delta-ref`` added if missing.
+    """
     import numpy as np
 
     from whisker_opt.beam import BeamModel
-    from whisker_opt.compensation import compensation_table, write_table
+    from whisker_opt.compensation import compare_sensitivity, compensation_table, write_comparison, write_table
     from whisker_opt.ga_config import OptimiserConfig
     from whisker_opt.scene import SceneRunner
 
@@ -437,19 +494,45 @@ def _compensate_run(args: argparse.Namespace) -> int:
     opt = cfg.optimiser or OptimiserConfig()
     if cfg.scene.Q <= 0:
         raise ConfigError(f"{args.config}: scene.Q: the intact pressure Q_i must be > 0 for compensation (got {cfg.scene.Q})")
+    dref = float(args.delta_ref)
+    if not 0.0 < dref <= cfg.scene.delta_max:
+        raise ConfigError(f"--delta-ref {dref:g}: must lie in (0, scene.delta_max = {cfg.scene.delta_max:g}] mm")
+    bad_a = [a for a in args.compare_a if not 0.0 < a <= 1.0]
+    bad_q = [q for q in args.compare_Q if q < 0.0]
+    if bad_a or bad_q:
+        raise ConfigError(f"--compare-a must lie in (0, 1] (got {bad_a}), --compare-Q must be >= 0 (got {bad_q})")
     runner = SceneRunner()
     design = design_from_config(cfg, 0.0)
+    model = BeamModel(calibration=cfg.scene.calibration)
+    deltas = np.linspace(cfg.scene.delta_max / 10, cfg.scene.delta_max, 10)
+    if not np.any(np.abs(deltas - dref) <= 1e-9):
+        deltas = np.sort(np.append(deltas, dref))
 
-    def response(d, Q, deltas):
-        res = runner.run(scene_spec_from_config(cfg, d, float(Q)))
-        return res.curve(np.asarray(deltas), cfg.scene.gauge_variant)
+    response = scene_response(cfg, runner)
+    fe_sensitivity = scene_sensitivity(cfg, runner, dref)
 
     out = args.out or new_run_dir(cfg, args.config, "compensate")
-    table = compensation_table(design, cfg.scene.Q, opt.delta_max, response, step=args.step,
-                               deltas=np.linspace(cfg.scene.delta_max / 10, cfg.scene.delta_max, 10),
-                               method="root", analytic_model=BeamModel(calibration=cfg.scene.calibration))
-    paths = write_table(out, table)
-    print((out / "compensation_table.csv").read_text())
+    t0 = time.perf_counter()
+    table = compensation_table(design, cfg.scene.Q, opt.delta_max, response, step=args.step, deltas=deltas,
+                               method="root", analytic_model=model)
+    paths = write_table(out, table, delta_ref=dref)
+    t_table = time.perf_counter() - t0
+    print(f"compensation table of {design.describe()}, Q_i = {cfg.scene.Q:g} MPa ({t_table:.0f} s)")
+    print(paths["csv"].read_text())
+    print(f"monotone (Q non-increasing in Δ): {table.is_monotone()}")
+    if not args.no_compare:
+        t0 = time.perf_counter()
+        cmp = compare_sensitivity(design, fe_sensitivity, a_values=args.compare_a, Q_values=args.compare_Q,
+                                  model=model)
+        cpaths = write_comparison(out, cmp)
+        paths.update({f"comparison_{k}": v for k, v in cpaths.items()})
+        print(f"beam vs FE gauge sensitivity ε(δ={dref:g} mm)/δ [1/mm] ({time.perf_counter() - t0:.0f} s); "
+              f"rows a, columns Q [MPa]: beam / FE / (beam-FE)/FE")
+        for i, ai in enumerate(cmp.a):
+            cells = "  ".join(f"Q={qj:g}: {cmp.beam[i, j]:.5f} / {cmp.fe[i, j]:.5f} / "
+                              f"{100 * cmp.relative_difference[i, j]:+.1f}%" for j, qj in enumerate(cmp.Q))
+            print(f"  a={ai:g}  {cells}")
+        print(f"max |relative difference| = {100 * cmp.max_abs_relative_difference:.1f}%")
     print(f"written to {out} ({', '.join(str(p) for p in paths.values())})")
     return 0
 

@@ -379,6 +379,9 @@ class CompensationRow:
     at_bound: str | None
     Q_analytic: float = float("nan")
     analytic_root_found: bool | None = None
+    eps_target: tuple[float, ...] = ()
+    eps_broken: tuple[float, ...] = ()
+    eps_compensated: tuple[float, ...] = ()
 
     @property
     def Q_difference(self) -> float:
@@ -425,6 +428,32 @@ class CompensationTable:
     def is_monotone(self, tol: float = 1e-6) -> bool:
         """Q non-increasing in Δ (larger trims need lower vent pressure), within ``tol`` [MPa]."""
         return bool(np.all(np.diff(self.pressures) <= tol))
+
+    def curves(self, which: Literal["target", "broken", "compensated"]) -> np.ndarray:
+        """ε(δ) of every row on :attr:`deltas`, shape (n_rows, n_delta) (NaN rows if not stored)."""
+        out = np.full((len(self.rows), self.deltas.size), np.nan)
+        for i, r in enumerate(self.rows):
+            v = getattr(r, f"eps_{which}")
+            if len(v) == self.deltas.size:
+                out[i] = v
+        return out
+
+    def measures_at(self, delta: float) -> dict[str, np.ndarray]:
+        """The SPEC §7 measures on the readings at one deflection δ (e.g. 1 mm, as SPEC §8 uses).
+
+        ``delta`` must be one of :attr:`deltas` (within 1e-9 mm). Returns arrays over the
+        rows: ``eps_target``, ``eps_broken``, ``eps_compensated`` (ε at δ), ``recovery_rate``
+        and ``compensation_error`` [%] (NaN where nothing is to recover, e.g. Δ = 0).
+        """
+        k = np.flatnonzero(np.abs(self.deltas - float(delta)) <= 1e-9)
+        if k.size == 0:
+            raise ValueError(f"measures_at: δ = {delta!r} mm is not a sample of the table "
+                             f"(deltas = {np.array2string(self.deltas, precision=4)})")
+        o, b, c = (self.curves(w)[:, k[0]] for w in ("target", "broken", "compensated"))
+        rec = np.array([recovery_rate(*v) for v in zip(o, b, c)])
+        err = np.array([compensation_error(*v) for v in zip(o, b, c)])
+        return {"eps_target": o, "eps_broken": b, "eps_compensated": c, "recovery_rate": rec,
+                "compensation_error": err}
 
 
 def compensation_table(design: WhiskerDesign, Q_i: float, delta_max: float, response: ResponseFn, *,
@@ -477,7 +506,9 @@ def compensation_table(design: WhiskerDesign, Q_i: float, delta_max: float, resp
         rows.append(CompensationRow(trim=tr, Q=r.Q, recovery_rate=r.recovery_rate,
                                     compensation_error=r.compensation_error, gap_before=r.gap_before,
                                     gap_after=r.gap_after, at_bound=r.at_bound, Q_analytic=qa,
-                                    analytic_root_found=found))
+                                    analytic_root_found=found, eps_target=tuple(map(float, r.eps_target)),
+                                    eps_broken=tuple(map(float, r.eps_broken)),
+                                    eps_compensated=tuple(map(float, r.eps_compensated))))
     table = CompensationTable(design=design.trimmed(0.0), Q_i=float(Q_i), rows=tuple(rows), deltas=ds, scalar=scalar)
     if not table.is_monotone():
         logger.warning("compensation table not monotone in Δ: Q = %s", np.array2string(table.pressures, precision=5))
@@ -485,7 +516,9 @@ def compensation_table(design: WhiskerDesign, Q_i: float, delta_max: float, resp
 
 
 _TABLE_COLUMNS = ("trim_mm", "Q_MPa", "recovery_rate_pct", "compensation_error_pct", "gap_before", "gap_after",
-                  "at_bound", "Q_analytic_MPa", "Q_minus_Q_analytic_MPa", "analytic_root_found")
+                  "at_bound", "Q_analytic_MPa", "Q_minus_Q_analytic_MPa", "analytic_root_found",
+                  "eps_o_mean", "eps_b_mean", "eps_c_mean", "delta_ref_mm", "eps_o_ref", "eps_b_ref", "eps_c_ref",
+                  "recovery_rate_ref_pct", "compensation_error_ref_pct")
 
 
 def _fmt(v) -> str:
@@ -498,12 +531,27 @@ def _fmt(v) -> str:
     return f"{float(v):.10g}"
 
 
-def write_table(path_dir, table: CompensationTable) -> dict[str, Path]:
-    """Write a compensation table: ``compensation_table.csv``, ``.json`` (metadata) and ``.png``.
+def _reference_delta(table: CompensationTable, delta_ref: float | None) -> float | None:
+    """``delta_ref`` if it is a sample of the table, else None (with a log line)."""
+    if delta_ref is None:
+        return None
+    if np.any(np.abs(table.deltas - float(delta_ref)) <= 1e-9):
+        return float(delta_ref)
+    logger.warning("write_table: δ_ref = %g mm is not a deflection sample; point measures left out", delta_ref)
+    return None
 
-    CSV columns: trim_mm, Q_MPa, recovery_rate_pct, compensation_error_pct, gap_before,
-    gap_after, at_bound ('lower'/'upper'/''), Q_analytic_MPa, Q_minus_Q_analytic_MPa,
-    analytic_root_found. Empty/NaN where not applicable (Δ = 0 has nothing to recover).
+
+def write_table(path_dir, table: CompensationTable, delta_ref: float | None = 1.0) -> dict[str, Path]:
+    """Write a compensation table: ``compensation_table.csv``, ``.json`` (metadata, curves) and ``.png``.
+
+    CSV columns: trim_mm, Q_MPa, recovery_rate_pct, compensation_error_pct (on the table's
+    scalar, default the curve mean), gap_before, gap_after, at_bound ('lower'/'upper'/''),
+    Q_analytic_MPa, Q_minus_Q_analytic_MPa, analytic_root_found; the curve means
+    eps_o_mean, eps_b_mean, eps_c_mean (intact at Q_i, trimmed at Q_i, trimmed at Q); and
+    the readings and SPEC §7 measures at the single deflection delta_ref_mm (eps_o_ref,
+    eps_b_ref, eps_c_ref, recovery_rate_ref_pct, compensation_error_ref_pct; SPEC §8
+    compares at δ = 1 mm). Empty/NaN where not applicable (Δ = 0 has nothing to recover;
+    no point columns when ``delta_ref`` is None or not a sample of the table).
 
     Returns
     -------
@@ -514,17 +562,27 @@ def write_table(path_dir, table: CompensationTable) -> dict[str, Path]:
     out.mkdir(parents=True, exist_ok=True)
     paths = {"csv": out / "compensation_table.csv", "json": out / "compensation_table.json",
              "png": out / "compensation_table.png"}
+    means = {w: np.nanmean(table.curves(w), axis=1) if table.deltas.size else np.full(len(table.rows), np.nan)
+             for w in ("target", "broken", "compensated")}
+    dref = _reference_delta(table, delta_ref)
+    nan = np.full(len(table.rows), np.nan)
+    pm = table.measures_at(dref) if dref is not None else {
+        k: nan for k in ("eps_target", "eps_broken", "eps_compensated", "recovery_rate", "compensation_error")}
     with paths["csv"].open("w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(_TABLE_COLUMNS)
-        for r in table.rows:
-            w.writerow([_fmt(v) for v in (r.trim, r.Q, r.recovery_rate, r.compensation_error, r.gap_before,
-                                          r.gap_after, r.at_bound, r.Q_analytic, r.Q_difference,
-                                          r.analytic_root_found)])
+        for i, r in enumerate(table.rows):
+            w.writerow([_fmt(v) for v in (
+                r.trim, r.Q, r.recovery_rate, r.compensation_error, r.gap_before, r.gap_after, r.at_bound,
+                r.Q_analytic, r.Q_difference, r.analytic_root_found, means["target"][i], means["broken"][i],
+                means["compensated"][i], dref if dref is not None else float("nan"), pm["eps_target"][i],
+                pm["eps_broken"][i], pm["eps_compensated"][i], pm["recovery_rate"][i], pm["compensation_error"][i])])
     meta = {
         "design": table.design.as_dict(), "Q_i_MPa": table.Q_i, "scalar": table.scalar,
-        "deltas_mm": [float(d) for d in table.deltas], "monotone": table.is_monotone(),
+        "deltas_mm": [float(d) for d in table.deltas], "monotone": table.is_monotone(), "delta_ref_mm": dref,
         "measures": "SPEC §7; recovery = (1-|(e_c-e_o)/(e_b-e_o)|)*100, error = |(e_c-e_o)/(e_b-e_o)|*100",
+        "curves": [{"trim_mm": r.trim, "Q_MPa": r.Q, "eps_o": list(r.eps_target), "eps_b": list(r.eps_broken),
+                    "eps_c": list(r.eps_compensated)} for r in table.rows],
     }
     paths["json"].write_text(json.dumps(meta, indent=2))
 
@@ -543,10 +601,15 @@ def write_table(path_dir, table: CompensationTable) -> dict[str, Path]:
     ax1.set_ylim(bottom=0.0)
     ax1.legend(fontsize=8)
     ax1.set_title(f"Δ → Q  (Q_i = {table.Q_i:g} MPa)")
-    ax2.plot(tr, table.column("recovery_rate"), "o-")
+    ax2.plot(tr, table.column("recovery_rate"), "o-", label=f"curve {table.scalar}")
+    if dref is not None:
+        ax2.plot(tr, pm["recovery_rate"], "s--", label=f"at δ = {dref:g} mm")
+    ax2.axhline(85.0, color="0.6", lw=0.8, ls=":")
     ax2.set_xlabel("trim Δ [mm]")
     ax2.set_ylabel("recovery rate [%]")
-    ax2.set_title(f"recovery (scalar: {table.scalar})")
+    ax2.set_ylim(0.0, 105.0)
+    ax2.legend(fontsize=8)
+    ax2.set_title("recovery rate (SPEC §7)")
     fig.savefig(paths["png"], dpi=120)
     logger.info("wrote compensation table to %s", out)
     return paths
