@@ -64,6 +64,7 @@ class PardisoSolver:
     strategies = ("matching", "perturb")
 
     def __init__(self, tol: float = 1e-9) -> None:
+        _mkl_rt_name()  # before the import: pypardiso searches for MKL at import time
         import pypardiso  # noqa: F401  (ImportError -> fallback in make_solver)
 
         self.tol = tol
@@ -229,21 +230,30 @@ class PardisoSolver:
 
 @functools.lru_cache(maxsize=1)
 def _mkl_rt_name() -> str | None:
-    """Path of the MKL runtime pypardiso loads (its search is slow, so it is done once per process)."""
+    """Path of the MKL runtime for pypardiso, found once per process.
+
+    pypardiso searches ``sys.prefix`` recursively when ``find_library`` fails, and does
+    so at import (it builds a module-level solver): ~1.2 s per process here. The pip
+    layout (``<prefix>/lib/libmkl_rt.so*``) is tried first, non-recursively, and
+    exported as pypardiso's documented ``PYPARDISO_MKL_RT`` (unless the user set it)
+    so the import skips the search.
+    """
+    import ctypes
     import glob
+    import os
     import sys
 
-    import pypardiso
-
-    # the usual pip layout first (non-recursive); pypardiso's own search otherwise
+    if os.environ.get("PYPARDISO_MKL_RT"):
+        return os.environ["PYPARDISO_MKL_RT"]
     for path in sorted(glob.glob(f"{sys.prefix}/lib/libmkl_rt.so*"), key=len):
         try:
-            import ctypes
-
             ctypes.CDLL(path)
-            return path
         except OSError:  # pragma: no cover - broken install
             continue
+        os.environ["PYPARDISO_MKL_RT"] = path
+        return path
+    import pypardiso  # pragma: no cover - other layouts: pypardiso's own search
+
     return getattr(pypardiso.PyPardisoSolver().libmkl, "_name", None)  # pragma: no cover
 
 

@@ -13,7 +13,7 @@ from fem.quadrature import tet_rule, tri_rule
 from geometry import analytic
 from geometry import boundary as bd
 from geometry.design import InvalidDesignError, WhiskerDesign
-from geometry.mesh import MeshSizing, TemplateError, WhiskerMesh, build_mesh
+from geometry.mesh import FIBRE_DS_MAX, MeshSizing, TemplateError, WhiskerMesh, build_mesh
 from geometry.quality import radius_ratio
 from geometry.swept import core_radius
 from geometry.template import TEMPLATE_DIR, available_sizings, load_templates, map_points, select_template
@@ -33,7 +33,7 @@ def test_templates_are_shipped_and_small():
         assert select_template(WhiskerDesign(), MeshSizing.preset(name)) is not None
 
 
-@pytest.mark.parametrize(("preset", "lo", "hi"), [("coarse", 800, 1500), ("default", 1500, 3000), ("fine", 5000, 9000)])
+@pytest.mark.parametrize(("preset", "lo", "hi"), [("coarse", 700, 1100), ("default", 900, 1500), ("fine", 5000, 9000)])
 def test_preset_sizes_of_the_default_design(preset, lo, hi):
     """Element budgets of the presets (speed target), wall layers and accuracy."""
     r = build_mesh(WhiskerDesign(), MeshSizing.preset(preset), method="template").report
@@ -68,7 +68,9 @@ def test_node_order_and_positive_jacobians(wm):
     assert np.abs(X[:, 4:].reshape(-1, 3) - expect).max() < 1e-9 * d.D
     assert 0.2 < wall.mean() < 0.95  # both kinds occur
     dev = np.linalg.norm(X[:, 4:].reshape(-1, 3) - straight, axis=1)
-    assert (dev / h).max() < 0.15  # edges are only mildly curved (sagitta / chord of a 2 pi / n_theta arc)
+    # edges are only mildly curved: sagitta / chord 0.10 for a pure 45° arc; edges that also cross the
+    # single wall layer of the default preset reach 0.186 (measured); positivity is asserted above
+    assert (dev / h).max() < 0.2
 
 
 def test_boundary_nodes_on_exact_surfaces(wm):
@@ -139,7 +141,7 @@ def test_fibres_located(wm):
         assert lam.min() >= 0.0
         assert f.segments.shape == (len(f.points_ref) - 1, 2)
         seg = np.linalg.norm(np.diff(f.points_ref, axis=0), axis=1)
-        assert seg.max() <= 0.5 * MeshSizing().wall_size(d) + 1e-9
+        assert seg.max() <= min(0.5 * MeshSizing().wall_size(d), FIBRE_DS_MAX) + 1e-9
         assert f.length == pytest.approx(analytic.fibre_length(d), rel=1e-3)
         x, r, _ = bd.to_meridian(f.points_ref)
         assert np.allclose(r, d.r_fibre(x))
@@ -151,8 +153,10 @@ def test_report(wm):
     assert r.n_nodes == wm.mesh.n_nodes and r.n_elements == wm.mesh.n_elements
     assert abs(r.volume_error) < 5e-3 and abs(r.cavity_area_error) < 1e-2
     assert r.quality_min > 0.05 and r.jacobian_ratio_min > 0.25
-    assert r.elements_through_wall >= 3
-    assert r.wall_layers == pytest.approx(2.0, rel=0.05)
+    # default preset: one P2 layer through the wall (two tets on a radial line), chosen by
+    # measurement (geometry.sizing.MeshSizing.preset); the 'fine' preset has three layers
+    assert r.elements_through_wall >= 2 * MeshSizing().wall_layers
+    assert r.wall_layers == pytest.approx(MeshSizing().wall_layers, rel=0.05)
     assert r.method.startswith("template:")
     assert r.volume_analytic == pytest.approx(analytic.solid_volume(d))
     assert set(r.as_dict()) >= {"n_nodes", "volume_error", "elements_through_wall", "quality_min"}
@@ -212,7 +216,7 @@ def test_map_takes_surfaces_onto_surfaces():
 
 
 #: structured wall layers of each preset's templates (MeshSizing.wall_layers rounded)
-PRESET_LAYERS = {"coarse": 1, "default": 2, "fine": 3}
+PRESET_LAYERS = {"coarse": 1, "default": 1, "fine": 3}
 
 
 @pytest.mark.parametrize("preset", ["coarse", "default", "fine"])

@@ -1,4 +1,4 @@
-"""Physical checks of the whisker scene (issue #4) on the coarse preset.
+"""Physical checks of the whisker scene (issue #4) on the default preset's mesh.
 
 Each test states the number it checks; the references are the thesis' qualitative
 findings (SPEC §5) and the closed-form beam model of SPEC §8.
@@ -14,7 +14,7 @@ from whisker_opt.scene import SceneRunner, SceneSpec, run_scene
 
 pytestmark = pytest.mark.slow
 
-COARSE = MeshSizing.preset("coarse")
+COARSE = MeshSizing.preset("default")  # ~1 100 elements (the former "coarse" mesh)
 
 
 @pytest.fixture(scope="module")
