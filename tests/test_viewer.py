@@ -132,6 +132,17 @@ def test_fields_and_errors(box_vtu):
     assert (lo, hi) == pytest.approx(sv.field_range(V.STRAIN_FIELD))  # one sign: the data range
     sv.outer.point_data[V.STRAIN_FIELD][0] = 0.002
     assert V.shared_clim([sv], (V.STRAIN_FIELD, "", None)) == pytest.approx((lo, -lo))  # both signs: symmetric
+    # percentile range: one outlier node (a cavity corner) no longer sets the colours
+    n = sv.outer.n_points
+    vals = np.linspace(-0.01, 0.02, n)
+    vals[n // 2] = 5.0
+    sv.outer.point_data[V.STRAIN_FIELD] = vals
+    f = (V.STRAIN_FIELD, "", None)
+    assert V.shared_clim([sv], f, percentile=0.0) == pytest.approx((-5.0, 5.0))
+    lo1, hi1 = V.shared_clim([sv], f, percentile=1.0)
+    assert n >= 100 and 0.019 < hi1 < 0.021 and lo1 == pytest.approx(-hi1)
+    with pytest.raises(V.ViewerError, match="percentile"):
+        V.shared_clim([sv], f, percentile=60.0)
 
 
 # ------------------------------------------------------------------ discovery and metadata
@@ -246,7 +257,7 @@ def test_side_by_side_compare_with_markers(tmp_path, box):
     assert V.gauge_patch(views[0]) is not None and V.contact_point(views[0]) is not None
     assert V.gauge_patch(views[1]) is None
     f = V.resolve_field(views[0].grid, None)
-    lo, hi = V.shared_clim(views, f)
+    lo, hi = V.shared_clim(views, f, percentile=0.0)
     for v in views:
         r = v.field_range(f[0])
         assert lo <= r[0] and r[1] <= hi
@@ -430,7 +441,7 @@ def test_three_panel_intact_uncompensated_vented(tmp_path, box):
         "gauge eps = 0.03 at delta = 3 mm", "gauge eps = 0.042 at delta = 3 mm", "gauge eps = 0.031 at delta = 3 mm"]
     assert "Q=0.03 MPa" in texts[1][0] and "trim=2 mm" in texts[1][0] and "Q=0 MPa" in texts[2][0]
     f = V.resolve_field(views[0].grid, None)
-    lo, hi = V.shared_clim(views, f)
+    lo, hi = V.shared_clim(views, f, percentile=0.0)
     assert all(lo <= v.field_range(f[0])[0] and v.field_range(f[0])[1] <= hi for v in views)
     out = tmp_path / "three.png"
     assert V.VIEW_COMMAND[2](_args(run, "--screenshot", out, "--window-size", 300, 540)) == 0

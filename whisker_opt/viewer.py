@@ -1158,8 +1158,10 @@ class StateView:
     path: Path | None = None
     cut_z: float = 0.0
 
-    def field_range(self, name: str | None, comp: int | None = None) -> tuple[float, float] | None:
-        """(min, max) of a field over the drawn surface; None when absent."""
+    def field_range(self, name: str | None, comp: int | None = None,
+                    percentile: float = 0.0) -> tuple[float, float] | None:
+        """(min, max) of a field over the drawn surface, or its (p, 100 − p) percentiles
+        when ``percentile`` = p > 0; None when absent."""
         if name is None:
             return None
         vals = []
@@ -1174,7 +1176,12 @@ class StateView:
             return None
         v = np.concatenate(vals)
         v = v[np.isfinite(v)]
-        return (float(v.min()), float(v.max())) if len(v) else None
+        if not len(v):
+            return None
+        if percentile > 0.0:
+            lo, hi = np.percentile(v, [percentile, 100.0 - percentile])
+            return float(lo), float(hi)
+        return float(v.min()), float(v.max())
 
 
 def _scalar(a: np.ndarray, comp: int | None) -> np.ndarray:
@@ -1570,10 +1577,19 @@ def add_state(
             plotter.add_text(gtxt, position="upper_right", font_size=9, name=prefix + "gauge_text")
 
 
-def shared_clim(views: Sequence[StateView], field: tuple[str | None, str, int | None]) -> tuple[float, float] | None:
-    """One colour range over all views; symmetric about 0 for a strain that changes sign."""
+def shared_clim(views: Sequence[StateView], field: tuple[str | None, str, int | None],
+                percentile: float = 0.0) -> tuple[float, float] | None:
+    """One colour range over all views; symmetric about 0 for a strain that changes sign.
+
+    ``percentile`` = p > 0 spans each view's (p, 100 − p) percentiles instead of its
+    extremes: the whisker's strain range is set by a few nodes at the cavity's corners
+    (LE_xx ≈ ±0.7 at Q = 0.2 MPa) while the gauge region bends to ~0.05, which a full
+    range paints in one colour. Values beyond the range saturate.
+    """
+    if not (0.0 <= percentile < 50.0):
+        raise ViewerError(f"clim percentile={percentile!r} outside the allowed range [0, 50)")
     name, _, comp = field
-    rngs = [r for r in (v.field_range(name, comp) for v in views) if r is not None]
+    rngs = [r for r in (v.field_range(name, comp, percentile) for v in views) if r is not None]
     if not rngs:
         return None
     lo, hi = min(r[0] for r in rngs), max(r[1] for r in rngs)
@@ -1583,6 +1599,14 @@ def shared_clim(views: Sequence[StateView], field: tuple[str | None, str, int | 
     if hi <= lo:
         hi = lo + (abs(lo) * 1e-6 or 1e-12)
     return lo, hi
+
+
+def _clipped_label(field: tuple[str | None, str, int | None], percentile: float):
+    """The field tuple with its scalar-bar label marked when the colour range is clipped."""
+    name, label, comp = field
+    if name is None or percentile <= 0.0:
+        return field
+    return name, f"{label} ({percentile:g}-{100 - percentile:g} %)", comp
 
 
 def _layout(views: Sequence[StateView], layout: str) -> tuple[int, int]:
@@ -1690,6 +1714,7 @@ def render(
     layout: str = "auto",
     camera: str = "iso",
     cmap: str = "coolwarm",
+    clim_percentile: float = 1.0,
     **kw,
 ):
     """Render views side by side (same camera and colour range) on screen or to a PNG.
@@ -1706,6 +1731,9 @@ def render(
     window_size : (int, int), optional
     layout : {'auto', 'rows', 'columns'}
     camera : {'iso', 'xy'}
+    clim_percentile : float
+        Colour range over the (p, 100 − p) percentiles of the field (0 = full range);
+        see :func:`shared_clim`.
     **kw
         Passed to :func:`add_state` (``cavity``, ``show_edges``, ...).
 
@@ -1720,7 +1748,8 @@ def render(
     for v in views[1:]:  # every panel must hold the field
         if f[0] is not None and f[0] not in field_names(v.grid):
             raise ViewerError(f"{v.path or v.title}: no field {f[0]!r}; available fields: {field_names(v.grid)}")
-    clim = shared_clim(views, f)
+    clim = shared_clim(views, f, clim_percentile)
+    f = _clipped_label(f, clim_percentile)
     p = make_plotter(views, off_screen, window_size, layout)
     draw(p, views, f, clim, camera=camera, cmap=cmap, **kw)
     if screenshot is not None:
@@ -1743,6 +1772,7 @@ def interactive_plotter(
     camera: str = "iso",
     start: int | None = None,
     step_values: Sequence[float] | None = None,
+    clim_percentile: float = 1.0,
     **kw,
 ) -> tuple[Any, Callable[[int], None]]:
     """A plotter that steps through states with a slider and the keys ``n`` / ``b``.
@@ -1767,7 +1797,8 @@ def interactive_plotter(
         raise ViewerError("nothing to draw: no states selected")
     all_views = [v for step in series for v in step]
     f = resolve_field(series[-1][0].grid, field, str(series[-1][0].path or series[-1][0].title))
-    clim = shared_clim(all_views, f)
+    clim = shared_clim(all_views, f, clim_percentile)
+    f = _clipped_label(f, clim_percentile)
     p = make_plotter(series[0], off_screen, window_size, layout)
     current = {"k": len(series) - 1 if start is None else int(start)}
 
@@ -1900,6 +1931,9 @@ def _view_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--field", default=None,
                    help="colour by: strain (axial log strain LE_xx, default), displacement (|u|), mises (von Mises, "
                         "needs material.C10 in config.yaml), any stored array, name:x for a component, or none")
+    p.add_argument("--clim-percentile", type=float, default=1.0, metavar="P",
+                   help="colour range over the P..100-P percentiles of the field, shared by all panels (default 1; "
+                        "0 = full range, which a few cavity-corner nodes dominate)")
     p.add_argument("--scene", action="append", default=None,
                    help="scene(s) to show (repeatable; default all, side by side)")
     p.add_argument("--state", default=None, help="state to show, e.g. pressurised or deflected (default: the last)")
@@ -1960,7 +1994,7 @@ def _view_main(args: argparse.Namespace) -> int:
         screenshot = contents.root / "view.png"
         print(f"whisker-opt view: no display found (DISPLAY/WAYLAND_DISPLAY unset); "
               f"rendering off-screen to {screenshot}", file=sys.stderr)
-    kw = dict(cavity=args.cavity, show_edges=not args.no_edges)
+    kw = dict(cavity=args.cavity, show_edges=not args.no_edges, clim_percentile=args.clim_percentile)
     ws = tuple(args.window_size) if args.window_size else None
     pv = require_pyvista()
     # headless: VTK first tries X and warns before falling back to EGL; keep only its errors
