@@ -348,12 +348,13 @@ def run_scene(spec: SceneSpec, wm: WhiskerMesh | None = None, keep_states: bool 
             LoadState((spec.Q,), (zeros_base,)),
             fractions=fr,
             # full Newton: pressurising a fibre-wound chamber is strongly nonlinear, where
-            # a reused tangent converges slowly (measured: benchmarks/bench_scene.py)
-            # and increments of at most a quarter of Q: 31 iterations instead of 56 for
-            # one step to 0.2 MPa (coarse mesh, measured 2026-11-23)
+            # a reused tangent converges slowly (reuse ratio 0.05-0.2: 48-54 iterations
+            # instead of 21), and increments of at most a third of Q with the secant
+            # predictor: 19 iterations to 0.2 MPa, against 21 with quarters, 22 with
+            # halves and 20 in one step (default design and mesh, measured 2026-11-23)
             options=replace(spec.solve_options, reuse_tangent=0.0,
-                            initial_step=min(spec.solve_options.initial_step, 0.25),
-                            max_step=min(spec.solve_options.max_step, 0.25)),
+                            initial_step=min(spec.solve_options.initial_step, 0.34),
+                            max_step=min(spec.solve_options.max_step, 0.34)),
         )
         state = states[-1]
         reports.extend(rep)
