@@ -220,12 +220,23 @@ class PardisoSolver:
         return x
 
     def release(self) -> None:
-        """Free MKL memory."""
+        """Free MKL's factors and analysis (PARDISO phase −1); the solver can be used again."""
         for s in self._solvers.values():
             try:
                 s.free_memory(everything=True)
             except Exception:  # pragma: no cover - best effort
                 pass
+        self._solvers.clear()
+        self._analysed.clear()
+
+    def __del__(self) -> None:
+        # MKL keeps the factors in its own memory, which pypardiso never frees on garbage
+        # collection: without this, every scene leaked its factorisation (GA workers
+        # reached 6.3 GB after ~130 evaluations, measured 2026-11-23).
+        try:
+            self.release()
+        except Exception:  # pragma: no cover - interpreter shutdown
+            pass
 
 
 @functools.lru_cache(maxsize=1)

@@ -26,7 +26,7 @@ from __future__ import annotations
 import json
 import logging
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -208,9 +208,27 @@ def finish_mesh(
     return WhiskerMesh(TetMesh(qm.points, qm.cells), nodes, faces, fibres, design, report, sizing)
 
 
+#: Wall layers the fTetWild path always gets (issue #2: at least 3 quadratic elements through the wall).
+FRESH_MIN_WALL_LAYERS = 3.0
+
+
+def fresh_sizing(sizing: MeshSizing) -> MeshSizing:
+    """The sizing fTetWild meshes with: ``wall_layers`` raised to :data:`FRESH_MIN_WALL_LAYERS`.
+
+    The structured swept/template meshes reach the gauge accuracy of the presets with
+    one layer of P2 elements through the wall (:meth:`MeshSizing.preset`); unstructured
+    fTetWild tets are not aligned with the wall, so the fresh path keeps the resolution
+    of issue #2. An absolute ``h_wall`` given by the user is kept as is.
+    """
+    if sizing.h_wall is None and sizing.wall_layers < FRESH_MIN_WALL_LAYERS:
+        return replace(sizing, wall_layers=FRESH_MIN_WALL_LAYERS)
+    return sizing
+
+
 def _fresh(design: WhiskerDesign, sizing: MeshSizing, num_threads: int, timeout: float | None) -> WhiskerMesh:
     from geometry.tetrahedralize import tetrahedralize
 
+    sizing = fresh_sizing(sizing)
     t0 = time.perf_counter()
     pts, tets = tetrahedralize(design, sizing, num_threads=num_threads, timeout=timeout)
     qm = upgrade(design, pts, tets)

@@ -273,3 +273,15 @@ def test_node_rings_at_the_gauge_window_and_contact_positions():
         for xk in (d.x_ss, d.x_ss + d.e, *(f * d.length for f in sizing.contact_fractions)):
             ring = np.abs(x - xk) < 1e-9
             assert ring.sum() >= 2 * sizing.n_theta  # a full node ring across the section
+
+
+def test_fresh_path_keeps_three_wall_layers():
+    """fTetWild meshes get >= 3 element sizes through the wall whatever the preset (issue #2)."""
+    from geometry.mesh import fresh_sizing
+
+    d = WhiskerDesign()
+    assert fresh_sizing(MeshSizing()).wall_layers == 3.0
+    assert fresh_sizing(MeshSizing()).wall_size(d) == pytest.approx(d.t / 3.0)
+    assert fresh_sizing(MeshSizing.preset("fine")) == MeshSizing.preset("fine")
+    absolute = MeshSizing(h_wall=2.0)
+    assert fresh_sizing(absolute) == absolute  # the user's absolute size is kept
