@@ -85,9 +85,8 @@ class PardisoSolver:
         if s is None:
             import pypardiso
 
-            # the library search globs sys.prefix (~0.8 s per instance, measured); found once per process
-            s = pypardiso.PyPardisoSolver.__new__(pypardiso.PyPardisoSolver)
-            _init_with_library(s, _mkl_rt_name(), mtype)
+            _mkl_rt_name()  # exports PYPARDISO_MKL_RT: no per-instance library search (~0.8 s each)
+            s = pypardiso.PyPardisoSolver(mtype=mtype)
             s.set_statistical_info_off()
             s.iparm[:] = 0
             s.set_iparm(1, 1)  # use the values below, not MKL defaults
@@ -265,23 +264,10 @@ def _mkl_rt_name() -> str | None:
         return path
     import pypardiso  # pragma: no cover - other layouts: pypardiso's own search
 
-    return getattr(pypardiso.PyPardisoSolver().libmkl, "_name", None)  # pragma: no cover
-
-
-def _init_with_library(s, name: str | None, mtype: int) -> None:
-    """Initialise a PyPardisoSolver ``s`` on the MKL runtime at ``name`` (pypardiso's PYPARDISO_MKL_RT)."""
-    import os
-
-    old = os.environ.get("PYPARDISO_MKL_RT")
-    try:
-        if name:
-            os.environ["PYPARDISO_MKL_RT"] = name
-        type(s).__init__(s, mtype=mtype)
-    finally:
-        if old is None:
-            os.environ.pop("PYPARDISO_MKL_RT", None)
-        else:
-            os.environ["PYPARDISO_MKL_RT"] = old
+    name = getattr(pypardiso.PyPardisoSolver().libmkl, "_name", None)  # pragma: no cover
+    if name:  # pragma: no cover
+        os.environ["PYPARDISO_MKL_RT"] = name
+    return name  # pragma: no cover
 
 
 class SuperLUSolver:
