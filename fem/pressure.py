@@ -72,20 +72,22 @@ class PressureKernel:
             ``K[f, a, i, b, k] = ∂R[f, a, i]/∂x[b, k]``.
         """
         xf = x[self.faces]  # (n_f, 6, 3)
-        t1 = np.einsum("qa,fai->fqi", self.dN[:, :, 0], xf)  # (n_f, n_qp, 3)
-        t2 = np.einsum("qa,fai->fqi", self.dN[:, :, 1], xf)  # (n_f, n_qp, 3)
+        # contractions over the face nodes/points as (broadcast) matrix products, which
+        # numpy runs 10-50× faster than the equivalent multi-operand einsums
+        t1 = np.matmul(self.dN[:, :, 0], xf)  # (n_f, n_qp, 3)  Σ_a dN_a,1 x_a
+        t2 = np.matmul(self.dN[:, :, 1], xf)  # (n_f, n_qp, 3)
         nda = np.cross(t1, t2)  # (n_f, n_qp, 3)
-        R = p * np.einsum("q,qa,fqi->fai", self.w, self.N, nda)  # (n_f, 6, 3)
+        Nw = self.w[:, None] * self.N  # (n_qp, 6)
+        R = p * np.matmul(Nw.T, nda)  # (n_f, 6, 3)  Σ_q w N_a (t1 × t2)
         if not need_tangent:
             return R, None
-        S1 = _skew(t1)  # (n_f, n_qp, 3, 3)
-        S2 = _skew(t2)
-        Nw = self.w[:, None] * self.N  # (n_qp, 6)
-        K = p * (
-            np.einsum("qa,qb,fqik->faibk", Nw, self.dN[:, :, 1], S1)
-            - np.einsum("qa,qb,fqik->faibk", Nw, self.dN[:, :, 0], S2)
-        )  # (n_f, 6, 3, 6, 3)
-        return R, K
+        n_f, nq = nda.shape[:2]
+        # K[f, a, i, b, k] = p Σ_q Nw_qa (dN_qb,2 S1_fqik − dN_qb,1 S2_fqik)
+        S = np.concatenate([_skew(t1).reshape(n_f, nq, 9), -_skew(t2).reshape(n_f, nq, 9)], axis=1)  # (n_f, 2 n_qp, 9)
+        M = np.concatenate([(Nw[:, :, None] * self.dN[:, None, :, 1]).reshape(nq, 36),
+                            (Nw[:, :, None] * self.dN[:, None, :, 0]).reshape(nq, 36)], axis=0)  # (2 n_qp, 36) [q, ab]
+        K = p * np.matmul(np.swapaxes(S, 1, 2), M)  # (n_f, 9, 36) [ik, ab]
+        return R, K.reshape(n_f, 3, 3, 6, 6).transpose(0, 3, 1, 4, 2)  # (n_f, 6, 3, 6, 3)
 
     def enclosed_volume(self, x: np.ndarray) -> float:
         """Volume enclosed by the faces if they form a closed surface (divergence theorem).
