@@ -9,15 +9,15 @@ Cases (one scene each: mesh, pressurise, deflect, gauge readout)
     the configured material) — the GA's own scene and the thesis' load range;
   - ``stress``: Q = min(1.5 Q_i, 0.3) MPa, δ to 8 mm, D1 = 2/(1000 μ) = 7.14e-3 1/MPa
     (K/μ = 1000) — beyond the GA's range —, a = 1 at even box points, 0.5 at odd ones
-    (at a < 1 a pressurised whisker can miss the node ring, see the README).
+    (at a < 1 the scene meshes again with its node ring at the pressurised contact,
+    :func:`whisker_opt.scene.run_scene`).
 
   48 × 2 × 2 = 192 cases.
 * **random** — ``--n-random`` (default 110) designs drawn with a fixed seed: three in four
   inside the GA box, one in four in the box widened by 15 % of each range on both
   sides (so some are invalid or fragile: failures must be *classified*); Δ ∈ {0, 10},
   Q = 0 (vented) with probability 1/4 else U(0.01, 0.3) MPa, δ_max ~ U(1, 8) mm,
-  a ∈ {0.5, 0.75, 1} (the swept/template meshes carry node rings at a = 0.5 and 0.75,
-  ``MeshSizing.contact_fractions``), D1 ∈ {0, 7.14e-3} with equal probability.
+  a ∈ {0.5, 0.75, 1}, D1 ∈ {0, 7.14e-3} with equal probability.
 
 A case is *in range* when its genes lie in the GA box, Q ≤ 0.2 MPa, δ_max ≤ 5 mm and
 D1 = 0; *GA scene* when in range and a = 1. The target of issue #7: every in-range

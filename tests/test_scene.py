@@ -102,9 +102,8 @@ def test_memo_returns_identical_result(runner):
     assert runner.run(s) is a and runner.memo_hits == hits + 1
 
 
-def test_contact_band_moves_to_nearest_ring_within_limit(caplog):
-    """A pressurised whisker shifts its node rings by ~Δl: the band falls back to the
-    nearest nodes (warning) within 5 % of the length, and refuses a larger shift."""
+def test_contact_band_refuses_an_empty_band():
+    """A band between node stations names its position and the nearest node."""
     from geometry.mesh import build_mesh
     from whisker_opt.scene import contact_band
 
@@ -113,13 +112,37 @@ def test_contact_band_moves_to_nearest_ring_within_limit(caplog):
     X = wm.mesh.points
     ring = 0.5 * d.length
     assert np.any(np.abs(X[:, 0] - ring) < 1e-9)  # the mesh has a ring at a = 0.5
+    nodes = contact_band(wm, np.zeros_like(X), ring, 1.0, at_tip=False)
+    assert len(nodes) > 0 and np.all(np.abs(X[nodes, 0] - ring) <= 0.5)
     u = np.zeros_like(X)
     u[:, 0] = np.where(X[:, 0] > d.l, 2.2, 0.0)  # rigid shift of everything past the chamber
-    nodes = contact_band(wm, np.zeros_like(X), ring, 1.0, at_tip=False)
-    assert np.allclose(X[nodes, 0], ring, atol=0.5)
-    with caplog.at_level("WARNING"):
-        moved = contact_band(wm, u, ring, 0.2, at_tip=False)
-    assert "holds no node" in caplog.text
-    assert np.all(np.abs(X[moved, 0] + u[moved, 0] - ring) <= 2.2 + 0.1 + 1e-9)
-    with pytest.raises(ValueError, match="beyond the allowed shift"):
-        contact_band(wm, u, ring, 0.2, at_tip=False, max_shift=0.5)
+    with pytest.raises(ValueError, match=r"at x = 35\.000 mm holds no node \(nearest node at x = "):
+        contact_band(wm, u, ring, 0.2, at_tip=False)
+
+
+def test_off_tip_contact_ring_is_placed_at_a_LQ(runner):
+    """a = 0.5, Q = 0.1 MPa: the ring at 0.5 L moves to 0.5 L + Δl, 0.9 mm past a·L_Q; the
+    scene meshes again with the ring where the pressurised contact is (within CONTACT_TOL)."""
+    from whisker_opt.scene import CONTACT_TOL
+
+    res = runner.run(spec(Q=0.1, contact_ratio=0.5, delta_max=1.0, n_deflection_steps=1), keep_states=True)
+    print("contact_x", res.contact_x, "a L_Q", 0.5 * res.length_q, res.timings)
+    assert abs(res.contact_x - 0.5 * res.length_q) <= CONTACT_TOL
+    assert res.mesh.report.method == "swept" and "contact_placement" in res.timings
+    f = [x for x in res.mesh.sizing.contact_fractions if x < 0.6]
+    assert len(f) == 1 and f[0] == pytest.approx((0.5 * res.length_q - res.delta_l) / res.mesh.design.length,
+                                                  abs=CONTACT_TOL / 70)
+
+
+def test_reading_rises_with_pressure_at_every_contact_ratio(runner):
+    """ε(δ = 1 mm) at Q = 0.1 MPa exceeds that at Q = 0 for a = 0.5, 0.75 and 1 (SPEC §5).
+
+    Measured on this mesh (README of benchmarks/): +3.7 %, +5.5 %, +8.2 %. From 0.1 to
+    0.2 MPa the neo-Hookean model's reading falls again at a < 1 (−3.5 % at a = 0.5);
+    see the README for that measurement and why the thesis' device differs.
+    """
+    for a in (0.5, 0.75, 1.0):
+        e = [runner.run(spec(Q=Q, contact_ratio=a, delta_max=1.0, n_deflection_steps=1)).eps_line[-1]
+             for Q in (0.0, 0.1)]
+        print(f"a = {a}: eps(1 mm) at Q = 0, 0.1: {e}, ratio {e[1] / e[0]:.4f}")
+        assert e[1] > 1.02 * e[0]

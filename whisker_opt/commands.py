@@ -436,27 +436,15 @@ def scene_response(cfg: WhiskerConfig, runner):
 def scene_sensitivity(cfg: WhiskerConfig, runner, delta_ref: float = 1.0):
     """``sensitivity(design, a, Q) -> ε(δ_ref)/δ_ref`` [1/mm] from the config's scene at contact ratio a.
 
-    The scene pushes at x = a·L_Q of the pressurised whisker, while the mesh's contact
-    node ring sits at f·L of the reference length (``MeshSizing.contact_fractions``) and
-    moves to f·L + Δl(Q) when pressurised; with the coarse body elements (h_body = 10 mm)
-    the 1 mm contact band then holds no node at Q > 0 (measured: a = 0.5, Q = 0.1 ->
-    "contact band ... holds no node"). For a < 1 the ring is therefore placed where the
-    contact will be, f·L + Δl = a·(L + Δl), with Δl the tip extension of the same whisker
-    at Q from its a = 1 scene (the body beyond the chamber only translates). A sizing with
-    such a fraction has no template mesh, so ``mesh_method='auto'`` builds the swept mesh
-    (at a = 1 it reads 0.6-0.7 % above the template mesh, coarse preset, Q = 0 and 0.2).
+    The scene pushes at x = a·L_Q of the pressurised whisker; for a < 1 it places the
+    contact node ring there itself (:func:`whisker_opt.scene.run_scene`, swept meshes).
     """
     import dataclasses
 
     import numpy as np
 
     def sensitivity(d, a, Q):
-        spec = scene_spec_from_config(cfg, d, float(Q))
-        if a < 1.0:
-            dl = runner.run(spec).delta_l
-            f = (a * (d.length + dl) - dl) / d.length
-            spec = dataclasses.replace(spec, contact_ratio=float(a),
-                                       sizing=dataclasses.replace(spec.sizing, contact_fractions=(f,)))
+        spec = dataclasses.replace(scene_spec_from_config(cfg, d, float(Q)), contact_ratio=float(a))
         eps = runner.run(spec).curve(np.array([delta_ref]), cfg.scene.gauge_variant)
         return float(eps[0]) / delta_ref
 

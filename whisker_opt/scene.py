@@ -126,8 +126,8 @@ class SceneResult:
         'pressurised' and 'deflected' :class:`fem.state.State` when kept.
     contact_x : float
         Mean current axial position of the contact nodes at contact onset [mm]; equals
-        ``a·L_Q`` up to the band width unless the band had to move to the nearest node
-        ring (see :func:`contact_band`).
+        ``a·L_Q`` within :data:`CONTACT_TOL` on structured meshes (the ring is placed
+        there, see :func:`run_scene`), within ``band_width``/2 on fresh meshes.
     """
 
     spec: SceneSpec
@@ -204,35 +204,90 @@ def locate_gauge(wm: WhiskerMesh, design: WhiskerDesign, n: int = 16) -> GaugeGe
     return GaugeGeometry(elems[:n], xi[:n], w, tangent, int(elems[n]))
 
 
-def contact_band(wm: WhiskerMesh, u: np.ndarray, x_contact: float, width: float, at_tip: bool,
-                 max_shift: float | None = None) -> np.ndarray:
-    """Nodes whose current axial position lies in the contact band.
+def contact_band(wm: WhiskerMesh, u: np.ndarray, x_contact: float, width: float, at_tip: bool) -> np.ndarray:
+    """Nodes whose current axial position lies within ``width``/2 of ``x_contact``.
 
-    The meshes carry node rings at the contact fractions of the *reference* length;
-    pressurisation moves a ring at f·L to about f·L + Δl, not to a·L_Q = a(L + Δl), so
-    for a < 1 and Q > 0 the band can miss every node (by about (1 − a)·Δl). Then the
-    band moves to the nodes nearest to ``x_contact`` if they lie within ``max_shift``
-    (default 5 % of the current length), with a warning naming the shift; beyond that
-    a ValueError. The scene records the actual position (``SceneResult.contact_x``).
+    For ``at_tip`` the nodes of the tip face. Raises ValueError when the band holds no
+    node; :func:`run_scene` places a node ring at the contact first (:func:`place_contact`).
     """
-    xc = wm.mesh.points[:, 0] + u[:, 0]  # (n_nodes,)
     if at_tip:
         # the tip face only: a slab of finite width would hold every node of the slab at the
         # same y and clamp the tip's rotation (measured on fTetWild meshes: gauge/beam ratio
         # 0.82 with the face, 0.98 with a 1 mm slab, 1.09 with 2 mm)
         return np.asarray(wm.node_sets["tip"], dtype=np.int64)
-    sel = np.abs(xc - x_contact) <= 0.5 * width
-    nodes = np.nonzero(sel)[0]
+    xc = wm.mesh.points[:, 0] + u[:, 0]  # (n_nodes,)
+    nodes = np.nonzero(np.abs(xc - x_contact) <= 0.5 * width)[0]
     if len(nodes) == 0:
-        limit = 0.05 * float(xc.max()) if max_shift is None else max_shift
         nearest = float(xc[np.argmin(np.abs(xc - x_contact))])
-        if abs(nearest - x_contact) > limit:
-            raise ValueError(f"contact band of width {width} mm at x = {x_contact:.3f} mm holds no node "
-                             f"(nearest node at x = {nearest:.3f} mm, beyond the allowed shift {limit:.3g} mm)")
-        nodes = np.nonzero(np.abs(xc - nearest) <= 0.5 * width)[0]
-        logger.warning("contact band at x = %.3f mm holds no node; pushing at the nearest nodes, x = %.3f mm "
-                       "(shift %+.3f mm)", x_contact, nearest, nearest - x_contact)
+        raise ValueError(f"contact band of width {width} mm at x = {x_contact:.3f} mm holds no node "
+                         f"(nearest node at x = {nearest:.3f} mm)")
     return nodes
+
+
+#: Largest distance [mm] between the contact ring's current axial position and a·L_Q that
+#: :func:`place_contact` accepts. The reading scales about as 1/x_c² at the contact
+#: (SPEC §8: ε/δ ∝ (x_c − x_g)/x_c³), so 0.02 mm moves it by ≈ 0.1 % at a = 0.5, L = 70.
+CONTACT_TOL = 0.02
+
+
+def station_positions(wm: WhiskerMesh, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Axial node stations of a structured mesh: reference X_k and mean current x_k.
+
+    Nodes are grouped by reference x (rounded to 1e-9 of the length); ``x_k = X_k + ū_x``
+    with ū_x the mean axial displacement of the station's nodes.
+    """
+    X = wm.mesh.points[:, 0]
+    key = np.round(X / (1e-9 * max(float(X.max()), 1.0))).astype(np.int64)
+    uniq, inv = np.unique(key, return_inverse=True)
+    cnt = np.bincount(inv).astype(float)
+    Xk = np.bincount(inv, X) / cnt  # (n_stations,)
+    xk = Xk + np.bincount(inv, u[:, 0]) / cnt  # (n_stations,)
+    return Xk, xk
+
+
+def place_contact(wm: WhiskerMesh, u: np.ndarray, x_contact: float, a: float) -> tuple[float, float]:
+    """Does a node ring of this structured mesh sit at the contact, and where should one be?
+
+    Parameters
+    ----------
+    wm : WhiskerMesh
+        A swept or mapped-template mesh (node rings on axial stations).
+    u : ndarray, shape (n_nodes, 3)
+        Displacement after step 1 (zeros when Q = 0).
+    x_contact : float
+        Contact point a·L_Q [mm].
+    a : float
+        Contact ratio (the ``contact_fractions`` entry to replace).
+
+    Returns
+    -------
+    error : float
+        Distance [mm] from ``x_contact`` to the nearest station's current position.
+    fraction : float
+        The reference fraction f = X/L whose station lands on the contact,
+        X + ū_x(X) = x_contact, with ū_x interpolated linearly between stations (the
+        body beyond the chamber only translates, so this is exact there up to the
+        meshes' difference in Δl).
+    """
+    Xk, xk = station_positions(wm, u)
+    error = float(np.min(np.abs(xk - x_contact)))
+    X_new = float(np.interp(x_contact, xk, Xk))  # x(X) is increasing: invert by interpolation
+    L = wm.design.length
+    f = X_new / L
+    if not 0 < f < 1:
+        raise ValueError(f"contact ratio a = {a}: the contact x = {x_contact:.3f} mm maps to the reference "
+                         f"fraction {f:.4f}, outside (0, 1)")
+    return error, f
+
+
+def _placed_sizing(sizing: MeshSizing, a: float, f: float) -> MeshSizing:
+    """``sizing`` with the contact fraction nearest to ``a`` replaced by ``f``."""
+    fr = list(sizing.contact_fractions)
+    if fr:
+        fr[int(np.argmin(np.abs(np.asarray(fr) - a)))] = f
+    else:
+        fr = [f]
+    return replace(sizing, contact_fractions=tuple(fr))
 
 
 def mid_chamber_radial_growth(wm: WhiskerMesh, u: np.ndarray) -> float:
@@ -277,10 +332,14 @@ class SceneRunner:
         self.memo_hits = 0
 
     def mesh_for(self, spec: SceneSpec) -> WhiskerMesh:
-        key = (spec.design, spec.sizing, spec.mesh_method)
+        """The (cached) mesh of a scene's design, sizing and method."""
+        return self._mesh(spec.design, spec.sizing, spec.mesh_method)
+
+    def _mesh(self, design: WhiskerDesign, sizing: MeshSizing, method: str) -> WhiskerMesh:
+        key = (design, sizing, method)
         wm = self._meshes.get(key)
         if wm is None:
-            wm = build_mesh(spec.design, spec.sizing, method=spec.mesh_method, cache_dir=self.mesh_cache_dir)
+            wm = build_mesh(design, sizing, method=method, cache_dir=self.mesh_cache_dir)
             if len(self._meshes) >= 8:
                 self._meshes.pop(next(iter(self._meshes)))
             self._meshes[key] = wm
@@ -292,15 +351,53 @@ class SceneRunner:
         if hit is not None and (hit.states is not None or not keep_states):
             self.memo_hits += 1
             return hit
-        res = run_scene(spec, self.mesh_for(spec), keep_states=keep_states)
+        res = run_scene(spec, self.mesh_for(spec), keep_states=keep_states, mesh_for=self._mesh)
         if len(self._memo) >= self.memo_size:
             self._memo.pop(next(iter(self._memo)))
         self._memo[spec] = res
         return res
 
 
-def run_scene(spec: SceneSpec, wm: WhiskerMesh | None = None, keep_states: bool = False) -> SceneResult:
+def _pressurise(spec: SceneSpec, wm: WhiskerMesh, prob1: Problem, zeros_base: np.ndarray):
+    """Step 1 on ``wm``: (state, reports). The reference state when Q = 0."""
+    state = State.zero(prob1)
+    if spec.Q <= 0:
+        return state, []
+    fr = tuple(np.linspace(0, 1, spec.n_pressure_steps + 1)[1:])
+    states, rep = solve_path(
+        prob1,
+        state,
+        LoadState((0.0,), (zeros_base,)),
+        LoadState((spec.Q,), (zeros_base,)),
+        fractions=fr,
+        # full Newton: pressurising a fibre-wound chamber is strongly nonlinear, where
+        # a reused tangent converges slowly (reuse ratio 0.05-0.2: 48-54 iterations
+        # instead of 21), and increments of at most a third of Q with the secant
+        # predictor: 19 iterations to 0.2 MPa, against 21 with quarters, 22 with
+        # halves and 20 in one step (default design and mesh, measured 2026-11-23)
+        options=replace(spec.solve_options, reuse_tangent=0.0,
+                        initial_step=min(spec.solve_options.initial_step, 0.34),
+                        max_step=min(spec.solve_options.max_step, 0.34)),
+    )
+    return states[-1], list(rep)
+
+
+#: Meshes :func:`run_scene` builds at most to place the contact ring (a < 1).
+MAX_CONTACT_REMESH = 2
+
+
+def run_scene(spec: SceneSpec, wm: WhiskerMesh | None = None, keep_states: bool = False,
+              mesh_for=None) -> SceneResult:
     """Pressurise-then-deflect one whisker and read its gauge.
+
+    Off-tip contact (a < 1) on a structured (swept or mapped-template) mesh needs a node
+    ring where the pressurised contact is: a ring at f·L moves to about f·L + Δl, not to
+    a·L_Q = a(L + Δl). After step 1 the scene checks that a station lies within
+    :data:`CONTACT_TOL` of a·L_Q (:func:`place_contact`); if not, it meshes again with
+    the ring at the reference fraction that lands there (the preset's contact fraction
+    nearest to a replaced; swept mesh) and repeats step 1, at most :data:`MAX_CONTACT_REMESH` times. The time goes to
+    ``timings['contact_placement']``. Fresh (fTetWild) meshes have no rings: their band
+    is the slab of nodes within ``band_width``/2 of a·L_Q.
 
     Parameters
     ----------
@@ -311,6 +408,9 @@ def run_scene(spec: SceneSpec, wm: WhiskerMesh | None = None, keep_states: bool 
         Keep the pressurised and final states and every solved deflection increment
         (keys ``pressurised``, ``deflected`` and ``delta_<δ>`` with δ in mm to two
         decimals, e.g. ``delta_1.00``; the last is the ``deflected`` state), for VTU output.
+    mesh_for : callable, optional
+        ``mesh_for(design, sizing, method) -> WhiskerMesh`` for the contact placement's
+        meshes (e.g. a cache); default :func:`geometry.mesh.build_mesh`.
 
     Raises
     ------
@@ -323,51 +423,61 @@ def run_scene(spec: SceneSpec, wm: WhiskerMesh | None = None, keep_states: bool 
     t0 = time.perf_counter()
     design = spec.design
     design.validate()
+    if mesh_for is None:
+        def mesh_for(d, sizing, method):
+            return build_mesh(d, sizing, method=method)
     if wm is None:
-        wm = build_mesh(design, spec.sizing, method=spec.mesh_method)
+        wm = mesh_for(design, spec.sizing, spec.mesh_method)
     timings["mesh"] = time.perf_counter() - t0
-
-    t = time.perf_counter()
-    gauge = locate_gauge(wm, design)
-    reader = GaugeReader(wm.mesh, gauge, spec.calibration)
     base = wm.node_sets["base"]
     zeros_base = np.zeros((len(base), 3))
-    timings["setup"] = time.perf_counter() - t
-    reports = []
 
-    # ---- step 1: pressurise (skipped when Q = 0)
+    # ---- step 1: pressurise (skipped when Q = 0), with the contact ring placed for a < 1
     t = time.perf_counter()
     prob1 = make_problem(wm, spec, None)
-    state = State.zero(prob1)
-    if spec.Q > 0:
-        fr = tuple(np.linspace(0, 1, spec.n_pressure_steps + 1)[1:])
-        states, rep = solve_path(
-            prob1,
-            state,
-            LoadState((0.0,), (zeros_base,)),
-            LoadState((spec.Q,), (zeros_base,)),
-            fractions=fr,
-            # full Newton: pressurising a fibre-wound chamber is strongly nonlinear, where
-            # a reused tangent converges slowly (reuse ratio 0.05-0.2: 48-54 iterations
-            # instead of 21), and increments of at most a third of Q with the secant
-            # predictor: 19 iterations to 0.2 MPa, against 21 with quarters, 22 with
-            # halves and 20 in one step (default design and mesh, measured 2026-11-23)
-            options=replace(spec.solve_options, reuse_tangent=0.0,
-                            initial_step=min(spec.solve_options.initial_step, 0.34),
-                            max_step=min(spec.solve_options.max_step, 0.34)),
-        )
-        state = states[-1]
-        reports.extend(rep)
+    state, reports = _pressurise(spec, wm, prob1, zeros_base)
+    at_tip = spec.contact_ratio >= 1.0
+    structured = not wm.report.method.startswith("fresh")
+    sizing = spec.sizing
+    for attempt in range(MAX_CONTACT_REMESH + 1):
+        x_contact = spec.contact_ratio * (design.length + float(state.u[wm.node_sets["tip"], 0].mean()))
+        if at_tip or not structured:
+            break
+        error, f = place_contact(wm, state.u, x_contact, spec.contact_ratio)
+        # a mapped template is replaced even when a ring fits, so that every pressure of an
+        # off-tip study runs on the same swept family (template and swept meshes of the
+        # default preset differ by ~1 % in the a = 0.5 reading, as large as the effect of Q)
+        if error <= CONTACT_TOL and not wm.report.method.startswith("template"):
+            break
+        if attempt == MAX_CONTACT_REMESH:
+            logger.warning("contact ring %.3f mm from a·L_Q = %.3f mm after %d re-meshes (tolerance %g mm)",
+                           error, x_contact, attempt, CONTACT_TOL)
+            break
+        tp = time.perf_counter()
+        sizing = _placed_sizing(sizing, spec.contact_ratio, f)
+        method = "swept"  # the structured family (a template cannot carry a new ring)
+        logger.info("contact a = %g: nearest node ring %.3f mm from a·L_Q = %.3f mm; meshing with the ring "
+                    "at f = %.6f", spec.contact_ratio, error, x_contact, f)
+        wm = mesh_for(design, sizing, method)
+        base = wm.node_sets["base"]
+        zeros_base = np.zeros((len(base), 3))
+        prob1 = make_problem(wm, spec, None)
+        state, reports = _pressurise(spec, wm, prob1, zeros_base)
+        timings["contact_placement"] = timings.get("contact_placement", 0.0) + time.perf_counter() - tp
     u1 = state.u
     tip = wm.node_sets["tip"]
     delta_l = float(u1[tip, 0].mean())
     length_q = design.length + delta_l
     radial = mid_chamber_radial_growth(wm, u1) if spec.Q > 0 else 0.0
-    timings["pressurise"] = time.perf_counter() - t
+    timings["pressurise"] = time.perf_counter() - t - timings.get("contact_placement", 0.0)
+
+    t = time.perf_counter()
+    gauge = locate_gauge(wm, design)
+    reader = GaugeReader(wm.mesh, gauge, spec.calibration)
+    timings["setup"] = time.perf_counter() - t
 
     # ---- step 2: deflect
     t = time.perf_counter()
-    at_tip = spec.contact_ratio >= 1.0
     band = contact_band(wm, u1, spec.contact_ratio * length_q, spec.band_width, at_tip)
     # same mesh, faces and fibres: replace() shares the topology cache (sparsity
     # pattern, PARDISO analysis) with the pressurise problem
