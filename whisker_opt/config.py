@@ -64,6 +64,11 @@ class SceneConfig(StrictModel):
     Q: float = Field(0.0, ge=0, le=1.0, description="chamber pressure for `simulate` [MPa], [0, 1]")
     trim: float = Field(0.0, ge=0, le=100, description="trimmed length for `simulate` [mm], [0, 100]")
     contact_ratio: float = Field(1.0, gt=0, le=1, description="contact position a, x = a L_Q [-], (0, 1]")
+    contact_at: Literal["pressurised", "reference"] = Field(
+        "pressurised",
+        description="'pressurised': the contact at x = a L_Q (SPEC §5); 'reference': at x = a L, the pusher "
+        "staying where it stood before the whisker extended",
+    )
     delta_max: float = Field(5.0, gt=0, le=30, description="maximum deflection [mm], (0, 30]")
     delta_step: float = Field(0.01, gt=0, le=1, description="deflection sampling of the curve [mm], (0, 1]")
     calibration: float = Field(3.9, gt=0, le=100, description="gauge calibration factor xi [-], (0, 100]")
