@@ -345,7 +345,10 @@ def _increment(asm: Assembler, con: _Constraint, solver, x0, load_old: LoadState
         t = time.perf_counter()
         try:
             if refactor:
-                solver.factorize(asm.pattern.matrix(con.apply(data)))
+                # only follower pressures make the tangent non-symmetric (material, fibres,
+                # dead loads and the symmetric Dirichlet elimination keep it symmetric), so
+                # the solver needs no probe to pick its matrix type
+                solver.factorize(asm.pattern.matrix(con.apply(data)), symmetric=not any(v != 0 for v in pres))
                 fact["valid"], fact["data"] = True, data
                 rep.time_factorize += time.perf_counter() - t
             t = time.perf_counter()

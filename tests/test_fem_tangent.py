@@ -165,3 +165,19 @@ def test_residual_is_energy_gradient(mesh, material):
     err = np.abs(g - R).max() / np.abs(R).max()
     print(f"residual vs energy gradient: max rel error {err:.2e}")
     assert err <= TOL
+
+
+def test_only_follower_pressure_breaks_symmetry(mesh):
+    """fem.stepping factorises with ``symmetric = (no non-zero follower pressure)``: the
+    material + fibre + displacement-formulation tangents are exactly symmetric, a loaded
+    pressure face makes it non-symmetric, a zero pressure value does not."""
+    _, _, f6 = boundary_faces(mesh.cells)
+    faces = f6[np.all(mesh.points[f6][:, :, 2] > 1.5, axis=1)]
+    for prob in (Problem(mesh, NeoHookean(0.5, 0.0), trusses=(_fibres(mesh),), pressures=(FollowerPressure(faces),)),
+                 Problem(mesh, NeoHookean(0.5, 0.8), formulation="displacement", pressures=(FollowerPressure(faces),))):
+        asm = Assembler(prob)
+        u, p = _state(prob, seed=4, scale=0.05)
+        _, K0 = _dense(asm, u, p, (0.0,))
+        _, K1 = _dense(asm, u, p, (0.7,))
+        assert np.abs(K0 - K0.T).max() <= 1e-13 * np.abs(K0).max()
+        assert np.abs(K1 - K1.T).max() > 1e-4 * np.abs(K1).max()
