@@ -168,9 +168,9 @@ def test_residual_is_energy_gradient(mesh, material):
 
 
 def test_only_follower_pressure_breaks_symmetry(mesh):
-    """fem.stepping factorises with ``symmetric = (no non-zero follower pressure)``: the
-    material + fibre + displacement-formulation tangents are exactly symmetric, a loaded
-    pressure face makes it non-symmetric, a zero pressure value does not."""
+    """The material + fibre + displacement-formulation tangents are exactly symmetric; a
+    loaded pressure face makes the tangent non-symmetric, a zero pressure value does not
+    (what fem.linsolve's symmetry probe and its refinement on the full matrix rely on)."""
     _, _, f6 = boundary_faces(mesh.cells)
     faces = f6[np.all(mesh.points[f6][:, :, 2] > 1.5, axis=1)]
     for prob in (Problem(mesh, NeoHookean(0.5, 0.0), trusses=(_fibres(mesh),), pressures=(FollowerPressure(faces),)),
