@@ -78,6 +78,11 @@ class SceneSpec:
     mesh_method : str
         'auto' | 'fresh' | 'template'.
     solve_options : SolveOptions
+    formulation : {'mixed', 'displacement'}
+        :class:`fem.problem.Problem` formulation: 'mixed' (P2/P0 u–p, locking-free, the
+        default) or 'displacement' (C3D10-like, needs D1 > 0; for cross-checks with
+        CalculiX; it locks on coarse meshes: +12 % on ε(5 mm) of the default preset mesh
+        at K/μ = 1000, benchmarks/README.md).
     """
 
     design: WhiskerDesign
@@ -94,6 +99,7 @@ class SceneSpec:
     sizing: MeshSizing = field(default_factory=MeshSizing)
     mesh_method: str = "auto"
     solve_options: SolveOptions = field(default_factory=lambda: SolveOptions(reuse_tangent=0.3))
+    formulation: str = "mixed"
 
     def __post_init__(self) -> None:
         checks = [
@@ -101,6 +107,8 @@ class SceneSpec:
             ("contact_ratio", self.contact_ratio, 0 < self.contact_ratio <= 1, "in (0, 1]"),
             ("contact_at", self.contact_at, self.contact_at in ("pressurised", "reference"),
              "'pressurised' or 'reference'"),
+            ("formulation", self.formulation, self.formulation in ("mixed", "displacement"),
+             "'mixed' or 'displacement'"),
             ("delta_max", self.delta_max, self.delta_max > 0, "> 0 mm"),
             ("band_width", self.band_width, self.band_width > 0, "> 0 mm"),
             ("n_pressure_steps", self.n_pressure_steps, self.n_pressure_steps >= 1, ">= 1"),
@@ -188,6 +196,7 @@ def make_problem(wm: WhiskerMesh, spec: SceneSpec, band_nodes: np.ndarray | None
         dirichlet=tuple(dirichlet),
         pressures=pressures,
         trusses=trusses,
+        formulation=spec.formulation,
     )
 
 
