@@ -18,7 +18,8 @@ logger = logging.getLogger(__name__)
 
 
 def _user_errors() -> tuple[type[BaseException], ...]:
-    errs: list[type[BaseException]] = [ConfigError, FileNotFoundError]
+    # FileExistsError: `run --out DIR` where DIR already holds a run (resume it instead)
+    errs: list[type[BaseException]] = [ConfigError, FileNotFoundError, FileExistsError]
     try:
         from geometry.design import InvalidDesignError
 
@@ -378,6 +379,11 @@ def _run_run(args: argparse.Namespace) -> int:
     opt = cfg.optimiser or OptimiserConfig()
     ev = evaluator_from_config(cfg)
     run_dir = args.out or new_run_dir(cfg, args.config, "run")
+    from whisker_opt.checkpoint import has_checkpoint
+
+    if has_checkpoint(run_dir):  # checked before anything is written into the directory
+        raise FileExistsError(f"{run_dir} already holds a run (checkpoint.pkl): continue it with "
+                              f"`whisker-opt resume {run_dir}` or choose another --out")
     run_dir.mkdir(parents=True, exist_ok=True)
     if not (run_dir / "config.yaml").exists():
         (run_dir / "config.yaml").write_text(dump_config(cfg))
