@@ -372,18 +372,14 @@ def _finish_best(run_dir: Path, cfg: WhiskerConfig, summary) -> None:
 
 
 def _run_run(args: argparse.Namespace) -> int:
-    from whisker_opt.runner import run_optimisation
+    from whisker_opt.runner import check_new_run_dir, run_optimisation
     from whisker_opt.ga_config import OptimiserConfig
 
     cfg = load_config(args.config)
     opt = cfg.optimiser or OptimiserConfig()
     ev = evaluator_from_config(cfg)
     run_dir = args.out or new_run_dir(cfg, args.config, "run")
-    from whisker_opt.checkpoint import has_checkpoint
-
-    if has_checkpoint(run_dir):  # checked before anything is written into the directory
-        raise FileExistsError(f"{run_dir} already holds a run (checkpoint.pkl): continue it with "
-                              f"`whisker-opt resume {run_dir}` or choose another --out")
+    check_new_run_dir(run_dir)  # before anything is written into the directory
     run_dir.mkdir(parents=True, exist_ok=True)
     if not (run_dir / "config.yaml").exists():
         (run_dir / "config.yaml").write_text(dump_config(cfg))

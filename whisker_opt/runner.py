@@ -250,14 +250,20 @@ def run_optimisation(
         ``run_dir`` already holds a checkpoint (use :func:`resume_optimisation`).
     """
     run_dir = Path(run_dir)
+    check_new_run_dir(run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
-    if has_checkpoint(run_dir):
-        raise FileExistsError(f"{run_dir} already holds a run (checkpoint.pkl); resume it instead")
     config = cfg_opt.model_dump(mode="json")
     storage.write_json(run_dir / storage.OPTIMISER_JSON, {"seed": int(seed), "optimiser": config})
     storage.write_environment(run_dir, seed)
     ga = GeneticAlgorithm(cfg_opt, seed)
     return _drive(ga, ga.new_state(), run_dir, evaluator, cfg_opt.executor, config, progress, callbacks)
+
+
+def check_new_run_dir(run_dir: Path) -> None:
+    """Raise FileExistsError (naming ``whisker-opt resume``) if ``run_dir`` already holds a run."""
+    if has_checkpoint(run_dir):
+        raise FileExistsError(f"{run_dir} already holds a run (checkpoint.pkl): continue it with "
+                              f"`whisker-opt resume {run_dir}` or choose another --out")
 
 
 def _load_run(run_dir: Path) -> tuple[GAState | None, OptimiserConfig, dict[str, Any], int]:

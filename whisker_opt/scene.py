@@ -257,7 +257,7 @@ def station_positions(wm: WhiskerMesh, u: np.ndarray) -> tuple[np.ndarray, np.nd
     """
     X = wm.mesh.points[:, 0]
     key = np.round(X / (1e-9 * max(float(X.max()), 1.0))).astype(np.int64)
-    uniq, inv = np.unique(key, return_inverse=True)
+    _, inv = np.unique(key, return_inverse=True)
     cnt = np.bincount(inv).astype(float)
     Xk = np.bincount(inv, X) / cnt  # (n_stations,)
     xk = Xk + np.bincount(inv, u[:, 0]) / cnt  # (n_stations,)
@@ -377,11 +377,14 @@ class SceneRunner:
         return res
 
 
-def _pressurise(spec: SceneSpec, wm: WhiskerMesh, prob1: Problem, zeros_base: np.ndarray):
-    """Step 1 on ``wm``: (state, reports). The reference state when Q = 0."""
+def _pressurise(spec: SceneSpec, wm: WhiskerMesh):
+    """Step 1 on ``wm``: (problem, zero base displacements, state, reports); the state is
+    the reference state when Q = 0."""
+    prob1 = make_problem(wm, spec, None)
+    zeros_base = np.zeros((len(wm.node_sets["base"]), 3))
     state = State.zero(prob1)
     if spec.Q <= 0:
-        return state, []
+        return prob1, zeros_base, state, []
     fr = tuple(np.linspace(0, 1, spec.n_pressure_steps + 1)[1:])
     states, rep = solve_path(
         prob1,
@@ -398,7 +401,7 @@ def _pressurise(spec: SceneSpec, wm: WhiskerMesh, prob1: Problem, zeros_base: np
                         initial_step=min(spec.solve_options.initial_step, 0.34),
                         max_step=min(spec.solve_options.max_step, 0.34)),
     )
-    return states[-1], list(rep)
+    return prob1, zeros_base, states[-1], list(rep)
 
 
 #: Meshes :func:`run_scene` builds at most to place the contact ring (a < 1).
@@ -414,8 +417,8 @@ def run_scene(spec: SceneSpec, wm: WhiskerMesh | None = None, keep_states: bool 
     a·L_Q = a(L + Δl). After step 1 the scene checks that a station lies within
     :data:`CONTACT_TOL` of a·L_Q (:func:`place_contact`); if not, it meshes again with
     the ring at the reference fraction that lands there (the preset's contact fraction
-    nearest to a replaced; swept mesh) and repeats step 1, at most :data:`MAX_CONTACT_REMESH` times. The time goes to
-    ``timings['contact_placement']``. Fresh (fTetWild) meshes have no rings: their band
+    nearest to a replaced; swept mesh) and repeats step 1, at most
+    :data:`MAX_CONTACT_REMESH` times. The time goes to ``timings['contact_placement']``. Fresh (fTetWild) meshes have no rings: their band
     is the slab of nodes within ``band_width``/2 of a·L_Q.
 
     Parameters
@@ -448,13 +451,10 @@ def run_scene(spec: SceneSpec, wm: WhiskerMesh | None = None, keep_states: bool 
     if wm is None:
         wm = mesh_for(design, spec.sizing, spec.mesh_method)
     timings["mesh"] = time.perf_counter() - t0
-    base = wm.node_sets["base"]
-    zeros_base = np.zeros((len(base), 3))
 
     # ---- step 1: pressurise (skipped when Q = 0), with the contact ring placed for a < 1
     t = time.perf_counter()
-    prob1 = make_problem(wm, spec, None)
-    state, reports = _pressurise(spec, wm, prob1, zeros_base)
+    prob1, zeros_base, state, reports = _pressurise(spec, wm)
     reference = spec.contact_at == "reference" and spec.Q > 0
     at_tip = spec.contact_ratio >= 1.0 and not reference
     structured = not wm.report.method.startswith("fresh")
@@ -485,10 +485,7 @@ def run_scene(spec: SceneSpec, wm: WhiskerMesh | None = None, keep_states: bool 
         logger.info("contact a = %g: nearest node ring %.3f mm from a·L_Q = %.3f mm; meshing with the ring "
                     "at f = %.6f", spec.contact_ratio, error, x_contact, f)
         wm = mesh_for(design, sizing, method)
-        base = wm.node_sets["base"]
-        zeros_base = np.zeros((len(base), 3))
-        prob1 = make_problem(wm, spec, None)
-        state, reports = _pressurise(spec, wm, prob1, zeros_base)
+        prob1, zeros_base, state, reports = _pressurise(spec, wm)
         timings["contact_placement"] = timings.get("contact_placement", 0.0) + time.perf_counter() - tp
     u1 = state.u
     tip = wm.node_sets["tip"]
