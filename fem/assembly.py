@@ -92,10 +92,13 @@ class Topology:
             pat.node_block_positions(pk.faces[:, :, None], pk.faces[:, None, :]).transpose(0, 1, 3, 2, 4)
             for pk in self.pressure_kernels
         ]  # each (n_f, 6, 3, 6, 3)
-        self.truss_pos = [
-            pat.node_block_positions(tk.nodes[:, :, None], tk.nodes[:, None, :]).transpose(0, 1, 3, 2, 4)
+        # fibre tangents scatter linearly from 9 chord-space numbers per segment
+        # (TrussKernel.tangent_map); the dense block positions are only needed to build the map
+        self.truss_maps = [
+            tk.tangent_map(pat.node_block_positions(tk.nodes[:, :, None], tk.nodes[:, None, :]).transpose(0, 1, 3, 2, 4),
+                           pat.nnz)
             for tk in self.truss_kernels
-        ]  # each (n_seg, 20, 3, 20, 3)
+        ]  # each sparse (nnz, 9 n_seg)
         self.truss_dofs = [(3 * tk.nodes[:, :, None] + np.arange(3)).reshape(len(tk.nodes), -1) for tk in self.truss_kernels]
         self.face_dofs = [(3 * pk.faces[:, :, None] + np.arange(3)).reshape(len(pk.faces), -1) for pk in self.pressure_kernels]
         self.edofs = (3 * mesh.cells[:, :, None] + np.arange(3)).reshape(self.n_el, 30)  # (n_el, 30)
@@ -142,12 +145,12 @@ class Assembler:
         self.pattern = self.topo.pattern
 
     def scatter_index(self) -> np.ndarray:
-        """Data positions of all tangent contributions, in the order ``evaluate`` stacks them (cached)."""
+        """Data positions of the element and pressure tangent contributions, in the order ``evaluate`` stacks them (cached)."""
         idx = getattr(self.topo, "_scatter_index", None)
         if idx is None:
             pat = self.pattern
             parts = [pat.elem_uu.ravel(), pat.elem_up.ravel(), pat.elem_pu.ravel(), pat.elem_pp]
-            parts += [pos.ravel() for pos in self.topo.pressure_pos] + [pos.ravel() for pos in self.topo.truss_pos]
+            parts += [pos.ravel() for pos in self.topo.pressure_pos]
             idx = np.concatenate(parts)
             self.topo._scatter_index = idx
         return idx
@@ -292,6 +295,8 @@ class Assembler:
 
         pat = self.pattern
         parts_val = [Ke.reshape(n_el, 30, 30).ravel(), Kup.ravel(), Kup.ravel(), Kpp]
-        parts_val += [Kf.ravel() for Kf in pres_out] + [Kt.ravel() for Kt in truss_out]
+        parts_val += [Kf.ravel() for Kf in pres_out]
         data = np.bincount(self.scatter_index(), np.concatenate(parts_val), minlength=pat.nnz)
+        for B, kmat in zip(topo.truss_maps, truss_out):
+            data += B @ kmat.ravel()  # (nnz,)  fibre blocks w_a w_b kmat_ik
         return R, data, min_j

@@ -16,6 +16,7 @@ the 20 host nodes of the segment.
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
 
 from fem import element
 
@@ -65,12 +66,17 @@ class TrussKernel:
         return float(0.5 * self.EA * np.sum(self.L0 * self.strain(x) ** 2))
 
     def evaluate(self, x: np.ndarray, need_tangent: bool = True):
-        """Nodal residual and tangent blocks.
+        """Nodal residual and the chord-space tangent.
+
+        The nodal tangent block of segment s is ``K[s, a, i, b, k] = w_sa w_sb kmat_sik``;
+        :meth:`tangent_map` scatters it linearly from ``kmat`` (9 numbers per segment
+        instead of 3600).
 
         Returns
         -------
         R : ndarray (n_seg, 20, 3)
-        K : ndarray (n_seg, 20, 3, 20, 3) or None
+        kmat : ndarray (n_seg, 3, 3) or None
+            ∂²Ψ/∂x∂x of each segment's chord.
         """
         c = self.chords(x)  # (n_seg, 3)
         E = (np.einsum("si,si->s", c, c) - self.L0**2) / (2.0 * self.L0**2)  # (n_seg,)
@@ -80,8 +86,33 @@ class TrussKernel:
         if not need_tangent:
             return R, None
         kmat = k[:, None, None] * (E[:, None, None] * np.eye(3) + c[:, :, None] * c[:, None, :] / self.L0[:, None, None] ** 2)
-        # K[s, a, i, b, k] = w_sa w_sb kmat_sik as one broadcast product (the 3-operand einsum
-        # "sa,sb,sik->saibk" it replaces ran an unoptimised loop, 10% of a whisker evaluation)
+        return R, kmat  # (n_seg, 20, 3), (n_seg, 3, 3)
+
+    def blocks(self, kmat: np.ndarray) -> np.ndarray:
+        """Dense nodal tangent blocks ``K[s, a, i, b, k] = w_sa w_sb kmat_sik``, shape (n_seg, 20, 3, 20, 3)."""
         ww = self.w[:, :, None] * self.w[:, None, :]  # (n_seg, 20, 20)
-        K = ww[:, :, None, :, None] * kmat[:, None, :, None, :]  # (n_seg, 20, 3, 20, 3)
-        return R, K
+        return ww[:, :, None, :, None] * kmat[:, None, :, None, :]  # (n_seg, 20, 3, 20, 3)
+
+    def tangent_map(self, positions: np.ndarray, nnz: int) -> sp.csr_matrix:
+        """Sparse linear map from the stacked ``kmat`` (n_seg·9,) to tangent data (nnz,).
+
+        ``B[positions[s, a, i, b, k], 9 s + 3 i + k] = Σ w_sa w_sb`` (duplicates, e.g. a node
+        shared by both host elements, are summed), so the fibre part of the tangent data is
+        ``B @ kmat.ravel()``: one sparse product of n_seg·3600 entries instead of forming and
+        scattering the dense blocks (3-4× less memory traffic).
+
+        Parameters
+        ----------
+        positions : ndarray of int (n_seg, 20, 3, 20, 3)
+            Data positions of the blocks in the global pattern.
+        nnz : int
+            Number of stored entries of the global pattern.
+        """
+        n_seg = len(self.w)
+        ww = self.w[:, :, None] * self.w[:, None, :]  # (n_seg, 20, 20)
+        vals = np.broadcast_to(ww[:, :, None, :, None], positions.shape)  # (n_seg, 20, 3, 20, 3)
+        col = (9 * np.arange(n_seg)[:, None, None] + 3 * np.arange(3)[None, :, None] + np.arange(3)[None, None, :])
+        cols = np.broadcast_to(col[:, None, :, None, :], positions.shape)  # (n_seg, 20, 3, 20, 3)
+        B = sp.coo_matrix((vals.ravel(), (positions.ravel(), cols.ravel())), shape=(nnz, 9 * n_seg)).tocsr()
+        B.sum_duplicates()
+        return B

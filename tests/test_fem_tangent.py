@@ -143,6 +143,26 @@ def test_fibre_tangent_matches_fd(mesh):
     assert _rel(Kf - Km, Kfd) <= TOL
 
 
+
+def test_fibre_tangent_map_equals_dense_blocks(mesh):
+    """TrussKernel.tangent_map (B @ kmat) equals scattering the dense 60×60 blocks
+    w_a w_b kmat_ik, including a segment whose two points share a host (duplicate nodes)."""
+    from fem.sparsity import build_pattern
+    from fem.truss import TrussKernel
+
+    he = np.array([0, 0, 3, 7])
+    xi = np.array([[0.2, 0.2, 0.2], [0.1, 0.3, 0.2], [0.25, 0.25, 0.25], [0.3, 0.1, 0.1]])
+    seg = np.array([[0, 1], [1, 2], [2, 3]])
+    tk = TrussKernel(mesh.points, mesh.cells, he, xi, seg, 3.0e4, 0.01)
+    pat = build_pattern(mesh.n_nodes, mesh.cells, [tk.nodes])
+    pos = pat.node_block_positions(tk.nodes[:, :, None], tk.nodes[:, None, :]).transpose(0, 1, 3, 2, 4)
+    x = mesh.points + np.random.default_rng(4).normal(scale=0.05, size=mesh.points.shape)
+    _, kmat = tk.evaluate(x)
+    dense = np.bincount(pos.ravel(), tk.blocks(kmat).ravel(), minlength=pat.nnz)  # (nnz,)
+    mapped = tk.tangent_map(pos, pat.nnz) @ kmat.ravel()  # (nnz,)
+    assert np.abs(dense).max() > 1.0
+    np.testing.assert_allclose(mapped, dense, rtol=0, atol=1e-12 * np.abs(dense).max())
+
 @pytest.mark.parametrize("material", [NeoHookean(0.5, 0.0), Yeoh((0.5, 0.1, 0.03), 0.4)], ids=["neohooke", "yeoh"])
 def test_residual_is_energy_gradient(mesh, material):
     """R = ∂Π/∂x (u and p blocks) for material + fibres, Π = Assembler.energy, by central FD.
