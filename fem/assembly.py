@@ -24,7 +24,7 @@ import logging
 
 import numpy as np
 
-from fem import element
+from fem import element, jit
 from fem.pressure import PressureKernel
 from fem.problem import Problem
 from fem.quadrature import tet_rule, tri_rule
@@ -137,12 +137,22 @@ class Assembler:
     Parameters
     ----------
     problem : Problem
+    kernel : {'auto', 'numba', 'numpy'}
+        Element-tangent implementation: the compiled :mod:`fem.jit` kernel or the
+        vectorised numpy one (the reference; same result to round-off). 'auto' takes
+        numba when it is importable.
     """
 
-    def __init__(self, problem: Problem) -> None:
+    def __init__(self, problem: Problem, kernel: str = "auto") -> None:
+        if kernel not in ("auto", "numba", "numpy"):
+            raise ValueError(f"Assembler.kernel={kernel!r} is not one of 'auto', 'numba', 'numpy'")
+        if kernel == "numba" and not jit.AVAILABLE:
+            raise ValueError("Assembler.kernel='numba' but numba is not installed")
         self.problem = problem
         self.topo = topology_for(problem)
         self.pattern = self.topo.pattern
+        #: element tangent: compiled (fem.jit) or the vectorised numpy reference
+        self.kernel = ("numba" if jit.AVAILABLE else "numpy") if kernel == "auto" else kernel
 
     def scatter_index(self) -> np.ndarray:
         """Data positions of the element and pressure tangent contributions, in the order ``evaluate`` stacks them (cached)."""
@@ -255,6 +265,9 @@ class Assembler:
         if not need_tangent:
             return R, None, min_j
 
+        if self.kernel == "numba":
+            return R, self._tangent_numba(F, J, G, coef, pJ, pres_out, truss_out), min_j
+
         # Tangent A_iJkL = ∂P_iJ/∂F_kL (material.stress_coefficients) plus the volumetric part
         # ∂(pJ G_Ji)/∂F_kL = pJ (G_Ji G_Lk − G_Jk G_Li) [+ (2/D1) J² G_Ji G_Lk, displacement form].
         # With g[a, i] = Σ_J dN_aJ G_Ji and f[a, i] = Σ_J dN_aJ F_iJ, each dyad X⊗Y contracts to
@@ -300,3 +313,31 @@ class Assembler:
         for B, kmat in zip(topo.truss_maps, truss_out):
             data += B @ kmat.ravel()  # (nnz,)  fibre blocks w_a w_b kmat_ik
         return R, data, min_j
+
+    def _tangent_numba(self, F, J, G, coef, pJ, pres_out, truss_out) -> np.ndarray:
+        """Tangent data (nnz,) with the compiled element kernel (same sums as the numpy path)."""
+        topo, pat, mat = self.topo, self.pattern, self.problem.material
+        disp = self.problem.formulation == "displacement"
+        n_el = topo.n_el
+        shape = J.shape  # (n_el, n_qp)
+
+        def arr(x):
+            return np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=float), shape))
+
+        b = coef["b"] + pJ  # (n_el, n_qp)
+        if disp:
+            b = b + (2.0 / mat.d1) * J**2
+        d2f = arr(coef["d2f"])
+        use_d2f = bool(np.any(d2f != 0.0))
+        dI = np.ascontiguousarray(coef["dI"]) if use_d2f else F  # (n_el, n_qp, 3, 3)
+        data = np.zeros(pat.nnz)
+        jit.element_tangent_add(topo.dNdX, topo.wdet, np.ascontiguousarray(G), np.ascontiguousarray(F),
+                                arr(coef["a"]), arr(b), arr(coef["g"] - pJ), arr(coef["h"]), d2f, dI, arr(J),
+                                use_d2f, disp, pat.elem_uu, pat.elem_up, pat.elem_pu, data)
+        data[pat.elem_pp] += np.ones(n_el) if disp else -0.5 * mat.d1 * topo.vol  # one entry per element
+        if pres_out:
+            pos = np.concatenate([p.ravel() for p in topo.pressure_pos])
+            data += np.bincount(pos, np.concatenate([Kf.ravel() for Kf in pres_out]), minlength=pat.nnz)
+        for B, kmat in zip(topo.truss_maps, truss_out):
+            data += B @ kmat.ravel()  # (nnz,)  fibre blocks w_a w_b kmat_ik
+        return data

@@ -48,6 +48,25 @@ def test_saddle_point_solve_matches_superlu_and_reuses_analysis():
     assert S.stats["n_analyse"] == 1 and S.stats["n_factorize"] == 2
 
 
+def test_matching_only_for_a_zero_diagonal():
+    """Weighted matching is chosen for the saddle point (zero pressure diagonal) and skipped
+    for a symmetric matrix without zero diagonal entries; both solves are accurate."""
+    A = saddle_point()
+    b = np.arange(A.shape[0], dtype=float)
+    S = PardisoSolver()
+    S.factorize(A)
+    assert S._key == (-2, "matching")
+    assert np.linalg.norm(A @ S.solve(b) - b) <= 1e-9 * np.linalg.norm(b)
+    K = (A[:60, :60] + sp.identity(60)).tocsr()  # SPD block of the same kind
+    K.sort_indices()
+    S2 = PardisoSolver()
+    S2.factorize(K)
+    assert S2._key == (-2, "perturb")
+    x = S2.solve(b[:60])
+    assert np.allclose(x, spla.spsolve(K.tocsc(), b[:60]), rtol=1e-9, atol=1e-12)
+    assert S2.stats["n_fallback"] == 0
+
+
 def test_non_symmetric_system():
     rng = np.random.default_rng(1)
     A = (sp.random(80, 80, density=0.08, random_state=rng) + sp.identity(80) * 4.0).tocsr()
