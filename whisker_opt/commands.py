@@ -26,6 +26,9 @@ def _user_errors() -> tuple[type[BaseException], ...]:
         errs.append(InvalidDesignError)
     except ImportError:  # pragma: no cover - geometry is a core package
         pass
+    from whisker_opt.verify import VerifyError
+
+    errs.append(VerifyError)
     return tuple(errs)
 
 
@@ -411,6 +414,22 @@ def _resume_run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _verify_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("run_dir", type=Path, help="run directory written by `whisker-opt run`")
+    p.add_argument("--preset", choices=("coarse", "default", "fine"), default="fine",
+                   help="fidelity preset of the re-evaluation (default: fine)")
+    p.add_argument("--top", type=int, default=3, help="number of best feasible designs to re-evaluate (default 3)")
+
+
+def _verify_run(args: argparse.Namespace) -> int:
+    from whisker_opt.verify import format_rows, verify_run
+
+    rows = verify_run(args.run_dir, args.preset, args.top)
+    print(format_rows(rows, args.preset))
+    print(f"written to {args.run_dir / f'verify_{args.preset}.csv'}")
+    return 0
+
+
 def _report_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("run_dir", type=Path, help="run directory written by `whisker-opt run`")
 
@@ -556,6 +575,8 @@ REGISTRY: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None], Callab
     "run": ("run the GA optimisation of a config; write a results directory", _run_args, _run_run),
     "resume": ("continue an interrupted run from its last checkpoint", _resume_args, _resume_run),
     "report": ("print a run's summary table and rebuild its plots", _report_args, _report_run),
+    "verify": ("re-evaluate a run's best designs at a finer fidelity preset (is the optimum real?)",
+               _verify_args, _verify_run),
     "compensate": ("FE compensation table: vent pressure per trim, recovery rates, plot", _compensate_args, _compensate_run),
     "view": ("view result meshes with pyvista (or save a screenshot off-screen)", _view_args, _view_run),
 }
