@@ -1,0 +1,74 @@
+"""Interleaved A/B timing of one GA evaluation between two checkouts of whisker-opt.
+
+This machine's speed drifts by ±20 % within minutes, so a change's effect is measured as
+alternating processes of the two code versions, each timing ``--n`` evaluations (intact
+at 0.2 MPa + trimmed 5 mm vented, default preset, one thread) after one warm-up
+evaluation; the table gives each round's medians and the median over rounds.
+
+Usage::
+
+    git worktree add /tmp/old <commit>
+    python3 benchmarks/ab_eval.py /tmp/old . [--rounds 5] [--n 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+from pathlib import Path
+
+CHILD = r"""
+import statistics, sys, time
+sys.path.insert(0, ".")
+from geometry.design import WhiskerDesign
+from geometry.mesh import MeshSizing, build_mesh
+from whisker_opt.fidelity import PRESETS
+from whisker_opt.scene import SceneSpec, run_scene
+p = PRESETS["default"]
+def spec(d, Q):
+    return SceneSpec(d, Q=Q, sizing=MeshSizing.preset("default"), n_pressure_steps=p.n_pressure_steps,
+                     n_deflection_steps=p.n_deflection_steps)
+d = WhiskerDesign()
+def ev():
+    s1, s2 = spec(d, 0.2), spec(d.trimmed(5.0), 0.0)
+    return run_scene(s1, build_mesh(d, s1.sizing)), run_scene(s2, build_mesh(d.trimmed(5.0), s2.sizing))
+ev()
+ts = []
+for _ in range(int(sys.argv[1])):
+    t = time.perf_counter(); r1, r2 = ev(); ts.append(time.perf_counter() - t)
+print(statistics.median(ts), r1.eps_line[-1], r2.eps_line[-1])
+"""
+
+
+def run(repo: Path, n: int) -> tuple[float, float, float]:
+    env = dict(os.environ, OMP_NUM_THREADS="1", MKL_NUM_THREADS="1", PYTHONPATH=str(repo))
+    out = subprocess.run([sys.executable, "-c", CHILD, str(n)], cwd=repo, env=env, capture_output=True, text=True,
+                         check=True).stdout.split()
+    return float(out[0]), float(out[1]), float(out[2])
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("old", type=Path, help="checkout A (the baseline)")
+    ap.add_argument("new", type=Path, help="checkout B")
+    ap.add_argument("--rounds", type=int, default=5)
+    ap.add_argument("--n", type=int, default=3, help="timed evaluations per process")
+    args = ap.parse_args()
+    a_all, b_all = [], []
+    print(f"{'round':>5} {'A [s]':>8} {'B [s]':>8}")
+    for k in range(1, args.rounds + 1):
+        a, ea_i, ea_c = run(args.old.resolve(), args.n)
+        b, eb_i, eb_c = run(args.new.resolve(), args.n)
+        a_all.append(a)
+        b_all.append(b)
+        print(f"{k:>5} {a:>8.3f} {b:>8.3f}")
+    ma, mb = statistics.median(a_all), statistics.median(b_all)
+    print(f"median {ma:.3f} s -> {mb:.3f} s ({mb / ma - 1:+.1%}); readings eps_i(5) {ea_i:.9f} -> {eb_i:.9f}, "
+          f"eps_c(5) {ea_c:.9f} -> {eb_c:.9f}")
+
+
+if __name__ == "__main__":
+    main()
