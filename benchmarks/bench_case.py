@@ -16,9 +16,9 @@ import time
 from pathlib import Path
 
 from whisker_opt.commands import evaluator_from_config
-from whisker_opt.config import load_config
+from whisker_opt.config import dump_config, load_config
 from whisker_opt.ga_config import OptimiserConfig
-from whisker_opt.runner import run_optimisation
+from whisker_opt.runner import check_new_run_dir, run_optimisation
 
 
 def main() -> None:
@@ -29,6 +29,9 @@ def main() -> None:
     cfg = load_config(args.config)
     opt = cfg.optimiser or OptimiserConfig()
     out = args.out or Path("benchmarks/out") / f"{args.config.stem}-{time.strftime('%Y%m%d-%H%M%S')}"
+    check_new_run_dir(out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "config.yaml").write_text(dump_config(cfg))  # as `whisker-opt run`: report, view and verify read it
     t = time.perf_counter()
     s = run_optimisation(opt, out, evaluator_from_config(cfg), opt.resolve_seed(cfg.seed), progress=True)
     wall = time.perf_counter() - t

@@ -11,6 +11,7 @@ A tiny GA run on the coarse preset (serial, 3 individuals, 1 generation), then:
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import pytest
 
@@ -40,7 +41,8 @@ def run_dir(tmp_path_factory):
     cfg = d / "tiny.yaml"
     cfg.write_text(CONFIG)
     out = d / "run"
-    assert cli.main(["run", str(cfg), "--out", str(out), "--no-progress"]) == 0
+    assert cli.main(["run", str(cfg), "--out", str(out), "--no-progress", "--verify", "coarse", "--verify-top", "1"]) == 0
+    assert (out / "verify_coarse.csv").is_file()  # written by `run --verify`
     return out
 
 
@@ -70,3 +72,6 @@ def test_bad_arguments_are_user_errors(run_dir, tmp_path, capsys):
     assert "top=0" in capsys.readouterr().err
     assert cli.main(["verify", str(tmp_path)]) == 2
     assert "config.yaml" in capsys.readouterr().err
+    assert cli.main(["run", str(Path(__file__).resolve().parents[1] / "configs" / "demo.yaml"), "--out", str(tmp_path / "r"), "--verify", "fine",
+                     "--verify-top", "0"]) == 2  # refused before the run starts
+    assert "--verify-top=0" in capsys.readouterr().err and not (tmp_path / "r").exists()

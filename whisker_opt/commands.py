@@ -295,6 +295,9 @@ def _run_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("config", type=Path, help="YAML run file with an `optimiser` section")
     p.add_argument("--out", type=Path, default=None, help="run directory (default: a new one under output.results_dir)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--verify", choices=("coarse", "default", "fine"), default=None,
+                   help="after the run, re-evaluate the best designs at this preset (as `whisker-opt verify`)")
+    p.add_argument("--verify-top", type=int, default=3, help="designs re-evaluated by --verify (default 3)")
 
 
 def design_scene_specs(cfg: WhiskerConfig, genes: dict) -> dict:
@@ -379,6 +382,10 @@ def _run_run(args: argparse.Namespace) -> int:
     from whisker_opt.ga_config import OptimiserConfig
 
     cfg = load_config(args.config)
+    if args.verify and not 1 <= args.verify_top <= 1000:
+        from whisker_opt.verify import VerifyError
+
+        raise VerifyError(f"--verify-top={args.verify_top} outside the allowed range 1..1000")
     opt = cfg.optimiser or OptimiserConfig()
     ev = evaluator_from_config(cfg)
     run_dir = args.out or new_run_dir(cfg, args.config, "run")
@@ -391,6 +398,11 @@ def _run_run(args: argparse.Namespace) -> int:
     from whisker_opt.runner import report
 
     print(report(run_dir))
+    if args.verify:
+        from whisker_opt.verify import format_rows, verify_run
+
+        print(f"\nverification at preset {args.verify}")
+        print(format_rows(verify_run(run_dir, args.verify, args.verify_top), args.verify))
     print(f"written to {run_dir}")
     return 0
 
