@@ -92,6 +92,7 @@ class Topology:
             pat.node_block_positions(pk.faces[:, :, None], pk.faces[:, None, :]).transpose(0, 1, 3, 2, 4)
             for pk in self.pressure_kernels
         ]  # each (n_f, 6, 3, 6, 3)
+        self.pressure_pos_flat = np.concatenate([p.ravel() for p in self.pressure_pos] + [np.zeros(0, np.int64)])
         # fibre tangents scatter linearly from 9 chord-space numbers per segment
         # (TrussKernel.tangent_map); the dense block positions are only needed to build the map
         self.truss_maps = [
@@ -336,8 +337,8 @@ class Assembler:
                                 use_d2f, disp, pat.elem_uu, pat.elem_up, pat.elem_pu, data)
         data[pat.elem_pp] += np.ones(n_el) if disp else -0.5 * mat.d1 * topo.vol  # one entry per element
         if pres_out:
-            pos = np.concatenate([p.ravel() for p in topo.pressure_pos])
-            data += np.bincount(pos, np.concatenate([Kf.ravel() for Kf in pres_out]), minlength=pat.nnz)
+            data += np.bincount(topo.pressure_pos_flat, np.concatenate([Kf.ravel() for Kf in pres_out]),
+                                minlength=pat.nnz)
         for B, kmat in zip(topo.truss_maps, truss_out):
             data += B @ kmat.ravel()  # (nnz,)  fibre blocks w_a w_b kmat_ik
         return data

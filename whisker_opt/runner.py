@@ -266,7 +266,7 @@ def check_new_run_dir(run_dir: Path) -> None:
                               f"`whisker-opt resume {run_dir}` or choose another --out")
 
 
-def _load_run(run_dir: Path) -> tuple[GAState | None, OptimiserConfig, dict[str, Any], int]:
+def load_run(run_dir: Path) -> tuple[GAState | None, OptimiserConfig, dict[str, Any], int]:
     """(state or None, config, config dict, seed) of a run directory."""
     run_dir = Path(run_dir)
     if has_checkpoint(run_dir):
@@ -313,7 +313,7 @@ def resume_optimisation(
     n_tmp = remove_stale_temporaries(run_dir)
     if n_tmp:
         logger.info("removed %d temporary file(s) left by the interrupted run", n_tmp)
-    state, cfg, config, seed = _load_run(run_dir)
+    state, cfg, config, seed = load_run(run_dir)
     ga = GeneticAlgorithm(cfg, seed)
     if state is None:
         state = ga.new_state()
@@ -347,7 +347,7 @@ def report(run_dir: Path, max_rows: int = 60) -> str:
         Multi-line text: run facts, best design, hall of fame and per-generation table.
     """
     run_dir = Path(run_dir)
-    state, cfg, _, seed = _load_run(run_dir)
+    state, cfg, _, seed = load_run(run_dir)
     if state is None or state.generation < 0:
         return f"{run_dir}: no generation completed yet"
     write_plots(run_dir, state, cfg)

@@ -58,7 +58,7 @@ def verify_run(run_dir: Path, preset: str = "fine", top: int = 3) -> list[dict[s
     from whisker_opt.config import FidelityConfig, load_config
     from whisker_opt.ga_config import GENE_NAMES
     from whisker_opt.penalty import dynamic_penalty, penalty_terms
-    from whisker_opt.runner import _load_run
+    from whisker_opt.runner import load_run
 
     run_dir = Path(run_dir)
     if preset not in ("coarse", "default", "fine"):
@@ -69,7 +69,7 @@ def verify_run(run_dir: Path, preset: str = "fine", top: int = 3) -> list[dict[s
     if not cfg_path.is_file():
         raise FileNotFoundError(f"{cfg_path}: not found; is {run_dir} a run directory?")
     cfg = load_config(cfg_path)
-    state, opt, _, _ = _load_run(run_dir)
+    state, opt, _, _ = load_run(run_dir)
     if state is None:
         raise FileNotFoundError(f"{run_dir}: no checkpoint yet (the run has not finished a generation)")
     feasible = [ind for ind in state.hof if ind.fitness.values[0] == 0.0 and (ind.info or {}).get("f1") is not None]
