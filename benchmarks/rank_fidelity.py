@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
-from whisker_opt.commands import evaluator_from_config
-from whisker_opt.config import FidelityConfig, load_config
+from whisker_opt.config import load_config
+from whisker_opt.verify import evaluator_at_preset
 
 
 def main() -> None:
@@ -37,8 +37,7 @@ def main() -> None:
     opt = cfg.optimiser or OptimiserConfig()
     bounds = dict(zip(GENE_NAMES, opt.genes.bounds()))
     rng = np.random.default_rng(args.seed)
-    evs = {p: evaluator_from_config(cfg.model_copy(update={"fidelity": FidelityConfig(preset=p)}))
-           for p in (args.low, args.high)}
+    evs = {p: evaluator_at_preset(cfg, p) for p in (args.low, args.high)}
     print(f"{'alpha':>7} {'l':>7} {'t':>6} {'Q_i':>7} {'f1 ' + args.low:>12} {'f1 ' + args.high:>12} {'ratio':>7} "
           f"{'t_low':>6} {'t_high':>7}")
     rows = []

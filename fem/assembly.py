@@ -156,15 +156,29 @@ class Assembler:
         self.kernel = ("numba" if jit.AVAILABLE else "numpy") if kernel == "auto" else kernel
 
     def scatter_index(self) -> np.ndarray:
-        """Data positions of the element and pressure tangent contributions, in the order ``evaluate`` stacks them (cached)."""
+        """Data positions of the element tangent contributions (uu, up, pu, pp), in the order the numpy path stacks them (cached)."""
         idx = getattr(self.topo, "_scatter_index", None)
         if idx is None:
             pat = self.pattern
-            parts = [pat.elem_uu.ravel(), pat.elem_up.ravel(), pat.elem_pu.ravel(), pat.elem_pp]
-            parts += [pos.ravel() for pos in self.topo.pressure_pos]
-            idx = np.concatenate(parts)
+            idx = np.concatenate([pat.elem_uu.ravel(), pat.elem_up.ravel(), pat.elem_pu.ravel(), pat.elem_pp])
             self.topo._scatter_index = idx
         return idx
+
+    def _kpp(self) -> np.ndarray:
+        """Pressure–pressure diagonal (n_el,): −(D1/2) V_e (mixed) or 1 (inert pressures, displacement form)."""
+        if self.problem.formulation == "displacement":
+            return np.ones(self.topo.n_el)
+        return -0.5 * self.problem.material.d1 * self.topo.vol
+
+    def _add_load_tangents(self, data: np.ndarray, pres_out: list, truss_out: list) -> np.ndarray:
+        """Add the follower-pressure blocks and the fibre tangents to the tangent data (in place)."""
+        topo = self.topo
+        if pres_out:
+            data += np.bincount(topo.pressure_pos_flat, np.concatenate([Kf.ravel() for Kf in pres_out]),
+                                minlength=len(data))
+        for B, kmat in zip(topo.truss_maps, truss_out):
+            data += B @ kmat.ravel()  # (nnz,)  fibre blocks w_a w_b kmat_ik
+        return data
 
     # ------------------------------------------------------------------ kinematics
     def deformation(self, u: np.ndarray):
@@ -302,24 +316,17 @@ class Assembler:
         Ke[:, :, 1, :, 1] += Kid
         Ke[:, :, 2, :, 2] += Kid
         Kup = np.matmul((w * J)[:, None, :], gv.reshape(n_el, nq, 30))[:, 0]  # (n_el, 30)  Σ_q w J g[a, i]
-        Kpp = -0.5 * mat.d1 * topo.vol  # (n_el,)
         if disp:
             Kup = np.zeros_like(Kup)
-            Kpp = np.ones(n_el)
 
-        pat = self.pattern
-        parts_val = [Ke.reshape(n_el, 30, 30).ravel(), Kup.ravel(), Kup.ravel(), Kpp]
-        parts_val += [Kf.ravel() for Kf in pres_out]
-        data = np.bincount(self.scatter_index(), np.concatenate(parts_val), minlength=pat.nnz)
-        for B, kmat in zip(topo.truss_maps, truss_out):
-            data += B @ kmat.ravel()  # (nnz,)  fibre blocks w_a w_b kmat_ik
-        return R, data, min_j
+        parts_val = [Ke.reshape(n_el, 30, 30).ravel(), Kup.ravel(), Kup.ravel(), self._kpp()]
+        data = np.bincount(self.scatter_index(), np.concatenate(parts_val), minlength=self.pattern.nnz)
+        return R, self._add_load_tangents(data, pres_out, truss_out), min_j
 
     def _tangent_numba(self, F, J, G, coef, pJ, pres_out, truss_out) -> np.ndarray:
         """Tangent data (nnz,) with the compiled element kernel (same sums as the numpy path)."""
         topo, pat, mat = self.topo, self.pattern, self.problem.material
         disp = self.problem.formulation == "displacement"
-        n_el = topo.n_el
         shape = J.shape  # (n_el, n_qp)
 
         def arr(x):
@@ -335,10 +342,5 @@ class Assembler:
         jit.element_tangent_add(topo.dNdX, topo.wdet, np.ascontiguousarray(G), np.ascontiguousarray(F),
                                 arr(coef["a"]), arr(b), arr(coef["g"] - pJ), arr(coef["h"]), d2f, dI, arr(J),
                                 use_d2f, disp, pat.elem_uu, pat.elem_up, pat.elem_pu, data)
-        data[pat.elem_pp] += np.ones(n_el) if disp else -0.5 * mat.d1 * topo.vol  # one entry per element
-        if pres_out:
-            data += np.bincount(topo.pressure_pos_flat, np.concatenate([Kf.ravel() for Kf in pres_out]),
-                                minlength=pat.nnz)
-        for B, kmat in zip(topo.truss_maps, truss_out):
-            data += B @ kmat.ravel()  # (nnz,)  fibre blocks w_a w_b kmat_ik
-        return data
+        data[pat.elem_pp] += self._kpp()  # one entry per element
+        return self._add_load_tangents(data, pres_out, truss_out)

@@ -113,6 +113,5 @@ class TrussKernel:
         vals = np.broadcast_to(ww[:, :, None, :, None], positions.shape)  # (n_seg, 20, 3, 20, 3)
         col = (9 * np.arange(n_seg)[:, None, None] + 3 * np.arange(3)[None, :, None] + np.arange(3)[None, None, :])
         cols = np.broadcast_to(col[:, None, :, None, :], positions.shape)  # (n_seg, 20, 3, 20, 3)
-        B = sp.coo_matrix((vals.ravel(), (positions.ravel(), cols.ravel())), shape=(nnz, 9 * n_seg)).tocsr()
-        B.sum_duplicates()
-        return B
+        # tocsr sums the duplicate entries
+        return sp.coo_matrix((vals.ravel(), (positions.ravel(), cols.ravel())), shape=(nnz, 9 * n_seg)).tocsr()

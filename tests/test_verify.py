@@ -74,4 +74,4 @@ def test_bad_arguments_are_user_errors(run_dir, tmp_path, capsys):
     assert "config.yaml" in capsys.readouterr().err
     assert cli.main(["run", str(Path(__file__).resolve().parents[1] / "configs" / "demo.yaml"), "--out", str(tmp_path / "r"), "--verify", "fine",
                      "--verify-top", "0"]) == 2  # refused before the run starts
-    assert "--verify-top=0" in capsys.readouterr().err and not (tmp_path / "r").exists()
+    assert "top=0" in capsys.readouterr().err and not (tmp_path / "r").exists()

@@ -382,10 +382,10 @@ def _run_run(args: argparse.Namespace) -> int:
     from whisker_opt.ga_config import OptimiserConfig
 
     cfg = load_config(args.config)
-    if args.verify and not 1 <= args.verify_top <= 1000:
-        from whisker_opt.verify import VerifyError
+    if args.verify:  # refuse bad --verify arguments before the run, not after it
+        from whisker_opt.verify import check_args
 
-        raise VerifyError(f"--verify-top={args.verify_top} outside the allowed range 1..1000")
+        check_args(args.verify, args.verify_top)
     opt = cfg.optimiser or OptimiserConfig()
     ev = evaluator_from_config(cfg)
     run_dir = args.out or new_run_dir(cfg, args.config, "run")

@@ -29,6 +29,24 @@ COLUMNS = ("rank_run", "rank_verify", "alpha", "l", "t", "Q_i", "f1_run", "f1_ve
            "F_p_run", "F_p_verify", "status", "reason", "time_s")
 
 
+def check_args(preset: str, top: int) -> None:
+    """Raise :class:`VerifyError` naming the argument unless preset is a named preset and 1 <= top <= 1000."""
+    if preset not in ("coarse", "default", "fine"):
+        raise VerifyError(f"verify: preset={preset!r} is not one of 'coarse', 'default', 'fine'")
+    if not 1 <= int(top) <= 1000:
+        raise VerifyError(f"verify: top={top!r} outside the allowed range 1..1000")
+
+
+def evaluator_at_preset(cfg, preset: str):
+    """The GA evaluator of ``cfg`` with its fidelity replaced by the named preset (other fidelity
+    overrides dropped, the mesh method kept)."""
+    from whisker_opt.commands import evaluator_from_config
+    from whisker_opt.config import FidelityConfig
+
+    fid = FidelityConfig(preset=preset, mesh_method=cfg.fidelity.mesh_method)
+    return evaluator_from_config(cfg.model_copy(update={"fidelity": fid}))
+
+
 def verify_run(run_dir: Path, preset: str = "fine", top: int = 3) -> list[dict[str, Any]]:
     """Re-evaluate the best ``top`` feasible designs of ``run_dir`` at fidelity ``preset``.
 
@@ -54,17 +72,13 @@ def verify_run(run_dir: Path, preset: str = "fine", top: int = 3) -> list[dict[s
     VerifyError
         ``preset`` or ``top`` out of range, or the run has no feasible design.
     """
-    from whisker_opt.commands import evaluator_from_config
-    from whisker_opt.config import FidelityConfig, load_config
+    from whisker_opt.config import load_config
     from whisker_opt.ga_config import GENE_NAMES
     from whisker_opt.penalty import dynamic_penalty, penalty_terms
     from whisker_opt.runner import load_run
 
     run_dir = Path(run_dir)
-    if preset not in ("coarse", "default", "fine"):
-        raise VerifyError(f"verify: preset={preset!r} is not one of 'coarse', 'default', 'fine'")
-    if not 1 <= int(top) <= 1000:
-        raise VerifyError(f"verify: top={top!r} outside the allowed range 1..1000")
+    check_args(preset, top)
     cfg_path = run_dir / "config.yaml"
     if not cfg_path.is_file():
         raise FileNotFoundError(f"{cfg_path}: not found; is {run_dir} a run directory?")
@@ -76,8 +90,7 @@ def verify_run(run_dir: Path, preset: str = "fine", top: int = 3) -> list[dict[s
     if not feasible:
         raise VerifyError(f"verify: {run_dir} has no feasible design in its hall of fame")
     chosen = feasible[: int(top)]
-    cfg_v = cfg.model_copy(update={"fidelity": FidelityConfig(preset=preset, mesh_method=cfg.fidelity.mesh_method)})
-    evaluate = evaluator_from_config(cfg_v)
+    evaluate = evaluator_at_preset(cfg, preset)
     terms = penalty_terms(opt)
     rows = []
     for rank, ind in enumerate(chosen, start=1):
