@@ -15,9 +15,11 @@ import numpy as np
 
 from geometry.design import WhiskerDesign
 from geometry.mesh import MeshSizing
-from whisker_opt.fidelity import PRESETS
-from whisker_opt.ga_config import GENE_NAMES, GenesConfig
-from whisker_opt.scene import SceneSpec
+from whisker_opt.experiment.fidelity import PRESETS
+from whisker_opt.config.optimiser import GenesConfig
+from whisker_opt import genes
+from whisker_opt.genes import GENE_NAMES
+from whisker_opt.experiment.scene import SceneSpec
 
 #: GA box of the genes (SPEC §6), ``{name: (lo, hi)}`` in :data:`GENE_NAMES` order.
 GENE_BOX: dict[str, tuple[float, float]] = dict(zip(GENE_NAMES, GenesConfig().bounds()))
@@ -30,17 +32,19 @@ D1_K1000 = 2.0 / (1000.0 * MU)
 
 def design_from_genes(alpha: float, l: float, t: float, trim: float = 0.0,  # noqa: E741
                       base: WhiskerDesign = WhiskerDesign(), **changes) -> WhiskerDesign:
-    """The base design with the geometric genes and the trim replaced (not validated)."""
-    return replace(base, alpha_deg=float(alpha), l=float(l), t=float(t), trim=float(trim), **changes)
+    """The base design with the geometric genes (:func:`whisker_opt.genes.design_from_genes`), the
+    trim and any other design ``changes`` replaced (not validated)."""
+    d = genes.design_from_genes(base, {"alpha": alpha, "l": l, "t": t}, trim)
+    return replace(d, **changes) if changes else d
 
 
 def preset_spec(design: WhiskerDesign, preset: str, **overrides) -> SceneSpec:
     """SceneSpec of a fidelity preset: its mesh sizing, step counts, template/swept mesh ('auto').
 
-    ``overrides`` are any other :class:`whisker_opt.scene.SceneSpec` fields (Q, d1, ...).
+    ``overrides`` are any other :class:`whisker_opt.experiment.scene.SceneSpec` fields (Q, d1, ...).
     """
     p = PRESETS[preset]
-    kw = dict(sizing=MeshSizing.preset(preset), n_pressure_steps=p.n_pressure_steps,
+    kw = dict(sizing=p.sizing, n_pressure_steps=p.n_pressure_steps,
               n_deflection_steps=p.n_deflection_steps, mesh_method="auto")
     kw.update(overrides)
     return SceneSpec(design, **kw)
@@ -60,13 +64,13 @@ def report_stats(reports) -> dict:
 def classify_exception(exc: BaseException) -> str:
     """Failure status of a scene exception, as the GA's evaluator classifies it.
 
-    Mirrors :class:`whisker_opt.evaluator.SceneEvaluator`: InvalidDesignError ->
+    Mirrors :class:`whisker_opt.experiment.evaluator.SceneEvaluator`: InvalidDesignError ->
     ``invalid_geometry``, SolveFailed -> ``solve_failed``, meshing -> ``mesh_failed``,
     anything else -> ``error``.
     """
     from fem.stepping import SolveFailed
     from geometry.design import InvalidDesignError
-    from whisker_opt.evaluator import _is_mesh_error
+    from whisker_opt.experiment.evaluator import _is_mesh_error
 
     if isinstance(exc, InvalidDesignError):
         return "invalid_geometry"

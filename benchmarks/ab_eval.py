@@ -25,11 +25,11 @@ import statistics, sys, time
 sys.path.insert(0, ".")
 from geometry.design import WhiskerDesign
 from geometry.mesh import MeshSizing, build_mesh
-from whisker_opt.fidelity import PRESETS
-from whisker_opt.scene import SceneSpec, run_scene
+from whisker_opt.experiment.fidelity import PRESETS
+from whisker_opt.experiment.scene import SceneSpec, run_scene
 p = PRESETS["default"]
 def spec(d, Q):
-    return SceneSpec(d, Q=Q, sizing=MeshSizing.preset("default"), n_pressure_steps=p.n_pressure_steps,
+    return SceneSpec(d, Q=Q, sizing=PRESETS["default"].sizing, n_pressure_steps=p.n_pressure_steps,
                      n_deflection_steps=p.n_deflection_steps)
 d = WhiskerDesign()
 def ev():

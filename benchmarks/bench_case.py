@@ -15,10 +15,10 @@ import argparse
 import time
 from pathlib import Path
 
-from whisker_opt.commands import evaluator_from_config
-from whisker_opt.config import dump_config, load_config
-from whisker_opt.ga_config import OptimiserConfig
-from whisker_opt.runner import check_new_run_dir, run_optimisation
+from whisker_opt import wiring
+from whisker_opt.config.model import dump_config, load_config
+from whisker_opt.config.optimiser import OptimiserConfig
+from whisker_opt.optimise.runner import check_new_run_dir, run_optimisation
 
 
 def main() -> None:
@@ -33,7 +33,7 @@ def main() -> None:
     out.mkdir(parents=True, exist_ok=True)
     (out / "config.yaml").write_text(dump_config(cfg))  # as `whisker-opt run`: report, view and verify read it
     t = time.perf_counter()
-    s = run_optimisation(opt, out, evaluator_from_config(cfg), opt.resolve_seed(cfg.seed), progress=True)
+    s = run_optimisation(opt, out, wiring.evaluator(cfg), opt.resolve_seed(cfg.seed), progress=True)
     wall = time.perf_counter() - t
     best = s.best or {}
     print(f"case            {args.config}  (preset {cfg.fidelity.preset}, Δmax {opt.delta_max} mm)")

@@ -28,7 +28,7 @@ import time
 import numpy as np
 
 from fem.assembly import Assembler
-from fem.calculix import CcxCase, ccx_available, run_ccx
+from peers.calculix import CcxCase, ccx_available, run_ccx
 from fem.linsolve import make_solver
 from fem.loads import LoadState
 from fem.material import NeoHookean

@@ -43,6 +43,7 @@ from fem.mesh import jacobian_determinants  # noqa: E402
 from fem.quadrature import tet_rule  # noqa: E402
 from geometry.design import WhiskerDesign  # noqa: E402
 from geometry.mesh import MeshSizing, build_mesh  # noqa: E402
+from whisker_opt.experiment.fidelity import PRESETS
 
 #: Acceptance limits of issue #2.
 MAX_VOLUME_ERROR = 5e-3
@@ -107,7 +108,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
     args.out.mkdir(parents=True, exist_ok=True)
-    sizing = MeshSizing.preset("default")
+    sizing = PRESETS["default"].sizing
     n_random = args.n_random if args.n_random is not None else (20 if args.quick else 100)
 
     for f in ("fresh.csv", "fast_path.csv"):

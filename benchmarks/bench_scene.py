@@ -24,14 +24,14 @@ import numpy as np
 
 from geometry.design import WhiskerDesign
 from geometry.mesh import MeshSizing, build_mesh
-from whisker_opt.fidelity import PRESETS
-from whisker_opt.scene import SceneSpec, run_scene
+from whisker_opt.experiment.fidelity import PRESETS
+from whisker_opt.experiment.scene import SceneSpec, run_scene
 
 
 def evaluation(preset: str, design: WhiskerDesign):
-    sizing = MeshSizing.preset(preset)
+    sizing = PRESETS[preset].sizing
     n = PRESETS[preset].n_deflection_steps
-    n_p = PRESETS[preset].n_pressure_steps  # as the GA evaluates (whisker_opt.commands.spec_for)
+    n_p = PRESETS[preset].n_pressure_steps  # as the GA evaluates (whisker_opt.wiring.scene_spec)
     t = time.perf_counter()
     r_i = run_scene(SceneSpec(design, Q=0.2, sizing=sizing, n_pressure_steps=n_p, n_deflection_steps=n))
     r_c = run_scene(SceneSpec(design.trimmed(5.0), Q=0.0, sizing=sizing, n_pressure_steps=n_p,
@@ -76,7 +76,7 @@ def main() -> None:
         for _ in range(args.repeat if preset != "fine" else 1):
             wall, br, r_i, r_c = evaluation(preset, d)
             walls.append(wall)
-        n_el = build_mesh(d, MeshSizing.preset(preset)).mesh.n_elements
+        n_el = build_mesh(d, PRESETS[preset].sizing).mesh.n_elements
         rows[preset] = (r_i.eps_line[-1], r_c.eps_line[-1])
         print(f"{preset:>8} {n_el:>8d} {statistics.median(walls):>9.2f} {br['mesh']:>6.2f} {br['pressurise']:>8.2f} "
               f"{br['deflect']:>8.2f} {br['assembly']:>8.2f} {br['factorize']:>7.2f} {rows[preset][0]:>10.6f} "
@@ -98,7 +98,7 @@ def main() -> None:
         print(f"reference eps_i(5) = {q:.6f} (Richardson over time_vs_error's swept levels L2-L4, {note}, p = {p:.2f}); "
               + ", ".join(f"{pr} {(rows[pr][0] - q) / q:+.2%}" for pr in ("coarse", "default", "fine")))
     # interpolation error of the default preset's increments
-    sizing = MeshSizing.preset("default")
+    sizing = PRESETS["default"].sizing
     ref = run_scene(SceneSpec(d, Q=0.2, sizing=sizing, n_deflection_steps=20))
     few = run_scene(SceneSpec(d, Q=0.2, sizing=sizing, n_deflection_steps=PRESETS["default"].n_deflection_steps))
     dd = np.linspace(0.01, 5.0, 500)

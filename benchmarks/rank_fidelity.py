@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
-from whisker_opt.config import load_config
-from whisker_opt.verify import evaluator_at_preset
+from whisker_opt.config.model import load_config
+from whisker_opt import wiring
 
 
 def main() -> None:
@@ -32,12 +32,13 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=1)
     args = ap.parse_args()
     cfg = load_config(args.config)
-    from whisker_opt.ga_config import GENE_NAMES, OptimiserConfig
+    from whisker_opt.config.optimiser import OptimiserConfig
+from whisker_opt.genes import GENE_NAMES
 
     opt = cfg.optimiser or OptimiserConfig()
     bounds = dict(zip(GENE_NAMES, opt.genes.bounds()))
     rng = np.random.default_rng(args.seed)
-    evs = {p: evaluator_at_preset(cfg, p) for p in (args.low, args.high)}
+    evs = {p: wiring.evaluator(wiring.with_preset(cfg, p)) for p in (args.low, args.high)}
     print(f"{'alpha':>7} {'l':>7} {'t':>6} {'Q_i':>7} {'f1 ' + args.low:>12} {'f1 ' + args.high:>12} {'ratio':>7} "
           f"{'t_low':>6} {'t_high':>7}")
     rows = []

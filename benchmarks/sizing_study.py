@@ -36,7 +36,7 @@ VARIANTS = {
 
 
 def main() -> None:
-    from geometry.mesh import MeshSizing
+    from whisker_opt.experiment.fidelity import PRESETS
 
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--variants", default=",".join(VARIANTS), help="comma-separated names from: " + ", ".join(VARIANTS))
@@ -52,7 +52,7 @@ def main() -> None:
     with args.runs.open() as fh:
         runs = [r for r in csv.DictReader(fh) if r["family"] == "mesh"]
     _, refs = tv.analyse(runs)
-    base = MeshSizing.preset("default")
+    base = PRESETS["default"].sizing
     print(f"{'variant':14s} {'design':12s} {'elements':>8} {'time [s]':>8} {'err dl':>8} {'err eps5':>8} {'err f1':>8}")
     for name in names:
         for d in tv.DESIGNS:

@@ -10,7 +10,7 @@ Cases (one scene each: mesh, pressurise, deflect, gauge readout)
   - ``stress``: Q = min(1.5 Q_i, 0.3) MPa, δ to 8 mm, D1 = 2/(1000 μ) = 7.14e-3 1/MPa
     (K/μ = 1000) — beyond the GA's range —, a = 1 at even box points, 0.5 at odd ones
     (at a < 1 the scene meshes again with its node ring at the pressurised contact,
-    :func:`whisker_opt.scene.run_scene`).
+    :func:`whisker_opt.experiment.scene.run_scene`).
 
   48 × 2 × 2 = 192 cases.
 * **random** — ``--n-random`` (default 110) designs drawn with a fixed seed: three in four
@@ -23,7 +23,7 @@ A case is *in range* when its genes lie in the GA box, Q ≤ 0.2 MPa, δ_max ≤
 D1 = 0; *GA scene* when in range and a = 1. The target of issue #7: every in-range
 case converges at the default preset; no NaN anywhere (every converged case's
 readings are checked finite; a non-finite one is recorded as status ``nan``); every
-failure carries a classified reason (statuses as :mod:`whisker_opt.evaluator`:
+failure carries a classified reason (statuses as :mod:`whisker_opt.experiment.evaluator`:
 ``invalid_geometry``, ``mesh_failed``, ``solve_failed``, ``timeout``, ``error``).
 
 Perturbation check
@@ -211,8 +211,8 @@ def run_case(case: Case, preset: str = "default", timeout_s: float | None = 600.
         The fields of :data:`ROW_FIELDS`.
     """
     from fem.stepping import SolveFailed
-    from whisker_opt.executors import _call_with_alarm, _EvalTimeout
-    from whisker_opt.scene import run_scene
+    from whisker_opt.optimise.executors import _call_with_alarm, _EvalTimeout
+    from whisker_opt.experiment.scene import run_scene
 
     row = {**asdict(case), "in_box": case.in_box, "in_range": case.in_range, "ga_scene": case.ga_scene,
            "preset": preset, "converged": False, "n_elements": 0, "increments": 0, "cutbacks": 0,
@@ -285,7 +285,7 @@ def perturbation_check(designs: list[dict], preset: str, h: float = PERTURBATION
     Returns one row per (design, gene) with eps0, rel_change = (ε₊ − ε₀)/ε₀ and
     nonsmooth = |ε₊ − 2ε₀ + ε₋|/|ε₀|.
     """
-    from whisker_opt.scene import run_scene
+    from whisker_opt.experiment.scene import run_scene
 
     def eps(g: dict) -> float:
         case = Case("perturb", "perturb", g["alpha"], g["l"], g["t"], g["Q_i"], 0.0, g["Q_i"], 5.0, 1.0, 0.0)

@@ -7,7 +7,7 @@ Q_i = 0.2 MPa and the same design trimmed by 5 mm and vented, contact at the tip
 (a) Δl, the axial extension at Q = 0.2 MPa (intact scene);
 (b) ε(5 mm), the calibrated gauge reading (line variant) of the intact scene;
 (c) f1 = mean over δ_k = 0.01 … 5 mm of |ε_i(δ_k) − ε_c(δ_k)| (the definition of
-    :class:`whisker_opt.evaluator.SceneEvaluator`, curves by its spline);
+    :class:`whisker_opt.experiment.evaluator.SceneEvaluator`, curves by its spline);
 
 against references extrapolated (Richardson) from the finest levels of a mesh study.
 
@@ -21,7 +21,7 @@ Configurations (families)
     extrapolation of the three finest levels (observed order p from their ratio; p = 2,
     the P2 rate, from the two finest when the three are not monotone).
 ``preset``
-    The fidelity presets coarse / default / fine (``whisker_opt.fidelity``; template
+    The fidelity presets coarse / default / fine (``whisker_opt.experiment.fidelity``; template
     meshes).
 ``increments``
     The default preset with 2, 5, 10, 20 deflection steps (3 is the preset).
@@ -67,6 +67,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from whisker_opt.experiment import objective  # noqa: E402
 from _bench_common import (  # noqa: E402
     D1_K1000,
     append_csv,
@@ -153,8 +154,8 @@ def evaluate(design_name: str, cfg: Config) -> dict:
     meshing as in the GA; f1 uses the evaluator's own samples and curve interpolation.
     """
     from geometry.mesh import build_mesh
-    from whisker_opt.evaluator import SceneEvaluator
-    from whisker_opt.scene import run_scene
+    from whisker_opt.experiment.evaluator import SceneEvaluator
+    from whisker_opt.experiment.scene import run_scene
 
     alpha, l, t = DESIGNS[design_name]
     base = preset_spec(design_from_genes(alpha, l, t), cfg.preset, **cfg.overrides)
@@ -173,8 +174,8 @@ def evaluate(design_name: str, cfg: Config) -> dict:
             t_intact = time.perf_counter() - t0
     wall = time.perf_counter() - t0
     delta = ev.samples()
-    f1 = float(np.mean(np.abs(results["intact"].curve(delta, ev.gauge_variant)
-                              - results["trimmed"].curve(delta, ev.gauge_variant))))
+    f1 = objective.f1(results["intact"].curve(delta, ev.gauge_variant),
+                      results["trimmed"].curve(delta, ev.gauge_variant))
     return {"design": design_name, "config": cfg.name, "family": cfg.family, "level": cfg.level,
             "n_elements": n_el, "time_s": wall, "time_intact_s": t_intact,
             "iterations": sum(s["iterations"] for s in stats), "increments": sum(s["increments"] for s in stats),
@@ -309,10 +310,10 @@ def plot(rows: list[dict], path: Path) -> None:
 # ----------------------------------------------------------------------------- CalculiX
 def ccx_point() -> dict | None:
     """Our solver and CalculiX on the default preset's mesh of the default design, no fibres."""
-    from fem.calculix import CcxCase, ccx_available, run_ccx
+    from peers.calculix import CcxCase, ccx_available, run_ccx
     from geometry.mesh import build_mesh
-    from whisker_opt.gauge import GaugeReader
-    from whisker_opt.scene import locate_gauge, run_scene
+    from whisker_opt.experiment.gauge import GaugeReader
+    from whisker_opt.experiment.scene import locate_gauge, run_scene
 
     if not ccx_available():
         print("ccx not on PATH: CalculiX point skipped")
@@ -324,7 +325,7 @@ def ccx_point() -> dict | None:
     ours = run_scene(spec, wm)
     t_ours = time.perf_counter() - t
     base, tip = wm.node_sets["base"], wm.node_sets["tip"]
-    # fem.calculix writes repr(float): a coordinate like -1.4473103847089728e-15 exceeds CalculiX's
+    # peers.calculix writes repr(float): a coordinate like -1.4473103847089728e-15 exceeds CalculiX's
     # 20-character field ("*ERROR reading *NODE"); rounding to 1e-12 mm keeps every field short
     case = CcxCase(np.round(wm.mesh.points, 12), wm.mesh.cells, spec.c10, spec.d1,
                    boundary=tuple((base, k, 0.0) for k in range(3)) + ((tip, 1, -spec.delta_max),),

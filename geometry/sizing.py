@@ -115,47 +115,6 @@ class MeshSizing:
             if not (isinstance(val, (int, float)) and lo <= val <= hi):
                 raise ValueError(f"MeshSizing.{name}={val!r} outside the allowed range [{lo}, {hi}]")
 
-    # ------------------------------------------------------------------ presets
-    @classmethod
-    def preset(cls, name: str) -> "MeshSizing":
-        """Named presets: 'coarse' (demos, smoke tests), 'default' (the GA), 'fine' (verification).
-
-        Chosen by measurement (2026-11-23, default design, intact at Q = 0.2 MPa, gauge
-        line reading at δ = 5 mm against a 21 600-element swept mesh (4 layers, 16
-        sectors, dz = pitch/8); one evaluation = intact + trimmed scene on one core):
-
-        ========  ========================  ========  =========  =========
-        preset    layers, sectors, dz/pitch  elements  eval [s]   gauge err
-        ========  ========================  ========  =========  =========
-        coarse    1, 8, 0.75                 ~1 000    ~2.5       −2.0 %
-        default   1, 8, 0.5                  ~1 100    2.7        −0.8 %
-        (former)  2, 8, 0.25                 ~2 700    9.6        +0.1 %
-        fine      3, 12, 0.17                ~8 900    —          −0.3 %
-        ========  ========================  ========  =========  =========
-
-        The gauge reading scatters by ±0.5 % between mesh families without a trend in
-        the wall layers (one P2 layer through the wall reads within 0.7 % of three), so the
-        GA default is the cheapest mesh within 1 % that meets the 3 s target of issue #4;
-        ``fine`` keeps three wall layers. Figures: ``benchmarks/bench_scene.py``,
-        ``benchmarks/time_vs_error.py``.
-        """
-        presets = {
-            "coarse": cls(wall_layers=1.0, n_theta=8, axial_pitch_fraction=0.75, h_body=12.0, name="coarse"),
-            "default": cls(),
-            "fine": cls(wall_layers=3.0, n_theta=12, axial_pitch_fraction=0.17, h_body=10.0, name="fine"),
-        }
-        if name not in presets:
-            raise ValueError(f"MeshSizing.preset: name={name!r}, allowed {sorted(presets)}")
-        return presets[name]
-
-    @classmethod
-    def coarse(cls) -> "MeshSizing":
-        return cls.preset("coarse")
-
-    @classmethod
-    def fine(cls) -> "MeshSizing":
-        return cls.preset("fine")
-
     # ------------------------------------------------------------------ sizes
     def wall_size(self, design: WhiskerDesign) -> float:
         """``h_wall`` or ``t / wall_layers``."""

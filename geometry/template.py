@@ -27,11 +27,11 @@ nodes re-snapped onto the curved surfaces (:func:`geometry.quadratic.upgrade`).
 
 Templates are bucketed by wall thickness and cone angle (the two shape parameters
 that change element aspect ratios most: ``t'/t`` squeezes the wall radially and
-``r_o(L')`` the tip), one set per templatable sizing preset; the nearest template is
+``r_o(L')`` the tip), one set per templatable sizing; the nearest template is
 picked by ``|ln(t'/t)| + |ln(r'_tip/r_tip)| + 0.5 |ln((l'-c')/(l-c))|``.
 The shipped templates are structured swept meshes (:mod:`geometry.swept`; fTetWild
 templates can still be made with ``make_template(..., method="fresh")``).
-Regenerate them with ``python3 -m geometry.template`` (seconds).
+Regenerate them with ``python3 -m whisker_opt.experiment.fidelity`` (the application's presets).
 """
 
 from __future__ import annotations
@@ -58,7 +58,6 @@ TEMPLATE_DIR = Path(__file__).with_name("templates")
 TEMPLATE_ALPHAS = (3.3, 5.0)
 TEMPLATE_TS = (2.4, 3.6, 5.2)
 TEMPLATE_L_CHAMBER = 12.5
-TEMPLATE_PRESETS = ("coarse", "default", "fine")
 
 
 @dataclass(frozen=True)
@@ -271,13 +270,16 @@ def _renumber(pts: np.ndarray, tets: np.ndarray) -> tuple[np.ndarray, np.ndarray
 
 
 def generate_templates(
-    out_dir: Path = TEMPLATE_DIR, presets: tuple[str, ...] = TEMPLATE_PRESETS, num_threads: int = 0
+    sizings: tuple[MeshSizing, ...], out_dir: Path = TEMPLATE_DIR, num_threads: int = 0
 ) -> list[Path]:
-    """(Re)generate the template grid for the given presets (fTetWild; minutes)."""
+    """(Re)generate the template grid for the given sizings (seconds per sizing).
+
+    The application's presets call this with their sizings
+    (``python3 -m whisker_opt.experiment.fidelity``).
+    """
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = []
-    for preset in presets:
-        sizing = MeshSizing.preset(preset)
+    for sizing in sizings:
         for d in template_designs():
             tpl = make_template(d, sizing, num_threads=num_threads)
             path = out_dir / f"{tpl.name}.npz"
@@ -287,8 +289,3 @@ def generate_templates(
             paths.append(path)
     load_templates.cache_clear()
     return paths
-
-
-if __name__ == "__main__":  # pragma: no cover
-    logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
-    generate_templates()

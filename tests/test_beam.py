@@ -9,8 +9,8 @@ import pytest
 from scipy import integrate
 
 from geometry.design import WhiskerDesign
-from whisker_opt import beam
-from whisker_opt.beam import NO_SOFTENING, BeamModel, ExtensionTable, LinearSoftening
+from whisker_opt.analysis import beam
+from whisker_opt.analysis.beam import NO_SOFTENING, BeamModel, ExtensionTable, LinearSoftening
 
 E = 0.84
 

@@ -1,4 +1,4 @@
-"""Tests of the CalculiX peer driver :mod:`fem.calculix`.
+"""Tests of the CalculiX peer driver :mod:`peers.calculix`.
 
 The ``ccx``-marked tests run CalculiX on tiny P2 meshes (well under a second each)
 and are skipped when ``ccx`` is not installed. They pin
@@ -20,7 +20,7 @@ import pytest
 from scipy.optimize import brentq
 
 from fem import element
-from fem.calculix import (
+from peers.calculix import (
     CcxCase,
     CcxError,
     ccx_available,
@@ -356,7 +356,7 @@ def test_element_faces_inverts_boundary_faces():
 
 def test_deck_numbers_fit_calculix_fields():
     """CalculiX reads at most 20 characters per field; long reprs are rounded to 13 digits."""
-    from fem.calculix import _fmt
+    from peers.calculix import _fmt
 
     for v in (-1.4473103847089728e-15, 1.0 / 3.0, -123456.78901234567, -2.2250738585072014e-308, 0.1, 70.0):
         s = _fmt(v)

@@ -1,6 +1,6 @@
 """The console script on user errors (issue #2): one line on stderr, exit code 2, no traceback.
 
-Runs ``python -m whisker_opt.cli`` in a subprocess, as a user would run ``whisker-opt``.
+Runs ``python -m whisker_opt.cli.main`` in a subprocess, as a user would run ``whisker-opt``.
 """
 
 import subprocess
@@ -13,7 +13,7 @@ REPO = Path(__file__).resolve().parents[1]
 
 
 def _cli(*args, cwd=REPO):
-    proc = subprocess.run([sys.executable, "-m", "whisker_opt.cli", *map(str, args)], cwd=cwd,
+    proc = subprocess.run([sys.executable, "-m", "whisker_opt.cli.main", *map(str, args)], cwd=cwd,
                           capture_output=True, text=True, timeout=300)
     return proc.returncode, proc.stdout, proc.stderr
 

@@ -10,9 +10,10 @@ import numpy as np
 import pytest
 
 from geometry.design import WhiskerDesign
-from whisker_opt import beam
-from whisker_opt import compensation as comp
-from whisker_opt.beam import BeamModel, BeamResponse, BeamSensitivity
+from whisker_opt.analysis import beam
+from whisker_opt.analysis import compensation as comp
+from whisker_opt.analysis.beam import BeamModel, BeamResponse, BeamSensitivity
+from whisker_opt.experiment import objective
 
 
 @dataclass(frozen=True)
@@ -59,7 +60,7 @@ def test_curve_measures_scalars():
     assert rec == pytest.approx((1 - 0.1 / 0.4) * 100) and err == pytest.approx(25.0)
     rec, err = comp.curve_measures(o, b, c, "gap")  # gaps: before 1.2/3 = 0.4, after 0.3/3 = 0.1
     assert rec == pytest.approx(75.0) and err == pytest.approx(25.0)
-    assert comp.mean_gap(b, o) == pytest.approx(0.4)
+    assert objective.f1(b, o) == pytest.approx(0.4)
     with pytest.raises(ValueError, match="scalar = 'max'"):
         comp.curve_measures(o, b, c, "max")
 
@@ -236,8 +237,8 @@ class _FakeRunner:
 
 
 def test_compensate_command_writes_table_and_comparison(tmp_path, monkeypatch, capsys):
-    from whisker_opt import scene
-    from whisker_opt.cli import main
+    from whisker_opt.experiment import scene
+    from whisker_opt.cli.main import main
 
     monkeypatch.setattr(scene, "SceneRunner", _FakeRunner)
     _FakeRunner.specs = []
@@ -265,9 +266,9 @@ def test_compensate_command_writes_table_and_comparison(tmp_path, monkeypatch, c
 
 def test_scene_sensitivity_off_tip_contact_coarse_fe():
     """Real coarse FE at a = 0.5, Q = 0.1 through the command's sensitivity (the scene places the ring)."""
-    from whisker_opt.commands import scene_sensitivity
-    from whisker_opt.config import WhiskerConfig
-    from whisker_opt.scene import SceneRunner
+    from whisker_opt.workflows import scene_sensitivity
+    from whisker_opt.config.model import WhiskerConfig
+    from whisker_opt.experiment.scene import SceneRunner
 
     cfg = WhiskerConfig.model_validate({"fidelity": {"preset": "coarse"}})
     s = scene_sensitivity(cfg, SceneRunner(), 1.0)(WhiskerDesign(), 0.5, 0.1)

@@ -7,7 +7,7 @@ C3D10 by 11 % / 3 % (K/μ = 10) on those meshes, the two converging to each othe
 under refinement (C3D10 is the stiffer, locking-prone one).
 
 Reference: CalculiX 2.20 (C3D10, *HYPERELASTIC NEO HOOKE, NLGEOM, follower *DLOAD),
-run through :mod:`fem.calculix` with tightened tolerances (shared/VERIFICATION.md,
+run through :mod:`peers.calculix` with tightened tolerances (shared/VERIFICATION.md,
 "Peer solver"). CalculiX has no hybrid elements, so both codes use the same small
 D1 (K/μ = 1000); the issue asks for agreement within 1 %.
 Skipped cleanly when ``ccx`` is not installed.
@@ -16,7 +16,7 @@ Skipped cleanly when ``ccx`` is not installed.
 import numpy as np
 import pytest
 
-from fem.calculix import CcxCase, ccx_available, element_faces, run_ccx
+from peers.calculix import CcxCase, ccx_available, element_faces, run_ccx
 from fem.loads import LoadState
 from fem.material import NeoHookean
 from fem.mesh import boundary_faces

@@ -5,8 +5,9 @@ from __future__ import annotations
 import pytest
 from pydantic import ValidationError
 
-from whisker_opt.config import ConfigError, format_validation_error, load_config
-from whisker_opt.ga_config import GENE_NAMES, OptimiserConfig
+from whisker_opt.config.model import ConfigError, format_validation_error, load_config
+from whisker_opt.config.optimiser import OptimiserConfig
+from whisker_opt.genes import GENE_NAMES
 
 
 def _error_text(data: dict) -> str:

@@ -6,10 +6,10 @@ import pickle
 
 import pytest
 
-from whisker_opt.executors import DaskExecutor, ProcessExecutor, SerialExecutor, make_executor
-from whisker_opt.ga_config import ExecutorConfig, OptimiserConfig
-from whisker_opt.runner import run_optimisation
-from whisker_opt.testfitness import AnalyticFitness, FailureRegion
+from whisker_opt.optimise.executors import DaskExecutor, ProcessExecutor, SerialExecutor, make_executor
+from whisker_opt.config.optimiser import ExecutorConfig, OptimiserConfig
+from whisker_opt.optimise.runner import run_optimisation
+from tests.analytic_fitness import AnalyticFitness, FailureRegion
 
 GOOD = {"alpha": 3.0, "l": 12.0, "t": 4.0, "Q_i": 0.05}
 

@@ -9,11 +9,12 @@ from dataclasses import dataclass, field
 import numpy as np
 import pytest
 
-from whisker_opt.executors import SerialExecutor
-from whisker_opt.ga import GeneticAlgorithm, best_design
-from whisker_opt.ga_config import GENE_NAMES, OptimiserConfig
-from whisker_opt.outcome import EvalOutcome
-from whisker_opt.testfitness import AnalyticFitness, FailureRegion
+from whisker_opt.optimise.executors import SerialExecutor
+from whisker_opt.optimise.ga import GeneticAlgorithm, best_design
+from whisker_opt.config.optimiser import OptimiserConfig
+from whisker_opt.genes import GENE_NAMES
+from whisker_opt.experiment.outcome import EvalOutcome
+from tests.analytic_fitness import AnalyticFitness, FailureRegion
 
 
 def make_cfg(pop=20, gens=20, target=0.0, stall_n=1000, stall_tol=0.0, **sections) -> OptimiserConfig:
@@ -125,7 +126,7 @@ def test_genes_never_leave_their_bounds():
 def test_out_of_bound_parents_are_clamped_before_the_bounded_operators():
     cfg = make_cfg(pop=6, ga={"cx_prob": 1.0, "mut_prob": 1.0, "indpb": 1.0, "n_elite": 0})
     ga = GeneticAlgorithm(cfg, 0)
-    from whisker_opt.ga import Individual, _ga_rng
+    from whisker_opt.optimise.ga import Individual, _ga_rng
 
     pop = []
     for k in range(6):

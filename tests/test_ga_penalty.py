@@ -8,11 +8,11 @@ import pickle
 import pytest
 from deap import tools
 
-from whisker_opt.evalcache import EvalCache, evaluation_seed, genome_key
-from whisker_opt.ga import Individual
-from whisker_opt.ga_config import OptimiserConfig
-from whisker_opt.outcome import FAILURE_STATUSES, EvalOutcome
-from whisker_opt.penalty import dynamic_penalty, failure_penalty, fitness_values, penalise, penalty_terms
+from whisker_opt.optimise.evalcache import EvalCache, evaluation_seed, genome_key
+from whisker_opt.optimise.ga import Individual
+from whisker_opt.config.optimiser import OptimiserConfig
+from whisker_opt.experiment.outcome import FAILURE_STATUSES, EvalOutcome
+from whisker_opt.optimise.penalty import dynamic_penalty, failure_penalty, fitness_values, penalise, penalty_terms
 
 GENES = {"alpha": 3.2, "l": 12.0, "t": 5.0, "Q_i": 0.1}
 

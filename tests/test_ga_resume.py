@@ -12,11 +12,11 @@ from pathlib import Path
 
 import pytest
 
-from whisker_opt.checkpoint import CHECKPOINT_NAME, load_checkpoint
-from whisker_opt.ga_config import OptimiserConfig
-from whisker_opt.runner import resume_optimisation, run_optimisation
-from whisker_opt.storage import read_csv
-from whisker_opt.testfitness import AnalyticFitness, FailureRegion
+from whisker_opt.optimise.checkpoint import CHECKPOINT_NAME, load_checkpoint
+from whisker_opt.config.optimiser import OptimiserConfig
+from whisker_opt.optimise.runner import resume_optimisation, run_optimisation
+from whisker_opt.output.storage import read_csv
+from tests.analytic_fitness import AnalyticFitness, FailureRegion
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -85,9 +85,9 @@ def test_run_killed_before_its_first_checkpoint_restarts_identically(tmp_path):
 _CHILD = """
 import json, sys
 from pathlib import Path
-from whisker_opt.ga_config import OptimiserConfig
-from whisker_opt.runner import run_optimisation
-from whisker_opt.testfitness import AnalyticFitness, FailureRegion
+from whisker_opt.config.optimiser import OptimiserConfig
+from whisker_opt.optimise.runner import run_optimisation
+from tests.analytic_fitness import AnalyticFitness, FailureRegion
 cfg = OptimiserConfig.model_validate(json.loads(sys.argv[2]))
 ev = AnalyticFitness(failures=(FailureRegion("alpha", 5.5, "invalid_geometry"),), sleep_s=float(sys.argv[3]))
 run_optimisation(cfg, Path(sys.argv[1]), ev, seed=13, progress=False)

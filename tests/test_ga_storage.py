@@ -7,11 +7,12 @@ import math
 
 import pytest
 
-from whisker_opt.ga_config import GENE_NAMES, OptimiserConfig
-from whisker_opt.plots import plot_convergence, plot_curves
-from whisker_opt.runner import report, run_optimisation
-from whisker_opt.storage import read_csv, write_csv, write_json
-from whisker_opt.testfitness import AnalyticFitness, FailureRegion
+from whisker_opt.config.optimiser import OptimiserConfig
+from whisker_opt.genes import GENE_NAMES
+from whisker_opt.output.plots import plot_convergence, plot_curves
+from whisker_opt.optimise.runner import report, run_optimisation
+from whisker_opt.output.storage import read_csv, write_csv, write_json
+from tests.analytic_fitness import AnalyticFitness, FailureRegion
 
 
 def _strict_json(path):

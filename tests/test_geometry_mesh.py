@@ -14,6 +14,7 @@ from geometry import analytic
 from geometry import boundary as bd
 from geometry.design import InvalidDesignError, WhiskerDesign
 from geometry.mesh import FIBRE_DS_MAX, MeshSizing, TemplateError, WhiskerMesh, build_mesh
+from whisker_opt.experiment.fidelity import PRESETS
 from geometry.quality import radius_ratio
 from geometry.swept import core_radius
 from geometry.template import TEMPLATE_DIR, available_sizings, load_templates, map_points, select_template
@@ -30,13 +31,13 @@ def test_templates_are_shipped_and_small():
     assert sum(f.stat().st_size for f in files) < 2e6
     assert set(available_sizings()) == {"coarse", "default", "fine"}
     for name in ("coarse", "default", "fine"):  # every preset is served by a template
-        assert select_template(WhiskerDesign(), MeshSizing.preset(name)) is not None
+        assert select_template(WhiskerDesign(), PRESETS[name].sizing) is not None
 
 
 @pytest.mark.parametrize(("preset", "lo", "hi"), [("coarse", 700, 1100), ("default", 900, 1500), ("fine", 5000, 9000)])
 def test_preset_sizes_of_the_default_design(preset, lo, hi):
     """Element budgets of the presets (speed target), wall layers and accuracy."""
-    r = build_mesh(WhiskerDesign(), MeshSizing.preset(preset), method="template").report
+    r = build_mesh(WhiskerDesign(), PRESETS[preset].sizing, method="template").report
     assert lo <= r.n_elements <= hi
     assert r.wall_layers == pytest.approx(PRESET_LAYERS[preset], rel=0.05)
     assert abs(r.volume_error) < 1e-3 and abs(r.cavity_area_error) < 1e-3
@@ -221,7 +222,7 @@ PRESET_LAYERS = {"coarse": 1, "default": 1, "fine": 3}
 
 @pytest.mark.parametrize("preset", ["coarse", "default", "fine"])
 def test_fast_path_100_random_designs_in_the_ga_box(preset):
-    sizing = MeshSizing.preset(preset)
+    sizing = PRESETS[preset].sizing
     layers = PRESET_LAYERS[preset]
     rng = np.random.default_rng(2024)
     worst_vol, worst_area, worst_q = 0.0, 0.0, 1.0
@@ -282,6 +283,6 @@ def test_fresh_path_keeps_three_wall_layers():
     d = WhiskerDesign()
     assert fresh_sizing(MeshSizing()).wall_layers == 3.0
     assert fresh_sizing(MeshSizing()).wall_size(d) == pytest.approx(d.t / 3.0)
-    assert fresh_sizing(MeshSizing.preset("fine")) == MeshSizing.preset("fine")
+    assert fresh_sizing(PRESETS["fine"].sizing) == PRESETS["fine"].sizing
     absolute = MeshSizing(h_wall=2.0)
     assert fresh_sizing(absolute) == absolute  # the user's absolute size is kept

@@ -15,8 +15,9 @@ from pathlib import Path
 
 import pytest
 
-from whisker_opt import cli, storage
-from whisker_opt.verify import verify_run
+from whisker_opt.cli import main as cli
+from whisker_opt.output import storage
+from whisker_opt.analysis.verify import verify_run
 
 CONFIG = """\
 fidelity:

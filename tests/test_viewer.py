@@ -20,7 +20,7 @@ pv.OFF_SCREEN = True
 from fem.io import write_vtu  # noqa: E402
 from fem.mesh import TetMesh, volumes  # noqa: E402
 from fem.meshgen import box_mesh, map_mesh  # noqa: E402
-from whisker_opt import viewer as V  # noqa: E402
+from whisker_opt.viewer import legacy as V  # noqa: E402
 
 WS = (320, 200)  # small images keep the tests fast
 
@@ -327,7 +327,7 @@ def test_cli_without_screenshot_headless_and_with_display(tmp_path, box, monkeyp
 
 
 def test_registers_in_the_cli(tmp_path, box, monkeypatch):
-    from whisker_opt import cli, commands
+    from whisker_opt.cli import commands, main as cli
 
     monkeypatch.setitem(commands.REGISTRY, "view", V.VIEW_COMMAND)
     run = _pair_dir(tmp_path, box)
@@ -392,7 +392,7 @@ def test_repeated_loads_and_renders_keep_the_heap_intact(tmp_path, box):
 
 # ------------------------------------------------------------------ three panels, deflection states, other evaluations
 class _FakeResult:
-    """What :func:`whisker_opt.commands.write_scene_vtus` needs of a SceneResult."""
+    """What :func:`whisker_opt.output.scenes.write_scene_vtus` needs of a SceneResult."""
 
     def __init__(self, mesh: TetMesh, deltas, amplitude: float, pre: float = 0.0):
         from types import SimpleNamespace
@@ -408,7 +408,7 @@ class _FakeResult:
 def _write_triple(folder, box, with_json=True):
     """A scene folder as `simulate`/`run` write it: intact at Q_i, trimmed uncompensated, trimmed vented,
     solved at delta = 1, 2, 3 mm."""
-    from whisker_opt.commands import write_scene_vtus
+    from whisker_opt.output.scenes import write_scene_vtus
 
     short = box_mesh(8.0, 2.0, 2.0, 4, 1, 1)
     deltas = [1.0, 2.0, 3.0]
@@ -527,7 +527,7 @@ def _fake_run(tmp_path, box):
 
 def test_rank_and_eval_rerun_into_a_cached_folder(tmp_path, box, monkeypatch, capsys, caplog):
     from geometry.design import InvalidDesignError
-    from whisker_opt import commands
+    from whisker_opt import workflows
 
     run = _fake_run(tmp_path, box)
     calls = []
@@ -539,9 +539,9 @@ def test_rank_and_eval_rerun_into_a_cached_folder(tmp_path, box, monkeypatch, ca
             raise InvalidDesignError(["alpha=3.0: cone tip radius < 0"], {"alpha"})
         _write_triple(out, box)
 
-    monkeypatch.setattr(commands, "write_design_scenes", fake_write)
+    monkeypatch.setattr(workflows, "write_design_scenes", fake_write)
     out = tmp_path / "eval3.png"
-    with caplog.at_level("WARNING", logger="whisker_opt.viewer"):
+    with caplog.at_level("WARNING", logger="whisker_opt.viewer.legacy"):
         assert V.VIEW_COMMAND[2](_args(run, "--eval", 3, "--screenshot", out, "--window-size", 300, 540)) == 0
     assert "evaluation 3" in caplog.text and "re-running its scenes" in caplog.text and "eval_3" in caplog.text
     assert len(calls) == 1 and calls[0][1] == {"alpha": 2.0, "l": 15.0, "t": 3.0, "Q_i": 0.03}
@@ -567,8 +567,8 @@ def test_rank_and_eval_rerun_into_a_cached_folder(tmp_path, box, monkeypatch, ca
 
 
 def test_design_scene_specs_three_scenes():
-    from whisker_opt.commands import UNCOMPENSATED, design_scene_specs
-    from whisker_opt.config import WhiskerConfig
+    from whisker_opt.wiring import UNCOMPENSATED, design_scene_specs
+    from whisker_opt.config.model import WhiskerConfig
 
     cfg = WhiskerConfig.model_validate({"optimiser": {"delta_max": 4.0}, "fidelity": {"preset": "coarse"}})
     genes = {"alpha": 2.0, "l": 20.0, "t": 1.6, "Q_i": 0.15}

@@ -1,10 +1,10 @@
 """Files of a run directory, every one written atomically (temp file + ``os.replace``).
 
-A run directory written by :func:`whisker_opt.runner.run_optimisation` holds::
+A run directory written by :func:`whisker_opt.optimise.runner.run_optimisation` holds::
 
     optimiser.json     the resolved optimiser config and the seed (what resume needs)
     environment.json   Python, platform, library versions, git commit, seed
-    checkpoint.pkl     GA state after the last completed generation (whisker_opt.checkpoint)
+    checkpoint.pkl     GA state after the last completed generation (whisker_opt.optimise.checkpoint)
     evaluations.csv    one row per evaluated individual: generation, genes, f1, κ_j, F_p,
                        status, reason, time, cache_hit
     generations.csv    one row per generation: evaluations, cache hits, failures, best /
@@ -182,16 +182,3 @@ def write_environment(run_dir: Path, seed: int) -> None:
 def write_best(run_dir: Path, best: dict[str, Any]) -> None:
     """``best.json``."""
     write_json(Path(run_dir) / BEST_JSON, best)
-
-
-def write_best_curves(run_dir: Path, delta: Sequence[float], eps_i: Sequence[float], eps_c: Sequence[float],
-                      title: str = "best design") -> Path:
-    """``best_curves.csv`` (delta_mm, eps_i, eps_c) and ``best_curves.png``; returns the CSV path."""
-    from whisker_opt.plots import plot_curves
-
-    run_dir = Path(run_dir)
-    rows = [{"delta_mm": float(d), "eps_i": float(a), "eps_c": float(b)} for d, a, b in zip(delta, eps_i, eps_c)]
-    path = run_dir / BEST_CURVES_CSV
-    write_csv(path, ["delta_mm", "eps_i", "eps_c"], rows)
-    plot_curves(run_dir / "best_curves.png", delta, eps_i, eps_c, title)
-    return path

@@ -4,7 +4,7 @@ An evaluator is any picklable callable ``evaluate(genes: dict[str, float]) -> Ev
 (shared/CONTRACT.md, "Fitness interface for the GA"). It reports the raw objective
 f1 = mean |ε_i − ε_c| (SPEC §6) when it succeeds, or a failure status with a human-readable
 reason. The GA, not the evaluator, turns an outcome into the penalised fitness F_p
-(:mod:`whisker_opt.penalty`).
+(:mod:`whisker_opt.optimise.penalty`).
 
 Conventions an evaluator may follow for the optional dictionaries:
 

@@ -1,7 +1,7 @@
 """Typed, validated configuration of whisker-opt runs (YAML -> pydantic models).
 
 Every numeric field carries its range and unit; unknown keys are errors that name the
-key (``extra="forbid"`` on :class:`whisker_opt.config_base.StrictModel`). Units: mm, N,
+key (``extra="forbid"`` on :class:`whisker_opt.config.base.StrictModel`). Units: mm, N,
 MPa, degrees for angles. Defaults reproduce shared/SPEC.md.
 
 A YAML file has these top-level sections, all optional::
@@ -10,7 +10,7 @@ A YAML file has these top-level sections, all optional::
     material:   rubber law (SPEC §4)
     scene:      the simulated experiment (SPEC §5)
     fidelity:   preset name and optional overrides of mesh size / increments
-    optimiser:  genes, penalties, GA, stopping, executor (SPEC §6), see whisker_opt.ga_config
+    optimiser:  genes, penalties, GA, stopping, executor (SPEC §6), see whisker_opt.config.optimiser
     output:     where results go
 """
 
@@ -22,8 +22,9 @@ from typing import Any, Literal
 import yaml
 from pydantic import Field, ValidationError, model_validator
 
-from whisker_opt.config_base import StrictModel
-from whisker_opt.ga_config import OptimiserConfig
+from whisker_opt.config.base import StrictModel
+from whisker_opt.config.optimiser import OptimiserConfig
+from whisker_opt.experiment.fidelity import PRESET_NAMES
 
 
 class ConfigError(ValueError):
@@ -86,7 +87,7 @@ class SceneConfig(StrictModel):
 class FidelityConfig(StrictModel):
     """Accuracy/speed preset, optionally overridden field by field."""
 
-    preset: Literal["coarse", "default", "fine"] = Field("default", description="named preset")
+    preset: Literal[PRESET_NAMES] = Field("default", description="named preset (see whisker_opt.experiment.fidelity)")
     h_wall: float | None = Field(None, gt=0, le=10, description="override: element size in the chamber wall [mm]")
     h_body: float | None = Field(None, gt=0, le=50, description="override: element size in the solid body [mm]")
     n_deflection_steps: int | None = Field(
@@ -110,13 +111,13 @@ class OutputConfig(StrictModel):
 
 
 class WhiskerConfig(StrictModel):
-    """A whole run file. ``optimiser`` is validated by :mod:`whisker_opt.ga_config` when present."""
+    """A whole run file. ``optimiser`` is validated by :mod:`whisker_opt.config.optimiser` when present."""
 
     design: DesignConfig = DesignConfig()
     material: MaterialConfig = MaterialConfig()
     scene: SceneConfig = SceneConfig()
     fidelity: FidelityConfig = FidelityConfig()
-    optimiser: OptimiserConfig | None = Field(None, description="GA section, see whisker_opt.ga_config")
+    optimiser: OptimiserConfig | None = Field(None, description="GA section, see whisker_opt.config.optimiser")
     output: OutputConfig = OutputConfig()
     seed: int = Field(0, ge=0, le=2**32 - 1, description="master random seed [-]")
 

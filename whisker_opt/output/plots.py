@@ -16,7 +16,9 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from whisker_opt.storage import atomic_write_bytes
+from whisker_opt.output import storage
+from whisker_opt.output.storage import atomic_write_bytes
+from whisker_opt.experiment import objective
 
 logger = logging.getLogger(__name__)
 
@@ -99,7 +101,7 @@ def plot_curves(
     d = np.asarray(delta, dtype=float)
     a = np.asarray(eps_i, dtype=float)
     b = np.asarray(eps_c, dtype=float)
-    f1 = float(np.mean(np.abs(a[1:] - b[1:]))) if len(d) > 1 else math.nan
+    f1 = objective.f1(a[1:], b[1:]) if len(d) > 1 else math.nan
     fig = Figure(figsize=(6.4, 4.0))
     ax = fig.add_subplot(1, 1, 1)
     ax.plot(d, a, "-", label="ε_i intact, Q = Q_i")
@@ -111,3 +113,14 @@ def plot_curves(
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
     return _save(fig, path)
+
+
+def write_best_curves(run_dir: Path, delta: Sequence[float], eps_i: Sequence[float], eps_c: Sequence[float],
+                      title: str = "best design") -> Path:
+    """``best_curves.csv`` (delta_mm, eps_i, eps_c) and ``best_curves.png``; returns the CSV path."""
+    run_dir = Path(run_dir)
+    rows = [{"delta_mm": float(d), "eps_i": float(a), "eps_c": float(b)} for d, a, b in zip(delta, eps_i, eps_c)]
+    path = run_dir / storage.BEST_CURVES_CSV
+    storage.write_csv(path, ["delta_mm", "eps_i", "eps_c"], rows)
+    plot_curves(run_dir / "best_curves.png", delta, eps_i, eps_c, title)
+    return path

@@ -18,7 +18,7 @@ Step 2, deflect
     benchmarks/bench_scene.py).
 
 Gauge
-    See :mod:`whisker_opt.gauge`; it is zeroed at contact onset.
+    See :mod:`whisker_opt.experiment.gauge`; it is zeroed at contact onset.
 
 Only gauge quantities are evaluated per increment; full states are kept only when asked
 (``keep_states=True``), e.g. for VTU output.
@@ -40,7 +40,7 @@ from fem.state import State
 from fem.stepping import SolveOptions, solve_path
 from geometry.design import WhiskerDesign
 from geometry.mesh import MeshSizing, WhiskerMesh, build_mesh
-from whisker_opt.gauge import GaugeGeometry, GaugeReader, gauge_points
+from whisker_opt.experiment.gauge import GaugeGeometry, GaugeReader, gauge_points
 
 logger = logging.getLogger(__name__)
 

@@ -2,9 +2,9 @@
 
 f1 (SPEC §6) is the mean over the deflection samples δ_k = k·Δδ (k = 1 … δ_max/Δδ,
 Δδ = 0.01 mm by default) of |ε_i(δ_k) − ε_c(δ_k)|, both curves interpolated from the
-solved increments (:meth:`whisker_opt.scene.SceneResult.curve`). Failures are
+solved increments (:meth:`whisker_opt.experiment.scene.SceneResult.curve`). Failures are
 classified (invalid geometry, mesh failure, unconverged solve, other error) and
-returned as :class:`whisker_opt.outcome.EvalOutcome`; nothing raises into the GA.
+returned as :class:`whisker_opt.experiment.outcome.EvalOutcome`; nothing raises into the GA.
 """
 
 from __future__ import annotations
@@ -15,7 +15,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from whisker_opt.outcome import EvalOutcome
+from whisker_opt.experiment.outcome import EvalOutcome
+from whisker_opt.experiment import objective
+from whisker_opt.genes import design_from_genes
 
 logger = logging.getLogger(__name__)
 
@@ -26,7 +28,7 @@ class SceneEvaluator:
 
     Parameters
     ----------
-    base_spec : whisker_opt.scene.SceneSpec
+    base_spec : whisker_opt.experiment.scene.SceneSpec
         Scene settings (material, contact, fidelity); its design supplies every
         non-gene geometric parameter.
     delta_max_trim : float
@@ -48,8 +50,7 @@ class SceneEvaluator:
 
     def specs(self, genes: dict) -> tuple:
         """(intact, trimmed) SceneSpecs of a genome (designs validated)."""
-        d0 = replace(self.base_spec.design, alpha_deg=float(genes["alpha"]), l=float(genes["l"]),
-                     t=float(genes["t"]), trim=0.0)
+        d0 = design_from_genes(self.base_spec.design, genes, trim=0.0)
         d0.validate()
         dc = replace(d0, trim=float(self.delta_max_trim))
         dc.validate()
@@ -66,7 +67,7 @@ class SceneEvaluator:
     def __call__(self, genes: dict) -> EvalOutcome:
         from fem.stepping import SolveFailed
         from geometry.design import InvalidDesignError
-        from whisker_opt.scene import run_scene
+        from whisker_opt.experiment.scene import run_scene
 
         t0 = time.perf_counter()
         timings: dict[str, float] = {}
@@ -96,7 +97,7 @@ class SceneEvaluator:
         delta = self.samples()
         eps_i = results["intact"].curve(delta, self.gauge_variant)
         eps_c = results["trimmed"].curve(delta, self.gauge_variant)
-        f1 = float(np.mean(np.abs(eps_i - eps_c)))
+        f1 = objective.f1(eps_i, eps_c)
         timings["total"] = time.perf_counter() - t0
         extra = {
             "delta_l": results["intact"].delta_l,
@@ -122,7 +123,7 @@ def _violation(genes: dict, design) -> float:
     r_o(L − Δ) ≤ 0; 1.0 if neither explains the refusal.
     """
     try:
-        d = replace(design, alpha_deg=float(genes["alpha"]), l=float(genes["l"]), t=float(genes["t"]))
+        d = design_from_genes(design, genes, trim=design.trim)
         worst = max(-(d.r_outer(d.l) - d.t), -d.r_outer(d.L))
         return float(max(worst, 0.0) + 1.0)
     except Exception:  # pragma: no cover - defensive

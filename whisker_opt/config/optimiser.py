@@ -27,11 +27,9 @@ from typing import Any, Literal
 
 from pydantic import Field, field_validator, model_validator
 
-from whisker_opt.config_base import StrictModel
+from whisker_opt.config.base import StrictModel
+from whisker_opt.genes import GENE_NAMES, GeneName
 
-#: The decision vector, in this order (SPEC §6).
-GENE_NAMES: tuple[str, ...] = ("alpha", "l", "t", "Q_i")
-GeneName = Literal["alpha", "l", "t", "Q_i"]
 
 
 class _Bounds(StrictModel):

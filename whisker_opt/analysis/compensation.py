@@ -11,7 +11,7 @@ Analytic compensation (SPEC §8, last item)
 
 Response-based ("FE") compensation (issue 8)
     With any response function ``response(design, Q, deltas) -> ε(δ)`` (the FE scene, or
-    :class:`whisker_opt.beam.BeamResponse` as a stand-in), Q minimises the mean gap
+    :class:`whisker_opt.analysis.beam.BeamResponse` as a stand-in), Q minimises the mean gap
 
         g(Q) = mean_k |ε_trim(Q, δ_k) - ε_o(δ_k)|,   ε_o = ε_intact(Q_i)
 
@@ -46,7 +46,8 @@ import numpy as np
 from scipy import optimize
 
 from geometry.design import WhiskerDesign
-from whisker_opt.beam import DEFAULT_MODEL, BeamModel, _check_range, sensitivity, sensitivity_grid
+from whisker_opt.analysis.beam import DEFAULT_MODEL, BeamModel, _check_range, sensitivity, sensitivity_grid
+from whisker_opt.experiment.objective import f1
 
 logger = logging.getLogger(__name__)
 
@@ -89,15 +90,6 @@ def compensation_error(eps_target: float, eps_before: float, eps_after: float) -
     return abs((float(eps_after) - float(eps_target)) / den) * 100.0
 
 
-def mean_gap(eps_a, eps_b) -> float:
-    """Mean over the δ samples of |ε_a(δ) - ε_b(δ)| (the f1 of SPEC §6)."""
-    a = np.asarray(eps_a, dtype=float)
-    b = np.asarray(eps_b, dtype=float)
-    if a.shape != b.shape or a.size == 0:
-        raise ValueError(f"response curves must have equal, non-empty shapes (got {a.shape}, {b.shape})")
-    return float(np.mean(np.abs(a - b)))
-
-
 def curve_measures(eps_o, eps_b, eps_c, scalar: Scalar = "mean") -> tuple[float, float]:
     """(recovery rate %, compensation error %) of three response curves ε(δ) (SPEC §7).
 
@@ -114,7 +106,7 @@ def curve_measures(eps_o, eps_b, eps_c, scalar: Scalar = "mean") -> tuple[float,
     elif scalar == "last":
         so, sb, sc = o[-1], b[-1], c[-1]
     elif scalar == "gap":
-        g_b, g_c = mean_gap(b, o), mean_gap(c, o)
+        g_b, g_c = f1(b, o), f1(c, o)
         if g_b == 0.0:
             return float("nan"), float("nan")
         return (1.0 - g_c / g_b) * 100.0, g_c / g_b * 100.0
@@ -271,7 +263,7 @@ def fe_compensation(design: WhiskerDesign, Q_i: float, trim: float, response: Re
         Δ [mm]; 0 returns Q = Q_i without solving.
     response : callable
         ``response(design, Q, deltas) -> ε`` (shape of deltas), the gauge reading at a = 1
-        (FE scene, or :class:`whisker_opt.beam.BeamResponse`).
+        (FE scene, or :class:`whisker_opt.analysis.beam.BeamResponse`).
     deltas : array_like, optional
         Deflection samples [mm]; default :data:`DEFAULT_DELTAS`.
     scalar : {'mean', 'last', 'gap'}
@@ -324,13 +316,13 @@ def fe_compensation(design: WhiskerDesign, Q_i: float, trim: float, response: Re
         return memo[q]
 
     def gap(q: float) -> float:
-        return mean_gap(curve(q), eps_o)
+        return f1(curve(q), eps_o)
 
     if trim == 0.0:
         eps_b = eps_o if eps_target is not None else curve(Q_i)
         return ResponseCompensation(
             trim=0.0, Q_i=Q_i, Q=Q_i, deltas=ds, eps_target=eps_o, eps_broken=eps_b, eps_compensated=eps_b,
-            gap_before=mean_gap(eps_b, eps_o), gap_after=mean_gap(eps_b, eps_o), recovery_rate=float("nan"),
+            gap_before=f1(eps_b, eps_o), gap_after=f1(eps_b, eps_o), recovery_rate=float("nan"),
             compensation_error=float("nan"), scalar=scalar, at_bound="upper", n_evaluations=n_eval,
         )
 

@@ -14,7 +14,7 @@ import hashlib
 from dataclasses import dataclass, field
 from typing import Iterable
 
-from whisker_opt.outcome import EvalOutcome
+from whisker_opt.experiment.outcome import EvalOutcome
 
 Key = tuple[float, ...]
 

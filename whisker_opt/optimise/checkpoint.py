@@ -9,7 +9,7 @@ new checkpoint, never a torn one. Resuming restores the state exactly: the resum
 re-breeds the interrupted generation from the same RNG state, finds the same designs, and
 ends with the same population and best as an uninterrupted run.
 
-Individuals are pickled as DEAP ``creator`` instances; :mod:`whisker_opt.ga` (imported
+Individuals are pickled as DEAP ``creator`` instances; :mod:`whisker_opt.optimise.ga` (imported
 here) creates those classes at import, which is what makes the pickle loadable.
 """
 
@@ -20,9 +20,9 @@ import pickle
 from pathlib import Path
 from typing import Any
 
-from whisker_opt.evalcache import EvalCache
-from whisker_opt.ga import GAState  # noqa: F401 - also registers the creator classes
-from whisker_opt.storage import atomic_write_bytes
+from whisker_opt.optimise.evalcache import EvalCache
+from whisker_opt.optimise.ga import GAState  # noqa: F401 - also registers the creator classes
+from whisker_opt.output.storage import atomic_write_bytes
 
 logger = logging.getLogger(__name__)
 

@@ -7,7 +7,7 @@ the absolute f1 of a GA optimum, and its rank against designs of a different wal
 thickness, should be confirmed at a finer preset before they are reported. This module
 re-runs the hall of fame's first ``top`` feasible designs through the same evaluator at the
 verification preset, recomputes F_p with the run's own penalty terms
-(:func:`whisker_opt.penalty.dynamic_penalty`: F_p = f1 + Σ_j C_j κ_j, κ_j = f1 · distance_j)
+(:func:`whisker_opt.optimise.penalty.dynamic_penalty`: F_p = f1 + Σ_j C_j κ_j, κ_j = f1 · distance_j)
 and writes ``verify_<preset>.csv`` into the run directory (atomically).
 """
 
@@ -17,7 +17,7 @@ import logging
 from pathlib import Path
 from typing import Any
 
-from whisker_opt import storage
+from whisker_opt.output import storage
 
 logger = logging.getLogger(__name__)
 
@@ -31,20 +31,12 @@ COLUMNS = ("rank_run", "rank_verify", "alpha", "l", "t", "Q_i", "f1_run", "f1_ve
 
 def check_args(preset: str, top: int) -> None:
     """Raise :class:`VerifyError` naming the argument unless preset is a named preset and 1 <= top <= 1000."""
-    if preset not in ("coarse", "default", "fine"):
-        raise VerifyError(f"verify: preset={preset!r} is not one of 'coarse', 'default', 'fine'")
+    from whisker_opt.experiment.fidelity import PRESET_NAMES
+
+    if preset not in PRESET_NAMES:
+        raise VerifyError(f"verify: preset={preset!r} is not one of {', '.join(map(repr, PRESET_NAMES))}")
     if not 1 <= int(top) <= 1000:
         raise VerifyError(f"verify: top={top!r} outside the allowed range 1..1000")
-
-
-def evaluator_at_preset(cfg, preset: str):
-    """The GA evaluator of ``cfg`` with its fidelity replaced by the named preset (other fidelity
-    overrides dropped, the mesh method kept)."""
-    from whisker_opt.commands import evaluator_from_config
-    from whisker_opt.config import FidelityConfig
-
-    fid = FidelityConfig(preset=preset, mesh_method=cfg.fidelity.mesh_method)
-    return evaluator_from_config(cfg.model_copy(update={"fidelity": fid}))
 
 
 def verify_run(run_dir: Path, preset: str = "fine", top: int = 3) -> list[dict[str, Any]]:
@@ -54,8 +46,8 @@ def verify_run(run_dir: Path, preset: str = "fine", top: int = 3) -> list[dict[s
     ----------
     run_dir : Path
         Run directory with ``config.yaml`` and a checkpoint (written by ``whisker-opt run``).
-    preset : {'coarse', 'default', 'fine'}
-        Verification preset (the run's other fidelity overrides are dropped).
+    preset : str
+        Verification preset (:data:`whisker_opt.experiment.fidelity.PRESET_NAMES`) (the run's other fidelity overrides are dropped).
     top : int
         Number of designs, 1 … the hall of fame's size.
 
@@ -72,17 +64,15 @@ def verify_run(run_dir: Path, preset: str = "fine", top: int = 3) -> list[dict[s
     VerifyError
         ``preset`` or ``top`` out of range, or the run has no feasible design.
     """
-    from whisker_opt.config import load_config
-    from whisker_opt.ga_config import GENE_NAMES
-    from whisker_opt.penalty import dynamic_penalty, penalty_terms
-    from whisker_opt.runner import load_run
+    from whisker_opt import wiring
+    from whisker_opt.config.model import load_config
+    from whisker_opt.genes import genes_dict
+    from whisker_opt.optimise.penalty import dynamic_penalty, penalty_terms
+    from whisker_opt.optimise.runner import load_run, run_config_path
 
     run_dir = Path(run_dir)
     check_args(preset, top)
-    cfg_path = run_dir / "config.yaml"
-    if not cfg_path.is_file():
-        raise FileNotFoundError(f"{cfg_path}: not found; is {run_dir} a run directory?")
-    cfg = load_config(cfg_path)
+    cfg = load_config(run_config_path(run_dir))
     state, opt, _, _ = load_run(run_dir)
     if state is None:
         raise FileNotFoundError(f"{run_dir}: no checkpoint yet (the run has not finished a generation)")
@@ -90,11 +80,11 @@ def verify_run(run_dir: Path, preset: str = "fine", top: int = 3) -> list[dict[s
     if not feasible:
         raise VerifyError(f"verify: {run_dir} has no feasible design in its hall of fame")
     chosen = feasible[: int(top)]
-    evaluate = evaluator_at_preset(cfg, preset)
+    evaluate = wiring.evaluator(wiring.with_preset(cfg, preset))
     terms = penalty_terms(opt)
     rows = []
     for rank, ind in enumerate(chosen, start=1):
-        genes = {n: float(x) for n, x in zip(GENE_NAMES, ind)}
+        genes = genes_dict(ind)
         f1_run = float(ind.info["f1"])
         logger.info("verify: design %d/%d %s at preset %s", rank, len(chosen), genes, preset)
         out = evaluate(genes)

@@ -18,7 +18,7 @@ Loop (one generation)::
 Fitness
     DEAP fitness values are the pair (infeasible, F_p) with weights (−1, −1), compared
     lexicographically: every failed design ranks below every feasible one, and feasible
-    designs rank by F_p (:mod:`whisker_opt.penalty`).
+    designs rank by F_p (:mod:`whisker_opt.optimise.penalty`).
 
 Stopping rules (checked after every generation, first match wins)
     ``target_fp``: the best design is feasible and its F_p <= ``target_fp``;
@@ -52,10 +52,11 @@ from typing import Any, Callable, Iterator, Sequence
 import numpy as np
 from deap import base, creator, tools
 
-from whisker_opt.evalcache import EvalCache, evaluation_seed
-from whisker_opt.ga_config import GENE_NAMES, OptimiserConfig
-from whisker_opt.outcome import EvalOutcome
-from whisker_opt.penalty import PenaltyTerm, fitness_values, penalise, penalty_terms
+from whisker_opt.optimise.evalcache import EvalCache, evaluation_seed
+from whisker_opt.config.optimiser import OptimiserConfig
+from whisker_opt.genes import GENE_NAMES, genes_dict
+from whisker_opt.experiment.outcome import EvalOutcome
+from whisker_opt.optimise.penalty import PenaltyTerm, fitness_values, penalise, penalty_terms
 
 logger = logging.getLogger(__name__)
 
@@ -393,7 +394,7 @@ def best_design(state: GAState) -> dict[str, Any]:
     best = state.hof[0]
     info = dict(best.info or {})
     return {
-        "genes": {n: float(x) for n, x in zip(GENE_NAMES, best)},
+        "genes": genes_dict(best),
         "feasible": best.fitness.values[0] == 0.0,
         "F_p": best.fitness.values[1],
         "f1": info.get("f1"),

@@ -5,7 +5,7 @@ Every executor exposes the same two methods (and is a context manager)::
     outcomes = ex.map(genes_list, seeds)   # list[dict[str, float]], list[int] -> list[EvalOutcome]
     ex.close()
 
-and guarantees, for every design, one :class:`~whisker_opt.outcome.EvalOutcome` in input
+and guarantees, for every design, one :class:`~whisker_opt.experiment.outcome.EvalOutcome` in input
 order, whatever happens inside the evaluator:
 
 - an exception becomes status ``"error"`` with ``"<Type>: <message>"`` as reason and the
@@ -13,7 +13,7 @@ order, whatever happens inside the evaluator:
   becomes ``"error"`` too; the run never crashes because of one design;
 - an evaluation longer than ``timeout_s`` becomes status ``"timeout"``;
 - before each call, Python's ``random`` and NumPy's global RNG are seeded with the
-  design's seed (:func:`whisker_opt.evalcache.evaluation_seed`), so the evaluator's
+  design's seed (:func:`whisker_opt.optimise.evalcache.evaluation_seed`), so the evaluator's
   randomness, if any, does not depend on the executor, the worker or the order;
 - the wall time of the call is added as ``timings["eval_s"]``.
 
@@ -49,8 +49,8 @@ from dataclasses import dataclass
 from multiprocessing.connection import wait as mp_wait
 from typing import Any, Callable, Iterator, Sequence
 
-from whisker_opt.ga_config import ExecutorConfig
-from whisker_opt.outcome import EvalOutcome
+from whisker_opt.config.optimiser import ExecutorConfig
+from whisker_opt.experiment.outcome import EvalOutcome
 
 logger = logging.getLogger(__name__)
 

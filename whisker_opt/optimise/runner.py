@@ -3,11 +3,11 @@
 The CLI commands ``run``, ``resume`` and ``report`` are thin wrappers around
 :func:`run_optimisation`, :func:`resume_optimisation` and :func:`report`. The evaluator is
 any picklable callable ``evaluate(genes: dict[str, float]) -> EvalOutcome`` (genes
-``alpha`` [deg], ``l`` [mm], ``t`` [mm], ``Q_i`` [MPa]); see :mod:`whisker_opt.outcome`.
+``alpha`` [deg], ``l`` [mm], ``t`` [mm], ``Q_i`` [MPa]); see :mod:`whisker_opt.experiment.outcome`.
 
 After every generation the runner writes, in this order, the checkpoint, then
 ``evaluations.csv``, ``generations.csv`` and ``best.json`` (all atomic, see
-:mod:`whisker_opt.storage`); at the end the convergence plot and, when the best design's
+:mod:`whisker_opt.output.storage`); at the end the convergence plot and, when the best design's
 outcome carries its curves, ``best_curves.csv/png``.
 """
 
@@ -20,13 +20,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
-from whisker_opt import storage
-from whisker_opt.checkpoint import has_checkpoint, load_checkpoint, remove_stale_temporaries, save_checkpoint
-from whisker_opt.executors import make_executor
-from whisker_opt.ga import GAState, GeneticAlgorithm, best_design
-from whisker_opt.ga_config import ExecutorConfig, OptimiserConfig
-from whisker_opt.outcome import EvalOutcome
-from whisker_opt.plots import plot_convergence
+from whisker_opt.output import storage
+from whisker_opt.optimise.checkpoint import has_checkpoint, load_checkpoint, remove_stale_temporaries, save_checkpoint
+from whisker_opt.optimise.executors import make_executor
+from whisker_opt.optimise.ga import GAState, GeneticAlgorithm, best_design
+from whisker_opt.config.optimiser import ExecutorConfig, OptimiserConfig
+from whisker_opt.experiment.outcome import EvalOutcome
+from whisker_opt.output.plots import plot_convergence, write_best_curves
 
 logger = logging.getLogger(__name__)
 
@@ -54,7 +54,7 @@ class RunSummary:
     wall_time_s : float
         Wall time of the generations, summed over sessions [s].
     best : dict
-        :func:`whisker_opt.ga.best_design`: genes, feasible, F_p, f1, kappas, status, ...
+        :func:`whisker_opt.optimise.ga.best_design`: genes, feasible, F_p, f1, kappas, status, ...
     population : tuple of tuple of float
         Final population's genes [α, l, t, Q_i].
     fitness : tuple of tuple of float
@@ -159,7 +159,7 @@ def write_plots(run_dir: Path, state: GAState, cfg: OptimiserConfig) -> list[Pat
             f"f1={b['f1']:.3g}"
         )
         out.append(
-            storage.write_best_curves(
+            write_best_curves(
                 run_dir, best_out.extra["delta"], best_out.extra["eps_i"], best_out.extra["eps_c"], title
             )
         )
@@ -264,6 +264,20 @@ def check_new_run_dir(run_dir: Path) -> None:
     if has_checkpoint(run_dir):
         raise FileExistsError(f"{run_dir} already holds a run (checkpoint.pkl): continue it with "
                               f"`whisker-opt resume {run_dir}` or choose another --out")
+
+
+def run_config_path(run_dir: Path) -> Path:
+    """``run_dir/config.yaml`` (the run file the run was started with, defaults filled in).
+
+    Raises
+    ------
+    FileNotFoundError
+        The file is missing: ``run_dir`` is not a run directory.
+    """
+    path = Path(run_dir) / "config.yaml"
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: not found; is {run_dir} a run directory?")
+    return path
 
 
 def load_run(run_dir: Path) -> tuple[GAState | None, OptimiserConfig, dict[str, Any], int]:

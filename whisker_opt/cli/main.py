@@ -11,7 +11,7 @@ import logging
 import sys
 from pathlib import Path
 
-from whisker_opt import commands
+from whisker_opt.cli import commands
 
 logger = logging.getLogger("whisker_opt")
 

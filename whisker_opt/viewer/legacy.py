@@ -92,7 +92,7 @@ STATE_ORDER = (
 SCENE_ORDER = (
     "intact", "uncompensated", "trimmed_uncompensated", "trimmed", "vented", "trimmed_vented", "compensated", "scene",
 )
-UNCOMPENSATED = "trimmed_uncompensated"  # the trimmed whisker still at Q_i (whisker_opt.commands.UNCOMPENSATED)
+UNCOMPENSATED = "trimmed_uncompensated"  # the trimmed whisker still at Q_i (whisker_opt.cli.commands.UNCOMPENSATED)
 SCENE_TITLES = {
     "intact": "intact",
     "uncompensated": "trimmed, uncompensated",
@@ -361,7 +361,7 @@ def scenes_from_genes(cfg: Mapping[str, Any], genes: Mapping[str, Any],
     """The intact (Q = Q_i), trimmed uncompensated (trim = optimiser.delta_max, Q = Q_i; only
     when Q_i > 0) and trimmed vented (Q = 0) scenes of a genome.
 
-    Mirrors :meth:`whisker_opt.evaluator.SceneEvaluator.specs`: the ``design`` section of
+    Mirrors :meth:`whisker_opt.experiment.evaluator.SceneEvaluator.specs`: the ``design`` section of
     ``cfg`` with ``alpha_deg, l, t`` from the genes ``alpha, l, t``.
 
     Parameters
@@ -795,7 +795,7 @@ def evaluation_group(contents: RunContents, row: Mapping[str, Any], rerun: bool 
     Looked for in order: a folder named like ``eval_<id>`` (:func:`group_for_evaluation`);
     ``best`` when ``best.json`` describes this evaluation; else, with ``rerun``, the
     evaluation's scenes (intact at Q_i, trimmed uncompensated, trimmed vented) are solved
-    with the run's ``config.yaml`` by :func:`whisker_opt.commands.write_design_scenes` into
+    with the run's ``config.yaml`` by :func:`whisker_opt.cli.commands.write_design_scenes` into
     ``eval_<id>/`` of the run directory (through a hidden ``.eval_<id>.partial/`` folder
     renamed when complete), where later views find them.
 
@@ -840,8 +840,8 @@ def evaluation_group(contents: RunContents, row: Mapping[str, Any], rerun: bool 
     if not cfg_path.is_file():
         raise FileNotFoundError(f"{cfg_path}: no such file; re-running the scenes of evaluation {eid} needs the "
                                 "run's config")
-    from whisker_opt import commands
-    from whisker_opt.config import ConfigError, load_config
+    from whisker_opt import workflows
+    from whisker_opt.config.model import ConfigError, load_config
 
     final = root / f"eval_{eid or '_'.join(f'{genes[k]:.6g}' for k in GENE_NAMES)}"
     tmp = root / f".{final.name}.partial"
@@ -850,7 +850,7 @@ def evaluation_group(contents: RunContents, row: Mapping[str, Any], rerun: bool 
                    ", ".join(f"{k}={v:.5g}" for k, v in genes.items()), final)
     shutil.rmtree(tmp, ignore_errors=True)
     try:
-        commands.write_design_scenes(tmp, load_config(cfg_path), genes)
+        workflows.write_design_scenes(tmp, load_config(cfg_path), genes)
     except ConfigError as exc:
         raise ViewerError(f"{cfg_path}: {exc}") from exc
     except Exception as exc:  # noqa: BLE001 - invalid geometry, unconverged solve, mesher failure
@@ -1835,9 +1835,9 @@ def write_plots(contents: RunContents, out_dir: Path) -> list[Path]:
 
     Copies ``convergence.png`` / ``best_curves.png`` when present, else draws them from
     ``generations.csv``, ``best_curves.csv`` or a ``simulate`` run's ``curve.csv``
-    (``eps_intact``/``eps_trimmed``) with :mod:`whisker_opt.plots`.
+    (``eps_intact``/``eps_trimmed``) with :mod:`whisker_opt.output.plots`.
     """
-    from whisker_opt import plots
+    from whisker_opt.output import plots
 
     root, out_dir = contents.root, Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -2036,4 +2036,4 @@ VIEW_COMMAND: tuple[str, Callable[[argparse.ArgumentParser], None], Callable[[ar
     _view_args,
     _view_run,
 )
-"""``(help, add_args, run)`` for :data:`whisker_opt.commands.REGISTRY` (``whisker-opt view``)."""
+"""``(help, add_args, run)`` for :data:`whisker_opt.cli.commands.REGISTRY` (``whisker-opt view``)."""

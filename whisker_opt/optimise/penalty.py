@@ -28,8 +28,8 @@ import math
 from dataclasses import dataclass
 from typing import Mapping
 
-from whisker_opt.ga_config import GenesConfig, OptimiserConfig
-from whisker_opt.outcome import FAILURE_STATUSES, EvalOutcome
+from whisker_opt.config.optimiser import GenesConfig, OptimiserConfig
+from whisker_opt.experiment.outcome import FAILURE_STATUSES, EvalOutcome
 
 logger = logging.getLogger(__name__)
 
@@ -41,7 +41,7 @@ class PenaltyTerm:
     Parameters
     ----------
     gene : str
-        Gene name (see :data:`whisker_opt.ga_config.GENE_NAMES`).
+        Gene name (see :data:`whisker_opt.config.optimiser.GENE_NAMES`).
     prefer : {"low", "high"}
         Preferred end of the range.
     weight : float
@@ -129,7 +129,7 @@ def failure_penalty(status: str, violation: float, base: float) -> float:
     Parameters
     ----------
     status : str
-        A failure status (:data:`whisker_opt.outcome.FAILURE_STATUSES`).
+        A failure status (:data:`whisker_opt.experiment.outcome.FAILURE_STATUSES`).
     violation : float
         Distance outside the feasible region reported by the evaluator (>= 0; anything
         else, e.g. NaN, counts as 0).

@@ -396,7 +396,7 @@ def write_deck(case: CcxCase, path: str | os.PathLike) -> Path:
     n_inc = int(case.n_increments)
     dt = 1.0 / n_inc
     with open(path, "w") as f:
-        f.write("** whisker-opt fem.calculix deck: C3D10 neo-Hookean, NLGEOM, fixed increments\n")
+        f.write("** whisker-opt peers.calculix deck: C3D10 neo-Hookean, NLGEOM, fixed increments\n")
         f.write("*HEADING\nwhisker-opt peer check\n")
         f.write("*NODE, NSET=NALL\n")
         for i, (x, y, z) in enumerate(case.points):

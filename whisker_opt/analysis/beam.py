@@ -648,7 +648,7 @@ def sensitivity_grid(design: WhiskerDesign, a_values, Q_values, model: BeamModel
 class BeamResponse:
     """The beam model as a response function ``(design, Q, deltas) -> ε(δ)`` (linear in δ).
 
-    Stand-in for the FE scene in :mod:`whisker_opt.compensation`: ``ε = S(design, a, Q) · δ``.
+    Stand-in for the FE scene in :mod:`whisker_opt.analysis.compensation`: ``ε = S(design, a, Q) · δ``.
     """
 
     model: BeamModel = DEFAULT_MODEL

@@ -27,8 +27,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from whisker_opt.ga_config import GENE_NAMES, GenesConfig
-from whisker_opt.outcome import FAILURE_STATUSES, EvalOutcome
+from whisker_opt.config.optimiser import GenesConfig
+from whisker_opt.genes import GENE_NAMES
+from whisker_opt.experiment.outcome import FAILURE_STATUSES, EvalOutcome
 
 _DEFAULT_BOUNDS = GenesConfig().bounds()
 

@@ -1,0 +1,235 @@
+"""The subcommands of ``whisker-opt``: each is (help text, argument adder, runner).
+
+Runners parse arguments, call :mod:`whisker_opt.workflows` and print; they import the heavy
+modules lazily so ``whisker-opt --help`` stays fast.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+from pathlib import Path
+from typing import Callable
+
+from whisker_opt.config.model import ConfigError, load_config
+from whisker_opt.experiment.fidelity import PRESET_NAMES
+
+logger = logging.getLogger(__name__)
+
+
+def _user_errors() -> tuple[type[BaseException], ...]:
+    # FileExistsError: `run --out DIR` where DIR already holds a run (resume it instead)
+    from geometry.design import InvalidDesignError
+    from whisker_opt.analysis.verify import VerifyError
+
+    return (ConfigError, FileNotFoundError, FileExistsError, InvalidDesignError, VerifyError)
+
+
+USER_ERRORS = _user_errors()
+
+
+def _out_dir(args: argparse.Namespace, cfg, kind: str) -> Path:
+    from whisker_opt.workflows import new_run_dir
+
+    return args.out or new_run_dir(cfg, args.config, kind)
+
+
+# ----------------------------------------------------------------------------- mesh
+def _mesh_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("config", type=Path, help="YAML run file (design + fidelity sections are used)")
+    p.add_argument("--trim", type=float, default=None, help="mesh the design trimmed by this length [mm]")
+    p.add_argument("--method", choices=["auto", "fresh", "template", "swept"], default=None, help="override fidelity.mesh_method")
+    p.add_argument("--step", action="store_true", help="also export the CAD solid as STEP and STL")
+    p.add_argument("--out", type=Path, default=None, help="output directory (default: a new run directory)")
+
+
+def _mesh_run(args: argparse.Namespace) -> int:
+    from whisker_opt import wiring, workflows
+
+    cfg = load_config(args.config)
+    wiring.design_from_config(cfg, trim=cfg.scene.trim if args.trim is None else args.trim)  # refuse before mkdir
+    out = _out_dir(args, cfg, "mesh")
+    design, report = workflows.mesh(cfg, out, trim=args.trim, method=args.method, step=args.step)
+    width = max(len(k) for k in report)
+    print(f"mesh of {design.describe()}")
+    for k, v in report.items():
+        print(f"  {k:<{width}}  {v}")
+    print(f"written to {out}")
+    return 0
+
+
+# ----------------------------------------------------------------------------- simulate
+def _simulate_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("config", type=Path, help="YAML run file (design, material, scene, fidelity)")
+    p.add_argument("--out", type=Path, default=None, help="output directory (default: a new run directory)")
+
+
+def _simulate_run(args: argparse.Namespace) -> int:
+    from whisker_opt import workflows
+
+    cfg = load_config(args.config)
+    workflows.simulation_specs(cfg, str(args.config))  # refuse a bad pair before creating the directory
+    out = _out_dir(args, cfg, "simulate")
+    sim = workflows.simulate(cfg, out, str(args.config))
+    for name, res in sim.results.items():
+        spec = sim.specs[name]
+        print(
+            f"{name:8s} Q={spec.Q:.4g} MPa  L={spec.design.length:.4g} mm  dl(Q)={res.delta_l:.5g} mm  "
+            f"eps(delta_max)={res.eps_line[-1]:.6g} (centroid {res.eps_centroid[-1]:.6g})  "
+            f"{sim.summary[name]['wall_s']:.2f} s"
+        )
+    if sim.f1 is not None:
+        print(f"f1 = mean |eps_i - eps_c| = {sim.f1:.6g}")
+    if sim.f1_uncompensated is not None:
+        print(f"uncompensated (trimmed at Q_i): mean |eps_i - eps_u| = {sim.f1_uncompensated:.6g}")
+    print(f"written to {out}")
+    return 0
+
+
+# ----------------------------------------------------------------------------- run / resume / report / verify
+def _run_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("config", type=Path, help="YAML run file with an `optimiser` section")
+    p.add_argument("--out", type=Path, default=None, help="run directory (default: a new one under output.results_dir)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--verify", choices=PRESET_NAMES, default=None,
+                   help="after the run, re-evaluate the best designs at this preset (as `whisker-opt verify`)")
+    p.add_argument("--verify-top", type=int, default=3, help="designs re-evaluated by --verify (default 3)")
+
+
+def _run_run(args: argparse.Namespace) -> int:
+    from whisker_opt import wiring, workflows
+    from whisker_opt.optimise.runner import report
+
+    cfg = load_config(args.config)
+    if args.verify:  # refuse bad --verify arguments before the run, not after it
+        from whisker_opt.analysis.verify import check_args
+
+        check_args(args.verify, args.verify_top)
+    wiring.evaluator(cfg)  # an impossible design section is refused before the directory is made
+    run_dir = _out_dir(args, cfg, "run")
+    workflows.run(cfg, run_dir, progress=not args.no_progress)
+    print(report(run_dir))
+    if args.verify:
+        from whisker_opt.analysis.verify import format_rows, verify_run
+
+        print(f"\nverification at preset {args.verify}")
+        print(format_rows(verify_run(run_dir, args.verify, args.verify_top), args.verify))
+    print(f"written to {run_dir}")
+    return 0
+
+
+def _run_dir_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("run_dir", type=Path, help="run directory written by `whisker-opt run`")
+
+
+def _resume_args(p: argparse.ArgumentParser) -> None:
+    _run_dir_args(p)
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def _resume_run(args: argparse.Namespace) -> int:
+    from whisker_opt import workflows
+    from whisker_opt.optimise.runner import report
+
+    workflows.resume(args.run_dir, progress=not args.no_progress)
+    print(report(args.run_dir))
+    return 0
+
+
+def _verify_args(p: argparse.ArgumentParser) -> None:
+    _run_dir_args(p)
+    p.add_argument("--preset", choices=PRESET_NAMES, default="fine",
+                   help="fidelity preset of the re-evaluation (default: fine)")
+    p.add_argument("--top", type=int, default=3, help="number of best feasible designs to re-evaluate (default 3)")
+
+
+def _verify_run(args: argparse.Namespace) -> int:
+    from whisker_opt.analysis.verify import format_rows, verify_run
+
+    rows = verify_run(args.run_dir, args.preset, args.top)
+    print(format_rows(rows, args.preset))
+    print(f"written to {args.run_dir / f'verify_{args.preset}.csv'}")
+    return 0
+
+
+def _report_run(args: argparse.Namespace) -> int:
+    from whisker_opt.optimise.runner import report
+
+    if not args.run_dir.is_dir():
+        raise FileNotFoundError(f"{args.run_dir}: no such run directory")
+    print(report(args.run_dir))
+    return 0
+
+
+# ----------------------------------------------------------------------------- compensate
+def _compensate_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("config", type=Path, help="YAML run file (design, scene.Q = Q_i, optimiser.trim = largest trim)")
+    p.add_argument("--step", type=float, default=1.0, help="trim step of the table [mm]")
+    p.add_argument("--delta-ref", type=float, default=1.0,
+                   help="deflection of the point measures and of the sensitivity ε(δ)/δ [mm] (docs/physics.md: 1)")
+    p.add_argument("--compare-a", type=float, nargs="+", default=[0.5, 0.75, 1.0], metavar="A",
+                   help="contact ratios of the beam-vs-FE sensitivity comparison")
+    p.add_argument("--compare-Q", type=float, nargs="+", default=[0.0, 0.1, 0.2], metavar="Q",
+                   help="pressures [MPa] of the beam-vs-FE sensitivity comparison")
+    p.add_argument("--no-compare", action="store_true", help="skip the beam-vs-FE sensitivity comparison")
+    p.add_argument("--out", type=Path, default=None, help="output directory")
+
+
+def _compensate_run(args: argparse.Namespace) -> int:
+    """Δ → Q table (FE, with the analytic Q beside it) and the beam-vs-FE sensitivity comparison; prints both."""
+    from whisker_opt import workflows
+
+    cfg = load_config(args.config)
+    if cfg.scene.Q <= 0:  # checked again by the workflow; here before a directory is made
+        raise ConfigError(f"{args.config}: scene.Q: the intact pressure Q_i must be > 0 for compensation "
+                          f"(got {cfg.scene.Q})")
+    out = _out_dir(args, cfg, "compensate")
+    res = workflows.compensate(cfg, out, step=args.step, delta_ref=args.delta_ref, compare_a=args.compare_a,
+                               compare_Q=args.compare_Q, compare=not args.no_compare, source=str(args.config))
+    print(f"compensation table of {res.design.describe()}, Q_i = {cfg.scene.Q:g} MPa ({res.table_seconds:.0f} s)")
+    print(res.paths["csv"].read_text())
+    print(f"monotone (Q non-increasing in Δ): {res.table.is_monotone()}")
+    cmp = res.comparison
+    if cmp is not None:
+        print(f"beam vs FE gauge sensitivity ε(δ={args.delta_ref:g} mm)/δ [1/mm] ({res.comparison_seconds:.0f} s); "
+              f"rows a, columns Q [MPa]: beam / FE / (beam-FE)/FE")
+        for i, ai in enumerate(cmp.a):
+            cells = "  ".join(f"Q={qj:g}: {cmp.beam[i, j]:.5f} / {cmp.fe[i, j]:.5f} / "
+                              f"{100 * cmp.relative_difference[i, j]:+.1f}%" for j, qj in enumerate(cmp.Q))
+            print(f"  a={ai:g}  {cells}")
+        print(f"max |relative difference| = {100 * cmp.max_abs_relative_difference:.1f}%")
+    print(f"written to {out} ({', '.join(str(p) for p in res.paths.values())})")
+    return 0
+
+
+# ----------------------------------------------------------------------------- view
+def _view_command():
+    from whisker_opt.viewer.legacy import VIEW_COMMAND
+
+    return VIEW_COMMAND
+
+
+def _view_args(p: argparse.ArgumentParser) -> None:
+    try:
+        add = _view_command()[1]
+    except ImportError as exc:  # pyvista missing: the command explains itself when run
+        p.add_argument("path", type=Path, help=f"run directory or VTU (viewer unavailable: {exc})")
+        return
+    add(p)
+
+
+def _view_run(args: argparse.Namespace) -> int:
+    return _view_command()[2](args)
+
+
+REGISTRY: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None], Callable[[argparse.Namespace], int]]] = {
+    "mesh": ("build and mesh a design; write the mesh and a quality report", _mesh_args, _mesh_run),
+    "simulate": ("run one scene or the intact/trimmed pair; write the curve, reports and meshes", _simulate_args, _simulate_run),
+    "run": ("run the GA optimisation of a config; write a results directory", _run_args, _run_run),
+    "resume": ("continue an interrupted run from its last checkpoint", _resume_args, _resume_run),
+    "report": ("print a run's summary table and rebuild its plots", _run_dir_args, _report_run),
+    "verify": ("re-evaluate a run's best designs at a finer fidelity preset (is the optimum real?)",
+               _verify_args, _verify_run),
+    "compensate": ("FE compensation table: vent pressure per trim, recovery rates, plot", _compensate_args, _compensate_run),
+    "view": ("view result meshes with pyvista (or save a screenshot off-screen)", _view_args, _view_run),
+}

@@ -1,0 +1,2 @@
+"""The optimisation: genetic algorithm, penalties, evaluation cache, executors, checkpoints
+and the run driver that writes a run directory."""

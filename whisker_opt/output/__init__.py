@@ -1,0 +1,1 @@
+"""What a run writes: atomic files, CSV/JSON tables and the plots."""

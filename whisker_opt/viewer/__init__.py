@@ -1,0 +1,1 @@
+"""The pyvista viewer of run directories and result meshes."""

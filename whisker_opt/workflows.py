@@ -1,0 +1,354 @@
+"""The jobs a user runs, as library functions: mesh a design, simulate scenes, evaluate a genome,
+run and resume the GA, verify and compensate.
+
+The command line (:mod:`whisker_opt.cli`) and the public API (:mod:`whisker_opt`) call these; each
+takes a validated config (:func:`whisker_opt.config.model.load_config`) and writes into a results
+directory it is given or creates (:func:`new_run_dir`).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from whisker_opt import wiring
+from whisker_opt.config.model import ConfigError, WhiskerConfig, dump_config
+
+logger = logging.getLogger(__name__)
+
+
+def new_run_dir(cfg: WhiskerConfig, config_path: Path | str, kind: str) -> Path:
+    """Create ``<results_dir>/<name or stem>-<kind>-<UTC time>`` holding the resolved ``config.yaml``."""
+    stamp = time.strftime("%Y%m%d-%H%M%S", time.gmtime())
+    name = cfg.output.name or Path(config_path).stem
+    run_dir = Path(cfg.output.results_dir) / f"{name}-{kind}-{stamp}"
+    k = 1
+    while run_dir.exists():
+        k += 1
+        run_dir = Path(cfg.output.results_dir) / f"{name}-{kind}-{stamp}-{k}"
+    run_dir.mkdir(parents=True)
+    (run_dir / "config.yaml").write_text(dump_config(cfg))
+    return run_dir
+
+
+# ----------------------------------------------------------------------------- mesh
+def mesh(cfg: WhiskerConfig, out: Path, trim: float | None = None, method: str | None = None,
+         step: bool = False) -> tuple[Any, dict]:
+    """Build and mesh the config's design; write ``mesh.npz``, ``mesh.vtu`` and ``mesh_report.json``.
+
+    Parameters
+    ----------
+    cfg : WhiskerConfig
+    out : Path
+        Output directory (created).
+    trim : float, optional
+        Trimmed length [mm]; default ``scene.trim``.
+    method : {'auto', 'fresh', 'template', 'swept'}, optional
+        Default ``fidelity.mesh_method``.
+    step : bool
+        Also export the CAD solid as STEP and STL.
+
+    Returns
+    -------
+    design : geometry.design.WhiskerDesign
+    report : dict
+        The mesh quality report with ``mesh_seconds`` and ``method``.
+    """
+    from fem.io import write_vtu
+    from geometry.mesh import build_mesh
+    from whisker_opt.experiment.fidelity import resolve
+
+    trim = cfg.scene.trim if trim is None else trim
+    design = wiring.design_from_config(cfg, trim=trim)
+    method = method or cfg.fidelity.mesh_method
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    wm = build_mesh(design, resolve(cfg.fidelity).sizing, method=method)
+    elapsed = time.perf_counter() - t0
+    wm.save(out / "mesh.npz")
+    write_vtu(out / "mesh.vtu", wm.mesh)
+    if step:
+        from geometry.cad import build_solid, export_step, export_stl
+
+        solid = build_solid(design)
+        export_step(solid, out / "whisker.step")
+        export_stl(solid, out / "whisker.stl")
+    report = dict(wm.report.as_dict(), mesh_seconds=round(elapsed, 3), method=method)
+    (out / "mesh_report.json").write_text(json.dumps(report, indent=2))
+    return design, report
+
+
+# ----------------------------------------------------------------------------- simulate
+@dataclass
+class Simulation:
+    """What :func:`simulate` solved and wrote.
+
+    Attributes
+    ----------
+    specs : dict of str -> SceneSpec
+    results : dict of str -> SceneResult
+    summary : dict
+        ``scenes.json``: one entry per scene, plus ``f1`` (and ``f1_uncompensated``) for a pair.
+    columns : dict of str -> ndarray
+        ``curve.csv`` columns: ``delta_mm``, ``eps_<scene>`` and ``eps_<scene>_solved_line``.
+    out : Path
+    """
+
+    specs: dict
+    results: dict
+    summary: dict
+    columns: dict
+    out: Path
+    f1: float | None = None
+    f1_uncompensated: float | None = None
+
+
+def simulation_specs(cfg: WhiskerConfig, source: str = "config") -> dict:
+    """The scenes ``simulate`` solves: the ``intact``/``trimmed_uncompensated``/``trimmed`` pair at
+    ``scene.Q`` and ``scene.trim`` (``scene.pair``), or the single scene ``scene``.
+
+    ``source`` (the config file) starts the message of a :class:`ConfigError`."""
+    sc = cfg.scene
+    if not sc.pair:
+        return {"scene": wiring.scene_spec(cfg, wiring.design_from_config(cfg, sc.trim), sc.Q)}
+    if sc.trim <= 0:
+        raise ConfigError(f"{source}: scene.trim: must be > 0 for a pair (got {sc.trim})")
+    trimmed = wiring.design_from_config(cfg, sc.trim)
+    scenes = {wiring.INTACT: wiring.scene_spec(cfg, wiring.design_from_config(cfg, 0.0), sc.Q)}
+    if sc.Q > 0:  # the trimmed whisker still at Q_i: what trimming alone does to the reading
+        scenes[wiring.UNCOMPENSATED] = wiring.scene_spec(cfg, trimmed, sc.Q)
+    scenes[wiring.TRIMMED] = wiring.scene_spec(cfg, trimmed, 0.0)
+    return scenes
+
+
+def simulate(cfg: WhiskerConfig, out: Path, source: str = "config") -> Simulation:
+    """Solve the config's scenes (:func:`simulation_specs`); write VTUs, ``curve.csv`` and ``scenes.json``.
+
+    For a pair, f1 (:func:`whisker_opt.experiment.objective.f1`) compares ``intact`` with ``trimmed``
+    over δ = Δδ … δ_max, and ``f1_uncompensated`` ``intact`` with ``trimmed_uncompensated``.
+    """
+    from whisker_opt.experiment import objective
+    from whisker_opt.output.scenes import solve_scenes
+
+    sc = cfg.scene
+    specs = simulation_specs(cfg, source)
+    out = Path(out)
+    delta = np.round(np.arange(0.0, sc.delta_max + 0.5 * sc.delta_step, sc.delta_step), 10)
+    results, summary = solve_scenes(out, specs, sc.gauge_variant)
+    cols: dict[str, np.ndarray] = {"delta_mm": delta}
+    for name, res in results.items():
+        cols[f"eps_{name}"] = res.curve(delta, sc.gauge_variant)
+        cols[f"eps_{name}_solved_line"] = np.interp(delta, res.delta, res.eps_line)
+    sim = Simulation(specs, results, summary, cols, out)
+    if sc.pair:
+        sim.f1 = summary["f1"] = objective.f1(cols["eps_intact"][1:], cols["eps_trimmed"][1:])
+        if wiring.UNCOMPENSATED in results:
+            sim.f1_uncompensated = summary["f1_uncompensated"] = objective.f1(
+                cols["eps_intact"][1:], cols[f"eps_{wiring.UNCOMPENSATED}"][1:])
+    header = ",".join(cols)
+    np.savetxt(out / "curve.csv", np.column_stack(list(cols.values())), delimiter=",", header=header, comments="")
+    (out / "scenes.json").write_text(json.dumps(summary, indent=2, default=float))
+    return sim
+
+
+# ----------------------------------------------------------------------------- evaluate
+def evaluate(cfg: WhiskerConfig, genes: Mapping[str, float], keep_curves: bool = False):
+    """One GA evaluation of a genome: f1 and timings, or the classified failure.
+
+    Returns
+    -------
+    whisker_opt.experiment.outcome.EvalOutcome
+    """
+    return wiring.evaluator(cfg, keep_curves=keep_curves)({k: float(v) for k, v in genes.items()})
+
+
+def write_design_scenes(out: Path, cfg: WhiskerConfig, genes: Mapping[str, Any], specs: dict | None = None) -> dict:
+    """Solve the scenes of a genome (:func:`whisker_opt.wiring.design_scene_specs`) and write them
+    into ``out``: one VTU per state and ``scenes.json`` with the gauge readings.
+
+    Returns
+    -------
+    dict of str -> whisker_opt.experiment.scene.SceneResult
+    """
+    from whisker_opt.genes import GENE_NAMES
+    from whisker_opt.output.scenes import solve_scenes
+
+    specs = wiring.design_scene_specs(cfg, genes) if specs is None else specs
+    clean = {k: float(v) for k, v in genes.items() if k in GENE_NAMES}
+    results, entries = solve_scenes(Path(out), specs, cfg.scene.gauge_variant, genes=clean)
+    (Path(out) / "scenes.json").write_text(json.dumps(entries, indent=2, default=float))
+    return results
+
+
+# ----------------------------------------------------------------------------- run / resume
+def finish_best(run_dir: Path, cfg: WhiskerConfig, summary) -> None:
+    """Re-run the best design of a run summary with curves and deformed meshes (VTU) into ``run_dir/best``."""
+    from whisker_opt.output.plots import write_best_curves
+
+    best_genes = summary.best.get("genes") if isinstance(summary.best, dict) else None
+    if not best_genes:
+        return
+    try:
+        specs = wiring.design_scene_specs(cfg, best_genes)
+    except Exception as exc:  # the best of a run where every design failed
+        logger.warning("best design cannot be re-run: %s", exc)
+        return
+    results = write_design_scenes(Path(run_dir) / "best", cfg, best_genes, specs)
+    delta = wiring.evaluator(cfg).samples()
+    curves = {name: results[name].curve(delta, cfg.scene.gauge_variant) for name in (wiring.INTACT, wiring.TRIMMED)}
+    write_best_curves(run_dir, np.concatenate([[0.0], delta]), np.concatenate([[0.0], curves[wiring.INTACT]]),
+                      np.concatenate([[0.0], curves[wiring.TRIMMED]]),
+                      f"best design {', '.join(f'{k}={v:.4g}' for k, v in best_genes.items())}")
+
+
+def run(cfg: WhiskerConfig, run_dir: Path, progress: bool = True):
+    """Run the GA of a config into ``run_dir`` and re-run its best design into ``run_dir/best``.
+
+    Returns
+    -------
+    whisker_opt.optimise.runner.RunSummary
+
+    Raises
+    ------
+    FileExistsError
+        ``run_dir`` already holds a run (resume it instead).
+    """
+    from whisker_opt.optimise.runner import check_new_run_dir, run_optimisation
+
+    opt = wiring.optimiser_of(cfg)
+    ev = wiring.evaluator(cfg)
+    run_dir = Path(run_dir)
+    check_new_run_dir(run_dir)  # before anything is written into the directory
+    run_dir.mkdir(parents=True, exist_ok=True)
+    if not (run_dir / "config.yaml").exists():
+        (run_dir / "config.yaml").write_text(dump_config(cfg))
+    summary = run_optimisation(opt, run_dir, ev, opt.resolve_seed(cfg.seed), progress=progress)
+    finish_best(run_dir, cfg, summary)
+    return summary
+
+
+def run_config(run_dir: Path) -> WhiskerConfig:
+    """The ``config.yaml`` of a run directory.
+
+    Raises
+    ------
+    FileNotFoundError
+        ``run_dir`` holds no ``config.yaml``.
+    """
+    from whisker_opt.config.model import load_config
+    from whisker_opt.optimise.runner import run_config_path
+
+    return load_config(run_config_path(run_dir))
+
+
+def resume(run_dir: Path, progress: bool = True):
+    """Continue a killed run from its last checkpoint (same result as an uninterrupted run)."""
+    from whisker_opt.optimise.runner import resume_optimisation
+
+    run_dir = Path(run_dir)
+    cfg = run_config(run_dir)
+    summary = resume_optimisation(run_dir, wiring.evaluator(cfg), progress=progress)
+    if not (run_dir / "best").is_dir():
+        finish_best(run_dir, cfg, summary)
+    return summary
+
+
+# ----------------------------------------------------------------------------- compensate
+def scene_response(cfg: WhiskerConfig, runner):
+    """``response(design, Q, deltas) -> ε(δ)``: the config's scene at ``cfg.scene.contact_ratio``.
+
+    ``runner`` is a :class:`whisker_opt.experiment.scene.SceneRunner` (its memo shares scenes between calls).
+    """
+    def response(d, Q, deltas):
+        res = runner.run(wiring.scene_spec(cfg, d, float(Q)))
+        return res.curve(np.asarray(deltas, dtype=float), cfg.scene.gauge_variant)
+
+    return response
+
+
+def scene_sensitivity(cfg: WhiskerConfig, runner, delta_ref: float = 1.0):
+    """``sensitivity(design, a, Q) -> ε(δ_ref)/δ_ref`` [1/mm] from the config's scene at contact ratio a.
+
+    The scene pushes at x = a·L_Q of the pressurised whisker; for a < 1 it places the
+    contact node ring there itself (:func:`whisker_opt.experiment.scene.run_scene`, swept meshes).
+    """
+    import dataclasses
+
+    def sensitivity(d, a, Q):
+        spec = dataclasses.replace(wiring.scene_spec(cfg, d, float(Q)), contact_ratio=float(a))
+        eps = runner.run(spec).curve(np.array([delta_ref]), cfg.scene.gauge_variant)
+        return float(eps[0]) / delta_ref
+
+    return sensitivity
+
+
+@dataclass
+class Compensation:
+    """What :func:`compensate` computed and wrote."""
+
+    design: Any
+    table: Any
+    paths: dict
+    table_seconds: float
+    comparison: Any = None
+    comparison_seconds: float = float("nan")
+    extra: dict = field(default_factory=dict)
+
+
+def compensate(cfg: WhiskerConfig, out: Path, step: float = 1.0, delta_ref: float = 1.0,
+               compare_a=(0.5, 0.75, 1.0), compare_Q=(0.0, 0.1, 0.2), compare: bool = True,
+               source: str = "config") -> Compensation:
+    """FE compensation table Δ → vent pressure Q (with the beam model's Q beside it) and the
+    beam-vs-FE sensitivity comparison.
+
+    Writes ``compensation_table.{csv,json,png}`` and, when ``compare``,
+    ``sensitivity_comparison.{csv,png}``. The FE deflection samples are δ_max/10 … δ_max
+    (10 points), with ``delta_ref`` added if missing.
+
+    Raises
+    ------
+    ConfigError
+        ``scene.Q`` (the intact pressure Q_i) is not positive, or an argument is out of range; the
+        message starts with ``source``.
+    """
+    from whisker_opt.analysis.beam import BeamModel
+    from whisker_opt.analysis.compensation import compare_sensitivity, compensation_table, write_comparison, write_table
+    from whisker_opt.experiment.scene import SceneRunner
+
+    opt = wiring.optimiser_of(cfg)
+    if cfg.scene.Q <= 0:
+        raise ConfigError(f"{source}: scene.Q: the intact pressure Q_i must be > 0 for compensation (got {cfg.scene.Q})")
+    dref = float(delta_ref)
+    if not 0.0 < dref <= cfg.scene.delta_max:
+        raise ConfigError(f"--delta-ref {dref:g}: must lie in (0, scene.delta_max = {cfg.scene.delta_max:g}] mm")
+    bad_a = [a for a in compare_a if not 0.0 < a <= 1.0]
+    bad_q = [q for q in compare_Q if q < 0.0]
+    if bad_a or bad_q:
+        raise ConfigError(f"--compare-a must lie in (0, 1] (got {bad_a}), --compare-Q must be >= 0 (got {bad_q})")
+    runner = SceneRunner()
+    design = wiring.design_from_config(cfg, 0.0)
+    model = BeamModel(calibration=cfg.scene.calibration)
+    deltas = np.linspace(cfg.scene.delta_max / 10, cfg.scene.delta_max, 10)
+    if not np.any(np.abs(deltas - dref) <= 1e-9):
+        deltas = np.sort(np.append(deltas, dref))
+    out = Path(out)
+    t0 = time.perf_counter()
+    table = compensation_table(design, cfg.scene.Q, opt.delta_max, scene_response(cfg, runner), step=step,
+                               deltas=deltas, method="root", analytic_model=model)
+    paths = write_table(out, table, delta_ref=dref)
+    result = Compensation(design, table, paths, time.perf_counter() - t0)
+    if compare:
+        t0 = time.perf_counter()
+        result.comparison = compare_sensitivity(design, scene_sensitivity(cfg, runner, dref), a_values=compare_a,
+                                                Q_values=compare_Q, model=model)
+        cpaths = write_comparison(out, result.comparison)
+        paths.update({f"comparison_{k}": v for k, v in cpaths.items()})
+        result.comparison_seconds = time.perf_counter() - t0
+    return result
