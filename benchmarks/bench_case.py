@@ -36,7 +36,7 @@ def main() -> None:
     s = run_optimisation(opt, out, wiring.evaluator(cfg), opt.resolve_seed(cfg.seed), progress=True)
     wall = time.perf_counter() - t
     best = s.best or {}
-    print(f"case            {args.config}  (preset {cfg.fidelity.preset}, Δmax {opt.delta_max} mm)")
+    print(f"case            {args.config}  (preset {cfg.fidelity.preset}, trim {opt.trim} mm)")
     print(f"wall time       {wall:.1f} s ({wall / 3600:.2f} h; target < 1 h)")
     print(f"evaluations     {s.n_evaluations} solved, {s.n_cache_hits} cache hits, {s.n_failures} failed")
     print(f"generations     {s.generations}, stopping rule: {s.stop_reason}")

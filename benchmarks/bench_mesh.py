@@ -81,7 +81,7 @@ def measure(name: str, d: WhiskerDesign, method: str, sizing: MeshSizing, thread
           and r.quality_min > MIN_RADIUS_RATIO and r.jacobian_ratio_min > 0 and detj > 0)
     if method == "fresh":
         ok = ok and r.elements_through_wall >= MIN_WALL_CROSSINGS
-    return {"design": name, "alpha": d.alpha_deg, "l": d.l, "t": d.t, "L": d.length, "method": method,
+    return {"design": name, "alpha": d.alpha, "l": d.l, "t": d.t, "L": d.length, "method": method,
             "n_elements": r.n_elements, "time_s": dt, "volume_error": r.volume_error,
             "cavity_area_error": r.cavity_area_error, "quality_min": r.quality_min,
             "jacobian_ratio_min": r.jacobian_ratio_min, "min_detJ": detj,

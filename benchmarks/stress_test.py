@@ -186,7 +186,7 @@ def _scene(case: Case, preset: str, solve_options=None):
 
     design = design_from_genes(case.alpha, case.l, case.t, case.trim)
     kw = {"solve_options": solve_options} if solve_options is not None else {}
-    spec = preset_spec(design, preset, Q=case.Q, delta_max=case.delta_max, contact_ratio=case.contact_ratio,
+    spec = preset_spec(design, preset, Q=case.Q, deflection=case.delta_max, contact_ratio=case.contact_ratio,
                        d1=case.d1, **kw)
     design.validate()
     return spec, build_mesh(design, spec.sizing, method=spec.mesh_method, num_threads=1)

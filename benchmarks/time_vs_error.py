@@ -161,7 +161,7 @@ def evaluate(design_name: str, cfg: Config) -> dict:
     base = preset_spec(design_from_genes(alpha, l, t), cfg.preset, **cfg.overrides)
     if cfg.solve:
         base = replace(base, solve_options=replace(base.solve_options, **cfg.solve))
-    ev = SceneEvaluator(base, delta_max_trim=TRIM)
+    ev = SceneEvaluator(base, trim=TRIM)
     intact, trimmed = ev.specs({"alpha": alpha, "l": l, "t": t, "Q_i": Q_I})
     t0 = time.perf_counter()
     results, n_el, stats = {}, 0, []
@@ -328,7 +328,7 @@ def ccx_point() -> dict | None:
     # peers.calculix writes repr(float): a coordinate like -1.4473103847089728e-15 exceeds CalculiX's
     # 20-character field ("*ERROR reading *NODE"); rounding to 1e-12 mm keeps every field short
     case = CcxCase(np.round(wm.mesh.points, 12), wm.mesh.cells, spec.c10, spec.d1,
-                   boundary=tuple((base, k, 0.0) for k in range(3)) + ((tip, 1, -spec.delta_max),),
+                   boundary=tuple((base, k, 0.0) for k in range(3)) + ((tip, 1, -spec.deflection),),
                    n_increments=10, direct=False, print_reactions=False)
     try:
         res = run_ccx(case, threads=1, cleanup=True, timeout=1800)

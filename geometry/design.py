@@ -62,8 +62,8 @@ class WhiskerDesign:
         Base outer diameter at x = 0.
     L : float
         Intact whisker length.
-    alpha_deg : float
-        Cone half-angle in degrees; ``r_o(x) = D/2 - x tan(alpha)``.
+    alpha : float
+        Cone half-angle in degrees (the gene ``alpha``); ``r_o(x) = D/2 - x tan(alpha)``.
     c : float
         Cap thickness; the cavity starts at x = c.
     l : float
@@ -96,7 +96,7 @@ class WhiskerDesign:
 
     D: float = 18.0
     L: float = 70.0
-    alpha_deg: float = 2.862
+    alpha: float = 2.862
     c: float = 2.0
     l: float = 15.0  # noqa: E741  (the thesis' symbol)
     t: float = 3.0
@@ -120,7 +120,7 @@ class WhiskerDesign:
 
     @property
     def tan_alpha(self) -> float:
-        return math.tan(math.radians(self.alpha_deg))
+        return math.tan(math.radians(self.alpha))
 
     def r_outer(self, x):
         """Outer radius ``r_o(x) = D/2 - x tan(alpha)`` (scalar or array)."""
@@ -154,7 +154,7 @@ class WhiskerDesign:
     def describe(self) -> str:
         """Short one-line summary, e.g. for logs and CLI output."""
         return (
-            f"WhiskerDesign(alpha={self.alpha_deg:g} deg, l={self.l:g}, t={self.t:g}, "
+            f"WhiskerDesign(alpha={self.alpha:g} deg, l={self.l:g}, t={self.t:g}, "
             f"L={self.L:g}, trim={self.trim:g}, D={self.D:g}, c={self.c:g})"
         )
 
@@ -181,7 +181,7 @@ class WhiskerDesign:
         for p in ("trim", "x_ss", "fibre_nu"):
             v = getattr(self, p)
             bad(not (math.isfinite(v) and v >= 0), (p,), f"{p} >= 0")
-        bad(not (0.0 <= self.alpha_deg < 45.0), ("alpha_deg",), "0 <= alpha_deg < 45")
+        bad(not (0.0 <= self.alpha < 45.0), ("alpha",), "0 <= alpha < 45")
         bad(not (0.0 <= self.fibre_radius_frac <= 1.0), ("fibre_radius_frac",), "0 <= fibre_radius_frac <= 1")
         bad(not (self.fibre_nu < 0.5), ("fibre_nu",), "fibre_nu < 0.5")
         bad(
@@ -200,11 +200,11 @@ class WhiskerDesign:
             f"L - trim - l >= tip_clearance (cut at x={length:g} must stay clear of the chamber end)",
         )
         tip = self.r_outer(length)
-        bad(tip <= 0, ("D", "alpha_deg", "L", "trim"), f"tip radius D/2 - (L - trim) tan(alpha) = {tip:.4g} > 0")
+        bad(tip <= 0, ("D", "alpha", "L", "trim"), f"tip radius D/2 - (L - trim) tan(alpha) = {tip:.4g} > 0")
         ri_l = self.r_inner(self.l)
         bad(
             ri_l <= 0,
-            ("D", "alpha_deg", "l", "t"),
+            ("D", "alpha", "l", "t"),
             f"cavity radius at x=l, D/2 - l tan(alpha) - t = {ri_l:.4g} > 0 (no cavity/wall left)",
         )
         bad(
@@ -228,7 +228,11 @@ class WhiskerDesign:
 
     @classmethod
     def from_dict(cls, data: dict) -> "WhiskerDesign":
+        """A design from :meth:`as_dict` output (``alpha_deg``, the former name of ``alpha``, is read too)."""
         fields = {f.name for f in dataclasses.fields(cls)}
+        data = dict(data)
+        if "alpha_deg" in data and "alpha" not in data:  # templates and results written before the rename
+            data["alpha"] = data.pop("alpha_deg")
         unknown = set(data) - fields
         if unknown:
             raise ValueError(f"WhiskerDesign: unknown field(s) {sorted(unknown)}; allowed {sorted(fields)}")

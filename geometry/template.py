@@ -77,7 +77,7 @@ class Template:
 def template_designs() -> list[WhiskerDesign]:
     """The reference designs of the template grid."""
     return [
-        WhiskerDesign(alpha_deg=a, t=t, l=TEMPLATE_L_CHAMBER) for a in TEMPLATE_ALPHAS for t in TEMPLATE_TS
+        WhiskerDesign(alpha=a, t=t, l=TEMPLATE_L_CHAMBER) for a in TEMPLATE_ALPHAS for t in TEMPLATE_TS
     ]
 
 
@@ -255,7 +255,7 @@ def make_template(design: WhiskerDesign, sizing: MeshSizing, num_threads: int = 
         eps = max(1e-5, 0.5 * eps)
     if n_unproj:
         raise RuntimeError(f"template for {design.describe()}: {n_unproj} vertices could not be projected")
-    name = f"{sizing.name}_a{design.alpha_deg:g}_t{design.t:g}"
+    name = f"{sizing.name}_a{design.alpha:g}_t{design.t:g}"
     return Template(name, design, sizing.template_key(), sizing.name, pts, tets, cls, structured=(method == "swept"))
 
 

@@ -41,7 +41,7 @@ def test_integrator_mean_surface_strain_uniform():
 # ----------------------------------------------------------------------------- uniform cylinder
 def test_uniform_cylinder_design_reduces_to_euler_bernoulli():
     """α = 0 design with the chamber treated as solid and no softening: δ = P L³/(3 E I), I = π D⁴/64."""
-    d = WhiskerDesign(alpha_deg=0.0)
+    d = WhiskerDesign(alpha=0.0)
     model = BeamModel(tube_I="solid", softening=NO_SOFTENING)
     P = 0.05
     I = math.pi * d.D**4 / 64.0
@@ -61,7 +61,7 @@ def test_uniform_cylinder_design_reduces_to_euler_bernoulli():
 @pytest.mark.parametrize("tube_I", ["exact", "thin"])
 def test_uniform_tube_piecewise_closed_form(tube_I):
     """α = 0 with the chamber: three uniform segments, each integrated exactly."""
-    d = WhiskerDesign(alpha_deg=0.0)
+    d = WhiskerDesign(alpha=0.0)
     model = BeamModel(tube_I=tube_I, softening=NO_SOFTENING)
     r, t = d.D / 2, d.t
     Is = math.pi * r**4 / 4
@@ -89,7 +89,7 @@ def test_solid_cone_matches_tapered_cantilever_closed_form(alpha, a):
 
     Limit β → 0: P x_P³ / (3 E I0), Euler-Bernoulli.
     """
-    d = WhiskerDesign(alpha_deg=alpha, L=50.0)
+    d = WhiskerDesign(alpha=alpha, L=50.0)
     model = BeamModel(tube_I="solid", softening=NO_SOFTENING)
     P = 0.2
     r0 = d.D / 2
@@ -110,7 +110,7 @@ def test_thin_tube_error_default_design():
     d = WhiskerDesign()
     x = np.array([d.c, d.x_ss + d.e / 2, d.l])
     err = beam.thin_tube_relative_error(d, x)
-    dbar = d.D - 2 * x * math.tan(math.radians(d.alpha_deg)) - d.t
+    dbar = d.D - 2 * x * math.tan(math.radians(d.alpha)) - d.t
     np.testing.assert_allclose(err, -(d.t**2) / (dbar**2 + d.t**2), rtol=1e-12)
     np.testing.assert_allclose(err, beam.thin_tube_relative_error_formula(d, x), rtol=1e-12)
     # hand numbers: d̄ = 18 - 14 tan(2.862°) - 3 = 14.2999..., -9/(d̄² + 9)
@@ -167,7 +167,7 @@ def test_extension_matches_closed_form():
     d = WhiskerDesign()
     Q = 0.2
     geo = beam.pressurised_geometry(d, Q)
-    ta = math.tan(math.radians(d.alpha_deg))
+    ta = math.tan(math.radians(d.alpha))
     G = math.log((d.D - d.t - 2 * d.c * ta) / (d.D - d.t - 2 * d.l * ta)) / (2 * math.pi * d.t * ta)
     d_m = d.D - 2 * d.l * ta - 2 * d.t
     F = Q * math.pi * d_m**2 / 4
@@ -196,7 +196,7 @@ def test_extension_matches_closed_form():
 def test_pressurised_uniform_tube_closed_form():
     """α = 0: A and λ constant, so the pressurised beam is three uniform segments
     [0, c] (E, solid), [c, l + Δl] (E₂ = kE, tube with t' = t - Δt), [l + Δl, x_P] (E, solid)."""
-    d = WhiskerDesign(alpha_deg=0.0)
+    d = WhiskerDesign(alpha=0.0)
     Q, P, a = 0.15, 0.1, 1.0
     for thinning in ("average", "local", "none"):
         model = BeamModel(wall_thinning=thinning)

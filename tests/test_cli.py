@@ -41,10 +41,10 @@ def test_malformed_config_is_one_line(tmp_path, yaml, words):
 
 def test_impossible_design_is_one_line(tmp_path):
     cfg = tmp_path / "d.yaml"
-    cfg.write_text("design:\n  alpha_deg: 9.0\n")  # the cone closes before the tip
+    cfg.write_text("design:\n  alpha: 9.0\n")  # the cone closes before the tip
     rc, _, err = _cli("mesh", cfg, "--out", tmp_path / "out")
     line = _one_line_error(rc, err, "mesh")
-    assert "tip radius" in line and "alpha_deg=9" in line
+    assert "tip radius" in line and "alpha=9" in line
 
 
 def test_missing_config_and_occupied_run_directory(tmp_path):

@@ -243,7 +243,7 @@ def test_compensate_command_writes_table_and_comparison(tmp_path, monkeypatch, c
     monkeypatch.setattr(scene, "SceneRunner", _FakeRunner)
     _FakeRunner.specs = []
     cfg = tmp_path / "c.yaml"
-    cfg.write_text("fidelity:\n  preset: coarse\nscene:\n  Q: 0.2\noptimiser:\n  delta_max: 4.0\n")
+    cfg.write_text("fidelity:\n  preset: coarse\nscene:\n  Q_i: 0.2\noptimiser:\n  trim: 4.0\n")
     out = tmp_path / "out"
     assert main(["compensate", str(cfg), "--step", "2", "--out", str(out), "--compare-a", "0.5", "1",
                  "--compare-Q", "0", "0.2"]) == 0

@@ -25,7 +25,7 @@ def test_defaults_reproduce_spec_section_6():
     assert cfg.ga.population == 50 and cfg.ga.tournament == 2 and 0 < cfg.ga.n_elite < 50
     st = cfg.stopping
     assert (st.max_generations, st.target_fp, st.stall_generations, st.stall_tol) == (50, 1e-3, 20, 1e-9)
-    assert cfg.delta_max == 5.0
+    assert cfg.trim == 5.0
     assert cfg.executor.kind == "serial"
     assert GENE_NAMES == ("alpha", "l", "t", "Q_i")
 
@@ -80,3 +80,19 @@ def test_config_is_frozen_and_roundtrips():
         cfg.ga.population = 3  # type: ignore[misc]
     again = OptimiserConfig.model_validate(cfg.model_dump(mode="json"))
     assert again == cfg
+
+
+def test_renamed_keys_are_read_with_a_deprecation_warning_and_both_forms_refused():
+    import pytest as _pytest
+
+    from whisker_opt.config.model import WhiskerConfig
+
+    old = {"optimiser": {"delta_max": 4.0}, "scene": {"Q": 0.1, "delta_max": 3.0}, "design": {"alpha_deg": 3.5}}
+    with _pytest.warns(DeprecationWarning, match=r"optimiser\.delta_max.*optimiser\.trim"):
+        cfg = WhiskerConfig.model_validate(old)
+    assert (cfg.optimiser.trim, cfg.scene.Q_i, cfg.scene.deflection, cfg.design.alpha) == (4.0, 0.1, 3.0, 3.5)
+    new = WhiskerConfig.model_validate({"optimiser": {"trim": 4.0}, "scene": {"Q_i": 0.1, "deflection": 3.0},
+                                        "design": {"alpha": 3.5}})
+    assert new == cfg
+    with _pytest.raises(ValueError, match="old name of 'trim'"):
+        WhiskerConfig.model_validate({"optimiser": {"delta_max": 4.0, "trim": 4.0}})

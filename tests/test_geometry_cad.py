@@ -14,9 +14,9 @@ from geometry.cad import build_cavity, build_fibre_wires, build_solid, export_st
 
 DESIGNS = [
     WhiskerDesign(),
-    WhiskerDesign(alpha_deg=6.0, l=10.0, t=2.0, trim=10.0),
-    WhiskerDesign(alpha_deg=2.5, l=15.0, t=6.0),
-    WhiskerDesign(alpha_deg=0.0, fibre_radius_frac=0.2),
+    WhiskerDesign(alpha=6.0, l=10.0, t=2.0, trim=10.0),
+    WhiskerDesign(alpha=2.5, l=15.0, t=6.0),
+    WhiskerDesign(alpha=0.0, fibre_radius_frac=0.2),
 ]
 
 

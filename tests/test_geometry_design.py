@@ -9,7 +9,7 @@ from geometry.design import InvalidDesignError, WhiskerDesign
 
 def test_defaults_are_the_thesis_values():
     d = WhiskerDesign()
-    assert (d.D, d.L, d.alpha_deg, d.c, d.l, d.t, d.x_ss, d.e, d.trim) == (18, 70, 2.862, 2, 15, 3, 6, 2, 0)
+    assert (d.D, d.L, d.alpha, d.c, d.l, d.t, d.x_ss, d.e, d.trim) == (18, 70, 2.862, 2, 15, 3, 6, 2, 0)
     assert (d.fibre_pitch, d.fibre_diameter, d.n_fibres, d.fibre_E, d.fibre_nu) == (3.0, 0.38, 2, 31067.0, 0.36)
     assert d.fibre_radius_frac == 0.5
     d.validate()
@@ -37,8 +37,8 @@ def test_trimmed_is_same_design_shorter():
 @pytest.mark.parametrize(
     "kw, names, fragment",
     [
-        (dict(t=8.5), {"t", "l", "alpha_deg", "D"}, "cavity radius"),
-        (dict(alpha_deg=8.0), {"alpha_deg", "L"}, "tip radius"),
+        (dict(t=8.5), {"t", "l", "alpha", "D"}, "cavity radius"),
+        (dict(alpha=8.0), {"alpha", "L"}, "tip radius"),
         (dict(l=2.0), {"c", "l"}, "c < l"),
         (dict(trim=52.0), {"trim", "l"}, "L - trim - l >= tip_clearance"),
         (dict(x_ss=14.0), {"x_ss", "e"}, "gauge inside the chamber"),
@@ -76,9 +76,9 @@ def test_ga_box_corners_are_valid():
         for t in (2.0, 6.0):
             for l_ in (10.0, 15.0):
                 for trim in (0.0, 5.0, 10.0):
-                    WhiskerDesign(alpha_deg=a, t=t, l=l_, trim=trim).validate()
+                    WhiskerDesign(alpha=a, t=t, l=l_, trim=trim).validate()
 
 
 def test_tan_alpha():
-    assert WhiskerDesign(alpha_deg=45 - 1e-9).tan_alpha == pytest.approx(1.0)
+    assert WhiskerDesign(alpha=45 - 1e-9).tan_alpha == pytest.approx(1.0)
     assert WhiskerDesign().tan_alpha == pytest.approx(math.tan(math.radians(2.862)))

@@ -177,14 +177,14 @@ def test_save_load_roundtrip(wm, tmp_path):
 
 
 def test_template_path_is_deterministic():
-    d = WhiskerDesign(alpha_deg=4.1, l=11.0, t=2.7)
+    d = WhiskerDesign(alpha=4.1, l=11.0, t=2.7)
     a = build_mesh(d, method="template")
     b = build_mesh(d, method="template")
     assert np.array_equal(a.mesh.points, b.mesh.points) and np.array_equal(a.mesh.cells, b.mesh.cells)
 
 
 def test_cache(tmp_path):
-    d = WhiskerDesign(alpha_deg=3.0, t=4.0, l=12.0, trim=5.0)
+    d = WhiskerDesign(alpha=3.0, t=4.0, l=12.0, trim=5.0)
     a = build_mesh(d, method="template", cache_dir=tmp_path)
     files = list(tmp_path.glob("*.npz"))
     assert len(files) == 1
@@ -195,7 +195,7 @@ def test_cache(tmp_path):
 def test_map_takes_surfaces_onto_surfaces():
     tpl = load_templates()[0]
     src = tpl.design
-    dst = WhiskerDesign(alpha_deg=5.7, l=10.5, t=2.2, trim=8.0)
+    dst = WhiskerDesign(alpha=5.7, l=10.5, t=2.2, trim=8.0)
     rng = np.random.default_rng(0)
     th = rng.uniform(0, 2 * np.pi, 200)
 
@@ -228,7 +228,7 @@ def test_fast_path_100_random_designs_in_the_ga_box(preset):
     worst_vol, worst_area, worst_q = 0.0, 0.0, 1.0
     for _ in range(100):
         d = WhiskerDesign(
-            alpha_deg=rng.uniform(2.5, 6.0),
+            alpha=rng.uniform(2.5, 6.0),
             l=rng.uniform(10.0, 15.0),
             t=rng.uniform(2.0, 6.0),
             trim=float(rng.choice([0.0, rng.uniform(5.0, 10.0)])),
@@ -253,7 +253,7 @@ def test_template_refuses_absolute_sizing():
 
 def test_invalid_design_refused_before_meshing():
     with pytest.raises(InvalidDesignError, match="tip radius"):
-        build_mesh(WhiskerDesign(alpha_deg=9.0), method="fresh")
+        build_mesh(WhiskerDesign(alpha=9.0), method="fresh")
 
 
 def test_radius_ratio_of_regular_tet_is_one():
@@ -267,7 +267,7 @@ def test_radius_ratio_of_regular_tet_is_one():
 
 def test_node_rings_at_the_gauge_window_and_contact_positions():
     """Whole element layers over the gauge window; node rings at x = f L' (f = contact_fractions)."""
-    for d in (WhiskerDesign(), WhiskerDesign(alpha_deg=5.6, l=10.4, t=5.5, trim=8.3)):
+    for d in (WhiskerDesign(), WhiskerDesign(alpha=5.6, l=10.4, t=5.5, trim=8.3)):
         sizing = MeshSizing()
         wm = build_mesh(d, sizing, method="template")
         x = wm.mesh.points[:, 0]

@@ -101,7 +101,7 @@ def test_axial_stations_hit_the_knots():
 
 
 def test_swept_tet10_exact_volume_and_curved_jacobians():
-    d = WhiskerDesign(alpha_deg=5.5, t=2.1, l=14.0)
+    d = WhiskerDesign(alpha=5.5, t=2.1, l=14.0)
     wm = build_mesh(d, MeshSizing(), method="swept")
     r = wm.report
     assert r.method == "swept"
@@ -117,8 +117,8 @@ def test_swept_tet10_exact_volume_and_curved_jacobians():
 
 def test_template_map_of_a_swept_mesh_is_the_swept_mesh_of_the_target():
     """The template map moves the structure of one design onto another: ring nodes stay on their rings."""
-    src = WhiskerDesign(alpha_deg=3.3, t=3.6, l=12.5)
-    dst = WhiskerDesign(alpha_deg=5.1, t=2.3, l=14.2, trim=6.0)
+    src = WhiskerDesign(alpha=3.3, t=3.6, l=12.5)
+    dst = WhiskerDesign(alpha=5.1, t=2.3, l=14.2, trim=6.0)
     sizing = MeshSizing()
     pts, tets = build_swept(src, sizing)
     m = map_points(src, dst, pts, sizing.contact_fractions)

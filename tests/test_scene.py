@@ -30,20 +30,20 @@ def spec(design=WhiskerDesign(), **kw):
 
 def test_pressurisation_lengthens_monotonically_and_fibres_block_radial_growth(runner):
     """Δl(Q) > 0 and increasing on [0, 0.2] MPa; fibres keep radial growth ≪ axial growth."""
-    res = {Q: runner.run(spec(Q=Q, delta_max=0.5, n_deflection_steps=1)) for Q in (0.05, 0.1, 0.2)}
+    res = {Q: runner.run(spec(Q=Q, deflection=0.5, n_deflection_steps=1)) for Q in (0.05, 0.1, 0.2)}
     dl = [res[Q].delta_l for Q in (0.05, 0.1, 0.2)]
     print("delta_l(Q) =", dl, "radial =", [res[Q].radial_growth for Q in (0.05, 0.1, 0.2)])
     assert 0 < dl[0] < dl[1] < dl[2]
     assert abs(res[0.2].radial_growth) < 0.2 * res[0.2].delta_l
-    bare = runner.run(spec(design=WhiskerDesign(n_fibres=0), Q=0.05, delta_max=0.5, n_deflection_steps=1))
+    bare = runner.run(spec(design=WhiskerDesign(n_fibres=0), Q=0.05, deflection=0.5, n_deflection_steps=1))
     print("bare tube radial growth at 0.05 MPa:", bare.radial_growth, "wound:", res[0.05].radial_growth)
     assert bare.radial_growth > 5 * abs(res[0.05].radial_growth)
 
 
 def test_gauge_zero_at_onset_and_sensitivity_rises_with_pressure(runner):
     """ε(0) = 0; at δ = 2 mm the reading at Q = 0.2 MPa exceeds that at Q = 0 (a = 1)."""
-    e0 = runner.run(spec(Q=0.0, delta_max=2.0))
-    e2 = runner.run(spec(Q=0.2, delta_max=2.0))
+    e0 = runner.run(spec(Q=0.0, deflection=2.0))
+    e2 = runner.run(spec(Q=0.2, deflection=2.0))
     assert e0.eps_line[0] == 0.0 and e2.eps_line[0] == 0.0
     print("eps(2 mm): Q=0", e0.eps_line[-1], "Q=0.2", e2.eps_line[-1])
     assert e2.eps_line[-1] > e0.eps_line[-1] > 0
@@ -51,8 +51,8 @@ def test_gauge_zero_at_onset_and_sensitivity_rises_with_pressure(runner):
 
 def test_trimmed_whisker_reads_more_strain(runner):
     """At the same tip deflection, a 5 mm shorter whisker reads more strain (Q = 0)."""
-    intact = runner.run(spec(Q=0.0, delta_max=2.0))
-    trimmed = runner.run(spec(design=WhiskerDesign(trim=5.0), Q=0.0, delta_max=2.0))
+    intact = runner.run(spec(Q=0.0, deflection=2.0))
+    trimmed = runner.run(spec(design=WhiskerDesign(trim=5.0), Q=0.0, deflection=2.0))
     print("eps(2 mm): intact", intact.eps_line[-1], "trimmed", trimmed.eps_line[-1])
     assert trimmed.eps_line[-1] > 1.05 * intact.eps_line[-1]
 
@@ -71,7 +71,7 @@ def test_small_deflection_against_beam_model(runner):
     from whisker_opt.experiment.scene import make_problem
 
     d = WhiskerDesign(n_fibres=0)
-    r = run_scene(spec(design=d, Q=0.0, delta_max=0.5, n_deflection_steps=1), keep_states=True)
+    r = run_scene(spec(design=d, Q=0.0, deflection=0.5, n_deflection_steps=1), keep_states=True)
     st = r.states["deflected"]
     assert list(r.states) == ["pressurised", "deflected", "delta_0.50"] and r.states["delta_0.50"] is st
     R = Assembler(make_problem(r.mesh, r.spec, None)).evaluate(st.u, st.p, (), False)[0]
@@ -88,7 +88,7 @@ def test_small_deflection_against_beam_model(runner):
 
 def test_curve_interpolation_and_input_errors(runner):
     """The curve passes through the solved points; out-of-range deflections are refused."""
-    r = runner.run(spec(Q=0.0, delta_max=2.0))
+    r = runner.run(spec(Q=0.0, deflection=2.0))
     assert np.allclose(r.curve(r.delta), r.eps_line, atol=1e-14)
     with pytest.raises(ValueError, match="deflections must lie"):
         r.curve(np.array([3.0]))
@@ -97,7 +97,7 @@ def test_curve_interpolation_and_input_errors(runner):
 
 
 def test_memo_returns_identical_result(runner):
-    s = spec(Q=0.0, delta_max=2.0)
+    s = spec(Q=0.0, deflection=2.0)
     a = runner.run(s)
     hits = runner.memo_hits
     assert runner.run(s) is a and runner.memo_hits == hits + 1
@@ -126,7 +126,7 @@ def test_off_tip_contact_ring_is_placed_at_a_LQ(runner):
     scene meshes again with the ring where the pressurised contact is (within CONTACT_TOL)."""
     from whisker_opt.experiment.scene import CONTACT_TOL
 
-    res = runner.run(spec(Q=0.1, contact_ratio=0.5, delta_max=1.0, n_deflection_steps=1), keep_states=True)
+    res = runner.run(spec(Q=0.1, contact_ratio=0.5, deflection=1.0, n_deflection_steps=1), keep_states=True)
     print("contact_x", res.contact_x, "a L_Q", 0.5 * res.length_q, res.timings)
     assert abs(res.contact_x - 0.5 * res.length_q) <= CONTACT_TOL
     assert res.mesh.report.method == "swept" and "contact_placement" in res.timings
@@ -143,7 +143,7 @@ def test_reading_rises_with_pressure_at_every_contact_ratio(runner):
     see the README for that measurement and why the thesis' device differs.
     """
     for a in (0.5, 0.75, 1.0):
-        e = [runner.run(spec(Q=Q, contact_ratio=a, delta_max=1.0, n_deflection_steps=1)).eps_line[-1]
+        e = [runner.run(spec(Q=Q, contact_ratio=a, deflection=1.0, n_deflection_steps=1)).eps_line[-1]
              for Q in (0.0, 0.1)]
         print(f"a = {a}: eps(1 mm) at Q = 0, 0.1: {e}, ratio {e[1] / e[0]:.4f}")
         assert e[1] > 1.02 * e[0]
@@ -155,7 +155,7 @@ def test_reference_contact_reads_monotonically_more_with_pressure(runner):
     found at every contact position; with the contact at a·L_Q it peaks near 0.1 MPa."""
     from whisker_opt.experiment.scene import CONTACT_TOL
 
-    res = [runner.run(spec(Q=Q, contact_ratio=0.5, contact_at="reference", delta_max=1.0, n_deflection_steps=1))
+    res = [runner.run(spec(Q=Q, contact_ratio=0.5, contact_at="reference", deflection=1.0, n_deflection_steps=1))
            for Q in (0.0, 0.1, 0.2)]
     e = [r.eps_line[-1] for r in res]
     print("reference contact, a = 0.5: eps(1 mm) at Q = 0, 0.1, 0.2:", e, [r.contact_x for r in res])

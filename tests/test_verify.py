@@ -23,7 +23,7 @@ CONFIG = """\
 fidelity:
   preset: coarse
 optimiser:
-  delta_max: 5.0
+  trim: 5.0
   ga:
     population: 3
     n_elite: 1

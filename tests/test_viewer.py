@@ -359,7 +359,7 @@ def test_run_directory_best_without_scenes_json(tmp_path, box):
             write_vtu(run / "best" / f"{scene}_{state}.vtu", box, point_data={"displacement": _bend(box.points, a)},
                       cell_data={"pressure": np.zeros(box.n_elements)})
     (run / "config.yaml").write_text(
-        "design: {D: 2.5, L: 10.0, alpha_deg: 1.0, c: 1.0, l: 6.0, t: 0.5, x_ss: 2.0, e: 1.0}\n"
+        "design: {D: 2.5, L: 10.0, alpha: 1.0, c: 1.0, l: 6.0, t: 0.5, x_ss: 2.0, e: 1.0}\n"
         "material: {C10: 0.14, D1: 0.0}\nscene: {contact_ratio: 1.0}\noptimiser: {delta_max: 2.0}\n"
     )
     (run / "best.json").write_text(json.dumps(
@@ -368,7 +368,7 @@ def test_run_directory_best_without_scenes_json(tmp_path, box):
     c = V.discover(run)
     assert c.default_group() == "best" and c.c10 == 0.14
     intact, trimmed = c.info("best", "intact"), c.info("best", "trimmed")
-    assert intact.design["alpha_deg"] == 1.5 and intact.design["t"] == 0.6 and intact.Q == 0.02
+    assert intact.design["alpha"] == 1.5 and intact.design["t"] == 0.6 and intact.Q == 0.02
     assert trimmed.trim == 2.0 and trimmed.Q == 0.0 and trimmed.reading("deflected") == (2.0, 0.023)
     assert intact.notes["F_p"] == 0.004 and intact.contact_x == pytest.approx(10.0)
     views = V.load_views(c, "best")
@@ -534,7 +534,7 @@ def test_rank_and_eval_rerun_into_a_cached_folder(tmp_path, box, monkeypatch, ca
 
     def fake_write(out, cfg, genes, specs=None):
         calls.append((out, genes))
-        assert out.name.startswith(".") and cfg.optimiser.delta_max == 2.0  # a hidden folder, the run's config
+        assert out.name.startswith(".") and cfg.optimiser.trim == 2.0  # a hidden folder, the run's config
         if genes["alpha"] == 3.0:
             raise InvalidDesignError(["alpha=3.0: cone tip radius < 0"], {"alpha"})
         _write_triple(out, box)
@@ -570,7 +570,7 @@ def test_design_scene_specs_three_scenes():
     from whisker_opt.wiring import UNCOMPENSATED, design_scene_specs
     from whisker_opt.config.model import WhiskerConfig
 
-    cfg = WhiskerConfig.model_validate({"optimiser": {"delta_max": 4.0}, "fidelity": {"preset": "coarse"}})
+    cfg = WhiskerConfig.model_validate({"optimiser": {"trim": 4.0}, "fidelity": {"preset": "coarse"}})
     genes = {"alpha": 2.0, "l": 20.0, "t": 1.6, "Q_i": 0.15}
     specs = design_scene_specs(cfg, genes)
     assert list(specs) == ["intact", UNCOMPENSATED, "trimmed"] and UNCOMPENSATED == V.UNCOMPENSATED

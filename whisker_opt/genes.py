@@ -1,6 +1,6 @@
 """The decision vector of the optimiser and how a genome becomes a whisker design.
 
-A genome is x = [α, l, t, Q_i]: the cone half-angle α [deg] (the design's ``alpha_deg``),
+A genome is x = [α, l, t, Q_i]: the cone half-angle α [deg] (the design's ``alpha``),
 the x where the chamber ends l [mm], the wall thickness t [mm] and the initial chamber
 pressure Q_i [MPa]. Every other geometric parameter comes from the run file's ``design``
 section. This module is the one place that maps genes onto design fields.
@@ -15,8 +15,8 @@ from typing import Literal, Mapping
 GENE_NAMES: tuple[str, ...] = ("alpha", "l", "t", "Q_i")
 GeneName = Literal["alpha", "l", "t", "Q_i"]
 
-#: Gene -> field of :class:`geometry.design.WhiskerDesign` (Q_i is a load, not geometry).
-DESIGN_FIELD: dict[str, str] = {"alpha": "alpha_deg", "l": "l", "t": "t"}
+#: The genes that are fields of :class:`geometry.design.WhiskerDesign` (Q_i is a load, not geometry).
+GEOMETRY_GENES: tuple[str, ...] = ("alpha", "l", "t")
 
 
 def design_from_genes(base, genes: Mapping[str, float], trim: float = 0.0):
@@ -36,7 +36,7 @@ def design_from_genes(base, genes: Mapping[str, float], trim: float = 0.0):
     geometry.design.WhiskerDesign
         Not validated (call ``validate()``).
     """
-    return replace(base, trim=float(trim), **{field: float(genes[g]) for g, field in DESIGN_FIELD.items()})
+    return replace(base, trim=float(trim), **{g: float(genes[g]) for g in GEOMETRY_GENES})
 
 
 def genes_dict(values) -> dict[str, float]:

@@ -60,7 +60,7 @@ def scene_spec(cfg: WhiskerConfig, design, Q: float):
         Q=Q,
         contact_ratio=cfg.scene.contact_ratio,
         contact_at=cfg.scene.contact_at,
-        delta_max=cfg.scene.delta_max,
+        deflection=cfg.scene.deflection,
         c10=cfg.material.C10,
         d1=cfg.material.D1,
         calibration=cfg.scene.calibration,
@@ -77,7 +77,7 @@ def evaluator(cfg: WhiskerConfig, keep_curves: bool = False):
     from whisker_opt.experiment.evaluator import SceneEvaluator
 
     base = scene_spec(cfg, design_from_config(cfg, 0.0), 0.0)
-    return SceneEvaluator(base, optimiser_of(cfg).delta_max, cfg.scene.delta_step, cfg.scene.gauge_variant,
+    return SceneEvaluator(base, optimiser_of(cfg).trim, cfg.scene.delta_step, cfg.scene.gauge_variant,
                           keep_curves)
 
 

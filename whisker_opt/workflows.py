@@ -112,18 +112,18 @@ class Simulation:
 
 def simulation_specs(cfg: WhiskerConfig, source: str = "config") -> dict:
     """The scenes ``simulate`` solves: the ``intact``/``trimmed_uncompensated``/``trimmed`` pair at
-    ``scene.Q`` and ``scene.trim`` (``scene.pair``), or the single scene ``scene``.
+    ``scene.Q_i`` and ``scene.trim`` (``scene.pair``), or the single scene ``scene``.
 
     ``source`` (the config file) starts the message of a :class:`ConfigError`."""
     sc = cfg.scene
     if not sc.pair:
-        return {"scene": wiring.scene_spec(cfg, wiring.design_from_config(cfg, sc.trim), sc.Q)}
+        return {"scene": wiring.scene_spec(cfg, wiring.design_from_config(cfg, sc.trim), sc.Q_i)}
     if sc.trim <= 0:
         raise ConfigError(f"{source}: scene.trim: must be > 0 for a pair (got {sc.trim})")
     trimmed = wiring.design_from_config(cfg, sc.trim)
-    scenes = {wiring.INTACT: wiring.scene_spec(cfg, wiring.design_from_config(cfg, 0.0), sc.Q)}
-    if sc.Q > 0:  # the trimmed whisker still at Q_i: what trimming alone does to the reading
-        scenes[wiring.UNCOMPENSATED] = wiring.scene_spec(cfg, trimmed, sc.Q)
+    scenes = {wiring.INTACT: wiring.scene_spec(cfg, wiring.design_from_config(cfg, 0.0), sc.Q_i)}
+    if sc.Q_i > 0:  # the trimmed whisker still at Q_i: what trimming alone does to the reading
+        scenes[wiring.UNCOMPENSATED] = wiring.scene_spec(cfg, trimmed, sc.Q_i)
     scenes[wiring.TRIMMED] = wiring.scene_spec(cfg, trimmed, 0.0)
     return scenes
 
@@ -140,7 +140,7 @@ def simulate(cfg: WhiskerConfig, out: Path, source: str = "config") -> Simulatio
     sc = cfg.scene
     specs = simulation_specs(cfg, source)
     out = Path(out)
-    delta = np.round(np.arange(0.0, sc.delta_max + 0.5 * sc.delta_step, sc.delta_step), 10)
+    delta = np.round(np.arange(0.0, sc.deflection + 0.5 * sc.delta_step, sc.delta_step), 10)
     results, summary = solve_scenes(out, specs, sc.gauge_variant)
     cols: dict[str, np.ndarray] = {"delta_mm": delta}
     for name, res in results.items():
@@ -315,7 +315,7 @@ def compensate(cfg: WhiskerConfig, out: Path, step: float = 1.0, delta_ref: floa
     Raises
     ------
     ConfigError
-        ``scene.Q`` (the intact pressure Q_i) is not positive, or an argument is out of range; the
+        ``scene.Q_i`` is not positive, or an argument is out of range; the
         message starts with ``source``.
     """
     from whisker_opt.analysis.beam import BeamModel
@@ -323,11 +323,11 @@ def compensate(cfg: WhiskerConfig, out: Path, step: float = 1.0, delta_ref: floa
     from whisker_opt.experiment.scene import SceneRunner
 
     opt = wiring.optimiser_of(cfg)
-    if cfg.scene.Q <= 0:
-        raise ConfigError(f"{source}: scene.Q: the intact pressure Q_i must be > 0 for compensation (got {cfg.scene.Q})")
+    if cfg.scene.Q_i <= 0:
+        raise ConfigError(f"{source}: scene.Q_i: the intact pressure Q_i must be > 0 for compensation (got {cfg.scene.Q_i})")
     dref = float(delta_ref)
-    if not 0.0 < dref <= cfg.scene.delta_max:
-        raise ConfigError(f"--delta-ref {dref:g}: must lie in (0, scene.delta_max = {cfg.scene.delta_max:g}] mm")
+    if not 0.0 < dref <= cfg.scene.deflection:
+        raise ConfigError(f"--delta-ref {dref:g}: must lie in (0, scene.deflection = {cfg.scene.deflection:g}] mm")
     bad_a = [a for a in compare_a if not 0.0 < a <= 1.0]
     bad_q = [q for q in compare_Q if q < 0.0]
     if bad_a or bad_q:
@@ -335,12 +335,12 @@ def compensate(cfg: WhiskerConfig, out: Path, step: float = 1.0, delta_ref: floa
     runner = SceneRunner()
     design = wiring.design_from_config(cfg, 0.0)
     model = BeamModel(calibration=cfg.scene.calibration)
-    deltas = np.linspace(cfg.scene.delta_max / 10, cfg.scene.delta_max, 10)
+    deltas = np.linspace(cfg.scene.deflection / 10, cfg.scene.deflection, 10)
     if not np.any(np.abs(deltas - dref) <= 1e-9):
         deltas = np.sort(np.append(deltas, dref))
     out = Path(out)
     t0 = time.perf_counter()
-    table = compensation_table(design, cfg.scene.Q, opt.delta_max, scene_response(cfg, runner), step=step,
+    table = compensation_table(design, cfg.scene.Q_i, opt.trim, scene_response(cfg, runner), step=step,
                                deltas=deltas, method="root", analytic_model=model)
     paths = write_table(out, table, delta_ref=dref)
     result = Compensation(design, table, paths, time.perf_counter() - t0)

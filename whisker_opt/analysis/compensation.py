@@ -448,7 +448,7 @@ class CompensationTable:
                 "compensation_error": err}
 
 
-def compensation_table(design: WhiskerDesign, Q_i: float, delta_max: float, response: ResponseFn, *,
+def compensation_table(design: WhiskerDesign, Q_i: float, trim_max: float, response: ResponseFn, *,
                        step: float = 1.0, deltas=None, scalar: Scalar = "mean", method: str = "bounded",
                        xatol: float = 1e-4, analytic_model: BeamModel | None = None,
                        maxiter: int = 60) -> CompensationTable:
@@ -460,7 +460,7 @@ def compensation_table(design: WhiskerDesign, Q_i: float, delta_max: float, resp
         Intact design.
     Q_i : float
         Intact pressure [MPa].
-    delta_max : float
+    trim_max : float
         Largest trim [mm] (included; the last step may be shorter).
     response : callable
         ``response(design, Q, deltas) -> ε`` (see :func:`fe_compensation`).
@@ -475,7 +475,7 @@ def compensation_table(design: WhiskerDesign, Q_i: float, delta_max: float, resp
     -------
     CompensationTable
     """
-    dmax = _check_range("delta_max", delta_max, 0.0, None)
+    dmax = _check_range("trim_max", trim_max, 0.0, None)
     step = _check_range("step", step, 0.0, None, lo_open=True)
     n = int(math.floor(dmax / step + 1e-9))
     trims = [i * step for i in range(n + 1)]

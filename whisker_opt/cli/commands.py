@@ -75,7 +75,7 @@ def _simulate_run(args: argparse.Namespace) -> int:
         spec = sim.specs[name]
         print(
             f"{name:8s} Q={spec.Q:.4g} MPa  L={spec.design.length:.4g} mm  dl(Q)={res.delta_l:.5g} mm  "
-            f"eps(delta_max)={res.eps_line[-1]:.6g} (centroid {res.eps_centroid[-1]:.6g})  "
+            f"eps(deflection)={res.eps_line[-1]:.6g} (centroid {res.eps_centroid[-1]:.6g})  "
             f"{sim.summary[name]['wall_s']:.2f} s"
         )
     if sim.f1 is not None:
@@ -163,7 +163,7 @@ def _report_run(args: argparse.Namespace) -> int:
 
 # ----------------------------------------------------------------------------- compensate
 def _compensate_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("config", type=Path, help="YAML run file (design, scene.Q = Q_i, optimiser.trim = largest trim)")
+    p.add_argument("config", type=Path, help="YAML run file (design, scene.Q_i, optimiser.trim = largest trim)")
     p.add_argument("--step", type=float, default=1.0, help="trim step of the table [mm]")
     p.add_argument("--delta-ref", type=float, default=1.0,
                    help="deflection of the point measures and of the sensitivity ε(δ)/δ [mm] (docs/physics.md: 1)")
@@ -180,13 +180,13 @@ def _compensate_run(args: argparse.Namespace) -> int:
     from whisker_opt import workflows
 
     cfg = load_config(args.config)
-    if cfg.scene.Q <= 0:  # checked again by the workflow; here before a directory is made
-        raise ConfigError(f"{args.config}: scene.Q: the intact pressure Q_i must be > 0 for compensation "
-                          f"(got {cfg.scene.Q})")
+    if cfg.scene.Q_i <= 0:  # checked again by the workflow; here before a directory is made
+        raise ConfigError(f"{args.config}: scene.Q_i: the intact pressure Q_i must be > 0 for compensation "
+                          f"(got {cfg.scene.Q_i})")
     out = _out_dir(args, cfg, "compensate")
     res = workflows.compensate(cfg, out, step=args.step, delta_ref=args.delta_ref, compare_a=args.compare_a,
                                compare_Q=args.compare_Q, compare=not args.no_compare, source=str(args.config))
-    print(f"compensation table of {res.design.describe()}, Q_i = {cfg.scene.Q:g} MPa ({res.table_seconds:.0f} s)")
+    print(f"compensation table of {res.design.describe()}, Q_i = {cfg.scene.Q_i:g} MPa ({res.table_seconds:.0f} s)")
     print(res.paths["csv"].read_text())
     print(f"monotone (Q non-increasing in Δ): {res.table.is_monotone()}")
     cmp = res.comparison

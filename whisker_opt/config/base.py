@@ -3,14 +3,50 @@
 Habit borrowed from pydantic-settings style configs: ``extra="forbid"`` turns a typo in a
 YAML file into an error that names the key, and ``frozen=True`` makes a resolved config
 an immutable value that can be hashed, pickled to workers and written next to results.
+A section may list keys it has renamed (``RENAMED``): the old key is still read, with a
+deprecation warning that names the new one, and a file giving both is an error.
 """
 
 from __future__ import annotations
 
-from pydantic import BaseModel, ConfigDict
+import logging
+import warnings
+from typing import Any, ClassVar
+
+from pydantic import BaseModel, ConfigDict, model_validator
+
+logger = logging.getLogger(__name__)
 
 
 class StrictModel(BaseModel):
-    """Frozen pydantic model that rejects unknown keys."""
+    """Frozen pydantic model that rejects unknown keys and reads renamed ones.
+
+    Attributes
+    ----------
+    RENAMED : dict of str -> str
+        Old key -> new key of this section, e.g. ``{"delta_max": "trim"}``.
+    SECTION : str
+        The section's key in a run file (for messages).
+    """
 
     model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
+    RENAMED: ClassVar[dict[str, str]] = {}
+    SECTION: ClassVar[str] = ""
+
+    @model_validator(mode="before")
+    @classmethod
+    def _renamed_keys(cls, data: Any) -> Any:
+        if not cls.RENAMED or not isinstance(data, dict):
+            return data
+        data = dict(data)
+        for old, new in cls.RENAMED.items():
+            if old not in data:
+                continue
+            if new in data:
+                raise ValueError(f"'{old}' is the old name of '{new}'; give only '{new}'")
+            where = f"{cls.SECTION}." if cls.SECTION else ""
+            msg = f"config key '{where}{old}' is deprecated: write '{where}{new}'"
+            warnings.warn(msg, DeprecationWarning, stacklevel=2)
+            logger.warning(msg)
+            data[new] = data.pop(old)
+        return data

@@ -34,9 +34,12 @@ class ConfigError(ValueError):
 class DesignConfig(StrictModel):
     """Whisker geometry (SPEC §2) and fibre winding (SPEC §3)."""
 
+    SECTION = "design"
+    RENAMED = {"alpha_deg": "alpha"}
+
     D: float = Field(18.0, gt=0, le=100, description="base outer diameter at x = 0 [mm], (0, 100]")
     L: float = Field(70.0, gt=0, le=500, description="intact whisker length [mm], (0, 500]")
-    alpha_deg: float = Field(2.862, ge=0, lt=45, description="cone half-angle [deg], [0, 45)")
+    alpha: float = Field(2.862, ge=0, lt=45, description="cone half-angle α [deg], [0, 45)")
     c: float = Field(2.0, gt=0, le=50, description="cap thickness, chamber starts at x = c [mm], (0, 50]")
     l: float = Field(15.0, gt=0, le=200, description="x where the chamber ends [mm], (0, 200]")
     t: float = Field(3.0, gt=0, le=50, description="chamber wall thickness (radial) [mm], (0, 50]")
@@ -62,7 +65,14 @@ class MaterialConfig(StrictModel):
 class SceneConfig(StrictModel):
     """The simulated experiment: pressurise, then deflect, read the gauge (SPEC §5)."""
 
-    Q: float = Field(0.0, ge=0, le=1.0, description="chamber pressure for `simulate` [MPa], [0, 1]")
+    SECTION = "scene"
+    RENAMED = {"Q": "Q_i", "delta_max": "deflection"}
+
+    Q_i: float = Field(
+        0.0, ge=0, le=1.0,
+        description="initial (intact) chamber pressure Q_i of `simulate` and `compensate`; the pressure of the "
+        "single scene when `pair` is false [MPa], [0, 1]",
+    )
     trim: float = Field(0.0, ge=0, le=100, description="trimmed length for `simulate` [mm], [0, 100]")
     contact_ratio: float = Field(1.0, gt=0, le=1, description="contact position a, x = a L_Q [-], (0, 1]")
     contact_at: Literal["pressurised", "reference"] = Field(
@@ -70,7 +80,7 @@ class SceneConfig(StrictModel):
         description="'pressurised': the contact at x = a L_Q (SPEC §5); 'reference': at x = a L, the pusher "
         "staying where it stood before the whisker extended",
     )
-    delta_max: float = Field(5.0, gt=0, le=30, description="maximum deflection [mm], (0, 30]")
+    deflection: float = Field(5.0, gt=0, le=30, description="largest tip deflection δ_max [mm], (0, 30]")
     delta_step: float = Field(0.01, gt=0, le=1, description="deflection sampling of the curve [mm], (0, 1]")
     calibration: float = Field(3.9, gt=0, le=100, description="gauge calibration factor xi [-], (0, 100]")
     band_width: float = Field(

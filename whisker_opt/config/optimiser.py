@@ -13,7 +13,7 @@ Example::
       genes:
         alpha: {lo: 2.5, hi: 6.0}
         l: [10, 15]           # a two-item list is accepted too
-      delta_max: 10.0
+      trim: 10.0
       penalties:
         - {gene: Q_i, prefer: low, weight: 0.5}
       ga: {population: 20, n_elite: 2}
@@ -191,8 +191,11 @@ class CacheConfig(StrictModel):
 class OptimiserConfig(StrictModel):
     """The ``optimiser:`` section of a run file (SPEC §6)."""
 
+    SECTION = "optimiser"
+    RENAMED = {"delta_max": "trim"}
+
     genes: GenesConfig = GenesConfig()
-    delta_max: float = Field(5.0, gt=0, le=100, description="trimmed length Δmax of the compensated case [mm], (0, 100]")
+    trim: float = Field(5.0, gt=0, le=100, description="trimmed length Δ of the compensated case [mm], (0, 100]")
     penalties: tuple[PenaltyConfig, ...] = Field(
         _DEFAULT_PENALTIES, max_length=4, description="preference terms C_j κ_j (SPEC §6)"
     )

@@ -31,7 +31,7 @@ class SceneEvaluator:
     base_spec : whisker_opt.experiment.scene.SceneSpec
         Scene settings (material, contact, fidelity); its design supplies every
         non-gene geometric parameter.
-    delta_max_trim : float
+    trim : float
         Trim Δmax of the compensated whisker [mm].
     delta_step : float
         Deflection sampling of f1 [mm].
@@ -43,7 +43,7 @@ class SceneEvaluator:
     """
 
     base_spec: object
-    delta_max_trim: float
+    trim: float
     delta_step: float = 0.01
     gauge_variant: str = "line"
     keep_curves: bool = False
@@ -52,7 +52,7 @@ class SceneEvaluator:
         """(intact, trimmed) SceneSpecs of a genome (designs validated)."""
         d0 = design_from_genes(self.base_spec.design, genes, trim=0.0)
         d0.validate()
-        dc = replace(d0, trim=float(self.delta_max_trim))
+        dc = replace(d0, trim=float(self.trim))
         dc.validate()
         intact = replace(self.base_spec, design=d0, Q=float(genes["Q_i"]))
         trimmed = replace(self.base_spec, design=dc, Q=0.0)
@@ -60,7 +60,7 @@ class SceneEvaluator:
 
     def samples(self) -> np.ndarray:
         """Deflections at which f1 samples the curves: Δδ, 2Δδ, …, δ_max."""
-        dm = self.base_spec.delta_max
+        dm = self.base_spec.deflection
         n = int(round(dm / self.delta_step))
         return np.arange(1, n + 1) * (dm / n)
 

@@ -50,7 +50,7 @@ class GaugeGeometry:
     centroid_element: int
 
 
-def gauge_points(x_ss: float, e: float, r_outer, alpha_deg: float, n: int = 4) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def gauge_points(x_ss: float, e: float, r_outer, alpha: float, n: int = 4) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Reference Gauss points on the +y generator, their weights (sum 1) and the tangent.
 
     Parameters
@@ -59,7 +59,7 @@ def gauge_points(x_ss: float, e: float, r_outer, alpha_deg: float, n: int = 4) -
         Gauge start and length [mm].
     r_outer : callable
         Outer radius r_o(x) [mm].
-    alpha_deg : float
+    alpha : float
         Cone half-angle [deg].
     n : int
         Number of Gauss-Legendre points.
@@ -67,7 +67,7 @@ def gauge_points(x_ss: float, e: float, r_outer, alpha_deg: float, n: int = 4) -
     s, w = np.polynomial.legendre.leggauss(n)
     x = x_ss + 0.5 * e * (s + 1.0)
     pts = np.stack([x, np.array([r_outer(xi) for xi in x]), np.zeros(n)], axis=1)
-    ta = np.tan(np.radians(alpha_deg))
+    ta = np.tan(np.radians(alpha))
     tangent = np.array([1.0, -ta, 0.0]) / np.hypot(1.0, ta)
     return pts, w / w.sum(), tangent
 

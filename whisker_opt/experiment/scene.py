@@ -64,7 +64,7 @@ class SceneSpec:
         The two differ in the pressure trend of off-tip readings; see
         benchmarks/README.md (default design, a = 0.5: ε(1 mm) at 0.2 MPa +0.1 % of the
         vented value with 'pressurised', +10 % with 'reference').
-    delta_max : float
+    deflection : float
         Final deflection [mm].
     c10, d1 : float
         Neo-Hookean constants [MPa], [1/MPa].
@@ -89,7 +89,7 @@ class SceneSpec:
     Q: float = 0.0
     contact_ratio: float = 1.0
     contact_at: str = "pressurised"
-    delta_max: float = 5.0
+    deflection: float = 5.0
     c10: float = 0.14
     d1: float = 0.0
     calibration: float = 3.9
@@ -109,7 +109,7 @@ class SceneSpec:
              "'pressurised' or 'reference'"),
             ("formulation", self.formulation, self.formulation in ("mixed", "displacement"),
              "'mixed' or 'displacement'"),
-            ("delta_max", self.delta_max, self.delta_max > 0, "> 0 mm"),
+            ("deflection", self.deflection, self.deflection > 0, "> 0 mm"),
             ("band_width", self.band_width, self.band_width > 0, "> 0 mm"),
             ("n_pressure_steps", self.n_pressure_steps, self.n_pressure_steps >= 1, ">= 1"),
             ("n_deflection_steps", self.n_deflection_steps, self.n_deflection_steps >= 1, ">= 1"),
@@ -211,7 +211,7 @@ def locate_gauge(wm: WhiskerMesh, design: WhiskerDesign, n: int = 16) -> GaugeGe
     """
     from geometry.locate import PointLocator
 
-    pts, w, tangent = gauge_points(design.x_ss, design.e, design.r_outer, design.alpha_deg, n)
+    pts, w, tangent = gauge_points(design.x_ss, design.e, design.r_outer, design.alpha, n)
     centre = np.array([[design.x_ss + 0.5 * design.e, design.r_outer(design.x_ss + 0.5 * design.e), 0.0]])
     # Points on the exact cone lie up to the P2 surface-interpolation error outside the
     # mesh; a host whose local coordinates are slightly outside (barycentric >= -0.05)
@@ -508,7 +508,7 @@ def run_scene(spec: SceneSpec, wm: WhiskerMesh | None = None, keep_states: bool 
     uy0 = u1[band, 1:2]  # (k, 1)
     pq = (spec.Q,) if spec.Q > 0 else ()
     load0 = LoadState(pq, (zeros_base, uy0))
-    load1 = LoadState(pq, (zeros_base, uy0 - spec.delta_max))
+    load1 = LoadState(pq, (zeros_base, uy0 - spec.deflection))
     reader.zero(u1)
     fractions = tuple(np.linspace(0, 1, spec.n_deflection_steps + 1)[1:])
     readings = [(0.0, 0.0)]
@@ -524,9 +524,9 @@ def run_scene(spec: SceneSpec, wm: WhiskerMesh | None = None, keep_states: bool 
     timings["deflect"] = time.perf_counter() - t - t_read[0]
     timings["readout"] = t_read[0]
     arr = np.array(readings)
-    delta = np.concatenate([[0.0], np.asarray(fractions) * spec.delta_max])
+    delta = np.concatenate([[0.0], np.asarray(fractions) * spec.deflection])
     kept = ({"pressurised": state, "deflected": states2[-1],
-             **{f"delta_{f * spec.delta_max:.2f}": st for f, st in zip(fractions, states2)}}
+             **{f"delta_{f * spec.deflection:.2f}": st for f, st in zip(fractions, states2)}}
             if keep_states else None)
     logger.debug("scene %s: %s", design, timings)
     return SceneResult(

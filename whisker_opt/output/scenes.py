@@ -111,6 +111,6 @@ def solve_scenes(out: Path, specs: dict, gauge_variant: str = "line", **extra) -
         write_scene_vtus(out, name, res)
         results[name] = res
         entries[name] = scene_entry(spec, res, gauge_variant, wall_s=round(wall, 3), **extra)
-        logger.info("scene %s: Q=%.4g MPa, trim=%.4g mm, eps(delta_max)=%.6g, %.2f s", name, spec.Q,
+        logger.info("scene %s: Q=%.4g MPa, trim=%.4g mm, eps(deflection)=%.6g, %.2f s", name, spec.Q,
                     spec.design.trim, res.eps_line[-1], wall)
     return results, entries

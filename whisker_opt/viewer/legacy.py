@@ -362,7 +362,7 @@ def scenes_from_genes(cfg: Mapping[str, Any], genes: Mapping[str, Any],
     when Q_i > 0) and trimmed vented (Q = 0) scenes of a genome.
 
     Mirrors :meth:`whisker_opt.experiment.evaluator.SceneEvaluator.specs`: the ``design`` section of
-    ``cfg`` with ``alpha_deg, l, t`` from the genes ``alpha, l, t``.
+    ``cfg`` with ``alpha, l, t`` from the genes ``alpha, l, t``.
 
     Parameters
     ----------
@@ -383,10 +383,11 @@ def scenes_from_genes(cfg: Mapping[str, Any], genes: Mapping[str, Any],
         design = {}
     design.update(_section(cfg, "design"))
     try:
-        design.update(alpha_deg=float(genes["alpha"]), l=float(genes["l"]), t=float(genes["t"]))
+        design.update(alpha=float(genes["alpha"]), l=float(genes["l"]), t=float(genes["t"]))
     except (KeyError, TypeError, ValueError):
         return {}
-    trim = _float(_section(cfg, "optimiser").get("delta_max")) or 5.0
+    opt = _section(cfg, "optimiser")
+    trim = _float(opt.get("trim", opt.get("delta_max"))) or 5.0
     ratio = _float(_section(cfg, "scene").get("contact_ratio")) or 1.0
     out = {}
     q_i = _float(genes.get("Q_i"))
@@ -1456,7 +1457,7 @@ def _text_lines(sv: StateView) -> tuple[str, str]:
     parts = []
     d = info.design
     if d:
-        for key, label, unit in (("alpha_deg", "alpha", " deg"), ("l", "l", ""), ("t", "t", ""), ("L", "L", "")):
+        for key, label, unit in (("alpha", "alpha", " deg"), ("l", "l", ""), ("t", "t", ""), ("L", "L", "")):
             if _float(d.get(key)) is not None:
                 parts.append(f"{label}={float(d[key]):.4g}{unit}")
         parts[-1:] = [parts[-1] + " mm"] if parts else []
