@@ -2,7 +2,7 @@
 
 ``pardiso`` (Intel MKL PARDISO via pypardiso, real non-symmetric, mtype 11) is the
 default: measured 0.77 / 4.3 / 26 s per factorisation at 19k / 58k / 146k P2 DOFs on
-this machine kind, against 9.9 / 154 s for SuperLU (see issue #3 and
+this machine kind, against 9.9 / 154 s for SuperLU (see
 ``benchmarks/bench_fem.py``). The symbolic analysis (reordering, phase 11) is done
 once per sparsity pattern and reused by every numerical factorisation (phase 22).
 The saddle-point systems of the mixed u–p formulation have zero diagonal blocks when
@@ -52,7 +52,7 @@ class PardisoSolver:
       0.07–0.1 s + 70 ms (measured 2026-11-23, ``benchmarks/bench_fem.py``).
     * ``perturb``: no matching, pivot perturbation 1e-8 (iparm(10)=8). Matching gave
       useless factors on some clamped D1 = 0 meshes (Cook, cantilever: residuals up to
-      1e32 in issue #3's verification) where this strategy converges in ≤ 4 sweeps.
+      1e32 in the solver verification) where this strategy converges in ≤ 4 sweeps.
 
     Every solve is refined on the true residual until ‖A x − b‖ ≤ ``tol`` ‖b‖. When
     the first strategy's factors cannot reach that, the matrix is refactorised with the
@@ -278,7 +278,7 @@ def _mkl_rt_name() -> str | None:
 
 
 class SuperLUSolver:
-    """scipy SuperLU: slow for 3-D P2 problems (issue #3 measurements); fallback only."""
+    """scipy SuperLU: slow for 3-D P2 problems (benchmarks/bench_fem.py); fallback only."""
 
     name = "superlu"
 

@@ -143,7 +143,7 @@ class IsochoricI1Material:
 
 @dataclass(frozen=True)
 class NeoHookean(IsochoricI1Material):
-    """Neo-Hookean solid, W = C10 (Ī1 − 3) + (1/D1)(J − 1)² (SPEC §4; Abaqus form).
+    """Neo-Hookean solid, W = C10 (Ī1 − 3) + (1/D1)(J − 1)².
 
     Parameters
     ----------

@@ -1,6 +1,6 @@
-"""The whisker design: every geometric and fibre parameter of SPEC §2-3, and its checks.
+"""The whisker design: every geometric and fibre parameter, and its checks.
 
-Geometry (SPEC §2), a truncated cone along +x, base face at x = 0::
+Geometry, a truncated cone along +x, base face at x = 0::
 
     r_o(x) = D/2 - x tan(alpha)          outer radius,           0 <= x <= L - trim
     r_i(x) = r_o(x) - t                  cavity radius,          c <= x <= l
@@ -9,7 +9,7 @@ Region 1 (0..c) is a solid cap, region 2 (c..l) a conical tube with a flat-ended
 cavity, region 3 (l..L - trim) a solid cone. A trimmed whisker is the same design
 with its tip cut at ``length = L - trim``.
 
-Fibres (SPEC §3): ``n_fibres`` helices of pitch ``fibre_pitch`` over c..l, evenly
+Fibres: ``n_fibres`` helices of pitch ``fibre_pitch`` over c..l, evenly
 rotated (2 fibres = double helix, second rotated by 180 deg), at the radius
 
     r_f(x) = r_i(x) + fibre_radius_frac * t

@@ -1,4 +1,4 @@
-"""Fibre helices as 1-D polylines, for embedding as truss elements (SPEC §3).
+"""Fibre helices as 1-D polylines, for embedding as truss elements.
 
 Fibre k of n (k = 0..n-1) is the conical helix over the chamber region ``c <= x <= l``::
 

@@ -208,7 +208,7 @@ def finish_mesh(
     return WhiskerMesh(TetMesh(qm.points, qm.cells), nodes, faces, fibres, design, report, sizing)
 
 
-#: Wall layers the fTetWild path always gets (issue #2: at least 3 quadratic elements through the wall).
+#: Wall layers the fTetWild path always gets (at least 3 quadratic elements through the wall).
 FRESH_MIN_WALL_LAYERS = 3.0
 
 
@@ -218,7 +218,7 @@ def fresh_sizing(sizing: MeshSizing) -> MeshSizing:
     The structured swept/template meshes reach the gauge accuracy of the presets with
     one layer of P2 elements through the wall (:meth:`MeshSizing.preset`); unstructured
     fTetWild tets are not aligned with the wall, so the fresh path keeps the resolution
-    of issue #2. An absolute ``h_wall`` given by the user is kept as is.
+    of the fTetWild path. An absolute ``h_wall`` given by the user is kept as is.
     """
     if sizing.h_wall is None and sizing.wall_layers < FRESH_MIN_WALL_LAYERS:
         return replace(sizing, wall_layers=FRESH_MIN_WALL_LAYERS)

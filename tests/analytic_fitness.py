@@ -59,7 +59,7 @@ class AnalyticFitness:
     optimum : tuple of float
         x* = (α [deg], l [mm], t [mm], Q_i [MPa]).
     bounds : tuple of (lo, hi)
-        Normalisation of each gene (default: the SPEC §6 box).
+        Normalisation of each gene (default: the GA's gene box).
     weights : tuple of float
         w_i.
     scale : float

@@ -1,4 +1,4 @@
-"""Tests of the analytical beam model (SPEC §8, issue 8) against closed forms."""
+"""Tests of the analytical beam model against closed forms."""
 
 from __future__ import annotations
 
@@ -128,7 +128,7 @@ def test_sensitivity_independent_of_P_and_E():
     d = WhiskerDesign()
     s = beam.sensitivity(d, 1.0, 0.0)
     s2 = beam.sensitivity(d, 1.0, 0.0, BeamModel(E=7.3))
-    assert s2 == pytest.approx(s, rel=1e-10)  # intact state: E cancels (SPEC §8)
+    assert s2 == pytest.approx(s, rel=1e-10)  # intact state: E cancels
     for Q in (0.0, 0.15):
         for a in (1.0, 0.5):
             r = [beam.gauge_strain(d, P, a, Q) / beam.deflection_at_contact(d, P, a, Q) for P in (1e-3, 0.5, 3.0)]

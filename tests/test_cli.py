@@ -1,4 +1,4 @@
-"""The console script on user errors (issue #2): one line on stderr, exit code 2, no traceback.
+"""The console script on user errors: one line on stderr, exit code 2, no traceback.
 
 Runs ``python -m whisker_opt.cli.main`` in a subprocess, as a user would run ``whisker-opt``.
 """

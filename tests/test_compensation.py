@@ -1,4 +1,4 @@
-"""Tests of the compensation solvers (SPEC §7-8, issue 8), with the beam model as the response stand-in."""
+"""Tests of the compensation solvers, with the beam model as the response stand-in."""
 
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ import pytest
 from geometry.design import WhiskerDesign
 from whisker_opt.analysis import beam
 from whisker_opt.analysis import compensation as comp
+from whisker_opt.output import compensation as comp_io
 from whisker_opt.analysis.beam import BeamModel, BeamResponse, BeamSensitivity
 from whisker_opt.experiment import objective
 
@@ -149,7 +150,7 @@ def test_compensation_table_monotone_and_written(tmp_path):
     assert np.all(np.diff(q[:3]) < 0)  # strictly decreasing while the range allows
     assert table.rows[-1].at_bound == "lower" and q[-1] == 0.0
     np.testing.assert_allclose(q, table.column("Q_analytic"), atol=1e-6)
-    paths = comp.write_table(tmp_path / "comp", table)
+    paths = comp_io.write_table(tmp_path / "comp", table)
     rows = list(csv.DictReader(paths["csv"].open()))
     assert len(rows) == 5 and float(rows[2]["Q_MPa"]) == pytest.approx(q[2])
     assert rows[-1]["at_bound"] == "lower"
@@ -176,7 +177,7 @@ def test_compare_sensitivity(tmp_path):
 
     cmp = comp.compare_sensitivity(d, fe_high, a_values=a, Q_values=q)
     np.testing.assert_allclose(cmp.relative_difference, 1 / 1.1 - 1, rtol=1e-10)
-    paths = comp.write_comparison(tmp_path, cmp)
+    paths = comp_io.write_comparison(tmp_path, cmp)
     rows = list(csv.DictReader(paths["csv"].open()))
     assert len(rows) == 6 and float(rows[0]["rel_diff"]) == pytest.approx(1 / 1.1 - 1)
     assert paths["png"].stat().st_size > 1000
@@ -202,7 +203,7 @@ def test_table_measures_at_reference_deflection(tmp_path):
     assert np.isnan(pm["recovery_rate"][0])  # Δ = 0: nothing to recover
     with pytest.raises(ValueError, match="not a sample"):
         table.measures_at(1.1)
-    paths = comp.write_table(tmp_path, table, delta_ref=1.0)
+    paths = comp_io.write_table(tmp_path, table, delta_ref=1.0)
     rows = list(csv.DictReader(paths["csv"].open()))
     assert float(rows[1]["delta_ref_mm"]) == 1.0
     assert float(rows[1]["eps_b_ref"]) == pytest.approx(sb, rel=1e-9)

@@ -1,4 +1,4 @@
-"""Dynamic penalty arithmetic (SPEC §6), graded failure penalty, outcomes and the cache key."""
+"""Dynamic penalty arithmetic, graded failure penalty, outcomes and the cache key."""
 
 from __future__ import annotations
 

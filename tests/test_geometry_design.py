@@ -1,4 +1,4 @@
-"""WhiskerDesign: thesis defaults, derived radii (SPEC §2) and refusal of impossible designs."""
+"""WhiskerDesign: thesis defaults, derived radii and refusal of impossible designs."""
 
 import math
 
@@ -16,7 +16,7 @@ def test_defaults_are_the_thesis_values():
 
 
 def test_spec_radii():
-    # SPEC §2: outer diameter 17.8 at x=c, 16.5 at x=l; cavity 11.8 and 10.5; tip diameter 11
+    # the thesis design: outer diameter 17.8 at x=c, 16.5 at x=l; cavity 11.8 and 10.5; tip diameter 11
     d = WhiskerDesign()
     assert 2 * d.r_outer(d.c) == pytest.approx(17.8, abs=1e-3)
     assert 2 * d.r_outer(d.l) == pytest.approx(16.5, abs=2e-3)

@@ -1,4 +1,4 @@
-"""The fresh fTetWild path (issue #2) on the default design: one real tetrahedralisation.
+"""The fresh fTetWild path on the default design: one real tetrahedralisation.
 
 pytetwild meshes the analytic surface with the default preset's sizing raised to at least
 three wall layers (:func:`geometry.mesh.fresh_sizing`); the TET10 upgrade puts boundary

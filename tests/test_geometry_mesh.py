@@ -277,7 +277,7 @@ def test_node_rings_at_the_gauge_window_and_contact_positions():
 
 
 def test_fresh_path_keeps_three_wall_layers():
-    """fTetWild meshes get >= 3 element sizes through the wall whatever the preset (issue #2)."""
+    """fTetWild meshes get >= 3 element sizes through the wall whatever the preset."""
     from geometry.mesh import fresh_sizing
 
     d = WhiskerDesign()

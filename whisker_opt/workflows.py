@@ -319,7 +319,8 @@ def compensate(cfg: WhiskerConfig, out: Path, step: float = 1.0, delta_ref: floa
         message starts with ``source``.
     """
     from whisker_opt.analysis.beam import BeamModel
-    from whisker_opt.analysis.compensation import compare_sensitivity, compensation_table, write_comparison, write_table
+    from whisker_opt.analysis.compensation import compare_sensitivity, compensation_table
+    from whisker_opt.output.compensation import write_comparison, write_table
     from whisker_opt.experiment.scene import SceneRunner
 
     opt = wiring.optimiser_of(cfg)

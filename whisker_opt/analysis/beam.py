@@ -1,11 +1,11 @@
-"""Analytical beam model of the whisker: a fast, small-deflection cross-check (SPEC §8).
+"""Analytical beam model of the whisker: a fast, small-deflection cross-check.
 
 The whisker is an Euler-Bernoulli cantilever along +x, clamped at the base x = 0 and
 loaded by a point force P (in -y) at the contact x_P = a·L_Q. All integrals are done
 numerically (``scipy.integrate.quad`` piecewise between the breakpoints c, l and the
 contact), so any (α, l, t, L) of :class:`geometry.design.WhiskerDesign` works.
 
-Equations (SPEC §8 unless stated)
+Equations (docs/physics.md, "Beam model")
 ---------------------------------
 Bending moment (statics of the cantilever)::
 
@@ -71,7 +71,7 @@ from geometry.design import WhiskerDesign
 
 logger = logging.getLogger(__name__)
 
-#: Neo-Hookean small-strain Young's modulus E = 3 μ = 6 C10 with C10 = 0.14 MPa (SPEC §4).
+#: Neo-Hookean small-strain Young's modulus E = 3 μ = 6 C10 with C10 = 0.14 MPa.
 DEFAULT_E = 3.0 * 0.28
 
 TubeMode = Literal["exact", "thin", "solid"]
@@ -100,7 +100,7 @@ def _check_range(name: str, value: float, lo: float | None = None, hi: float | N
 # --------------------------------------------------------------------------- laws
 @dataclass(frozen=True)
 class LinearSoftening:
-    """Pressure softening of the chamber modulus, ``k(Q) = slope·Q + intercept`` (SPEC §8, (8.10)).
+    """Pressure softening of the chamber modulus, ``k(Q) = slope·Q + intercept``.
 
     Default: the thesis' fit on the first prototype, k(Q) = -1.337 Q + 0.9958 (Q in MPa).
 
@@ -133,7 +133,7 @@ NO_SOFTENING = LinearSoftening(slope=0.0, intercept=1.0)
 
 @dataclass(frozen=True)
 class ExtensionTable:
-    """Axial chamber extension Δl(l) as a function of Q, e.g. from FE runs (issue 8).
+    """Axial chamber extension Δl(l) as a function of Q, e.g. from FE runs.
 
     Linear interpolation in Q; Q outside the sampled range is refused.
 
@@ -163,7 +163,7 @@ class ExtensionTable:
 
 @dataclass(frozen=True)
 class BeamModel:
-    """Options of the analytical beam model (SPEC §8).
+    """Options of the analytical beam model.
 
     Parameters
     ----------
@@ -171,9 +171,9 @@ class BeamModel:
         Chamber second moment: exact tube (8.3), thesis' thin tube (8.4), or 'solid'
         (the chamber treated as a solid section, (8.2); for verification).
     E : float
-        Young's modulus of the rubber [MPa]; default 3 μ = 0.84 (SPEC §4). It cancels in ε/δ.
+        Young's modulus of the rubber [MPa]; default 3 μ = 0.84. It cancels in ε/δ.
     nu : float
-        Poisson's ratio used for the wall thinning (8.9); SPEC: 0.49.
+        Poisson's ratio used for the wall thinning (8.9); the thesis used 0.49.
     softening : callable
         k(Q), E₂ = k(Q) E (8.10). Any ``Callable[[float], float]``; default :class:`LinearSoftening`.
     soften_unpressurised : bool
@@ -186,7 +186,7 @@ class BeamModel:
     thinning_x0 : float
         First point of the thesis' average [mm] (2.5).
     calibration : float
-        Factor ξ applied by :func:`sensitivity` (SPEC §5: 3.9 for the FE strains); default 1.
+        Factor ξ applied by :func:`sensitivity` (3.9 for the FE strains, ``scene.calibration``); default 1.
     epsrel : float
         Relative tolerance of ``quad``.
     """
@@ -240,7 +240,7 @@ def second_moment(design: WhiskerDesign, x, mode: TubeMode = "exact", wall=None)
 
     Solid for x < c and x > l, (8.2) ``π d⁴/64``; on the chamber c <= x <= l the tube of
     (8.3) ``π (d_o⁴ - d_i⁴)/64`` (mode 'exact'), (8.4) ``(π/8) d̄³ t``, d̄ = d_o - t
-    (mode 'thin'), or solid (mode 'solid'). SPEC §8.
+    (mode 'thin'), or solid (mode 'solid'). 
 
     Parameters
     ----------
@@ -277,7 +277,7 @@ def second_moment(design: WhiskerDesign, x, mode: TubeMode = "exact", wall=None)
 
 
 def thin_tube_relative_error(design: WhiskerDesign, x, wall=None):
-    """Relative error of the thin-tube second moment, ``I_thin / I_exact - 1`` (SPEC §8).
+    """Relative error of the thin-tube second moment, ``I_thin / I_exact - 1``.
 
     Computed from :func:`second_moment`. Closed form (see module docstring):
     ``-t² / (d̄² + t²)`` with d̄ = 2 r_o(x) - t; see :func:`thin_tube_relative_error_formula`.
@@ -298,7 +298,7 @@ def thin_tube_relative_error_formula(design: WhiskerDesign, x):
 # --------------------------------------------------------------------------- pressurised geometry
 @dataclass(frozen=True, eq=False)
 class PressurisedGeometry:
-    """The beam geometry of one design at pressure Q (SPEC §8, (8.7)-(8.10)).
+    """The beam geometry of one design at pressure Q.
 
     All positions ``xi`` are material (reference) coordinates of the unpressurised whisker;
     ``position(xi)`` gives the pressurised axial position.
@@ -408,7 +408,7 @@ class PressurisedGeometry:
 
 
 def pressurised_geometry(design: WhiskerDesign, Q: float = 0.0, model: BeamModel | None = None) -> PressurisedGeometry:
-    """Build the beam geometry of ``design`` at chamber pressure Q (SPEC §8, (8.7)-(8.10)).
+    """Build the beam geometry of ``design`` at chamber pressure Q.
 
     Parameters
     ----------
@@ -461,7 +461,7 @@ def pressurised_geometry(design: WhiskerDesign, Q: float = 0.0, model: BeamModel
     dt_max = dt if model.wall_thinning != "local" else model.nu * dl * d.r_outer(d.c) / (d.l - d.c)
     if not d.t - dt_max > 0.0:
         raise ValueError(
-            f"Q = {Q:g} MPa thins the wall t = {d.t:g} mm by {dt_max:.4g} mm (Poisson, SPEC §8): "
+            f"Q = {Q:g} MPa thins the wall t = {d.t:g} mm by {dt_max:.4g} mm (Poisson): "
             f"no wall left; allowed Q with Δt < t"
         )
     geo = PressurisedGeometry(
@@ -494,7 +494,7 @@ def castigliano_deflection(
     xi_load: float | None = None,
     epsrel: float = 1e-12,
 ) -> float:
-    """Deflection under a point load of a clamped beam, Castigliano's theorem (SPEC §8, (8.5)).
+    """Deflection under a point load of a clamped beam, Castigliano's theorem.
 
     ``δ = ∫_0^{ξ_P} M (∂M/∂P) / EI dx = P ∫_0^{ξ_P} (x_P - x(ξ))² λ(ξ) / EI(ξ) dξ``
 
@@ -548,7 +548,7 @@ def mean_surface_strain(
     stretch: Callable[[float], float] | None = None,
     epsrel: float = 1e-12,
 ) -> float:
-    """Bending strain at distance y from the neutral axis, averaged over a material span (SPEC §8, (8.6)).
+    """Bending strain at distance y from the neutral axis, averaged over a material span.
 
     ``ε(ξ) = y(ξ) M(ξ) / EI(ξ)``, ``M = P max(x_P - x(ξ), 0)``;
     ``ε̄ = ∫ ε λ dξ / ∫ λ dξ`` over ``span`` (the mean over the current gauge length).
@@ -577,7 +577,7 @@ def _contact(geo: PressurisedGeometry, a: float) -> tuple[float, float]:
 
 def deflection_at_contact(design: WhiskerDesign, P: float, a: float, Q: float = 0.0,
                           model: BeamModel | None = None) -> float:
-    """Deflection δ [mm] at the contact x_P = a·L_Q under the load P [N] (SPEC §8, (8.5)).
+    """Deflection δ [mm] at the contact x_P = a·L_Q under the load P [N].
 
     Parameters
     ----------
@@ -604,7 +604,7 @@ def _deflection(geo: PressurisedGeometry, P: float, a: float) -> float:
 
 def gauge_strain(design: WhiskerDesign, P: float, a: float, Q: float = 0.0,
                  model: BeamModel | None = None) -> float:
-    """Uncalibrated gauge strain ε̄ (8.6) for the load P [N] at x_P = a·L_Q (SPEC §8).
+    """Uncalibrated gauge strain ε̄ (8.6) for the load P [N] at x_P = a·L_Q.
 
     y = r_o (outer surface, the +y side stretches when pushed in -y), E₂ I₂ of the chamber,
     mean over the material gauge span [x_ss, x_ss + e]. Positive for P > 0.
@@ -623,10 +623,10 @@ def _gauge(geo: PressurisedGeometry, P: float, a: float) -> float:
 
 
 def sensitivity(design: WhiskerDesign, a: float = 1.0, Q: float = 0.0, model: BeamModel | None = None) -> float:
-    """Gauge sensitivity ``ξ · ε̄ / δ`` [1/mm] at contact ratio a and pressure Q (SPEC §8).
+    """Gauge sensitivity ``ξ · ε̄ / δ`` [1/mm] at contact ratio a and pressure Q.
 
     Independent of P and of E (only E₂/E = k(Q) enters). ξ = ``model.calibration``
-    (1 by default, SPEC §5 uses 3.9 for the FE strains).
+    (1 by default; ``scene.calibration`` = 3.9 for the FE strains).
     """
     geo = pressurised_geometry(design, Q, model)
     return geo.model.calibration * _gauge(geo, 1.0, a) / _deflection(geo, 1.0, a)

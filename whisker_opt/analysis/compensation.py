@@ -1,15 +1,15 @@
-"""Morphological compensation: the vent pressure that makes a trimmed whisker read as the intact one (SPEC §7-8).
+"""Morphological compensation: the vent pressure that makes a trimmed whisker read as the intact one.
 
 The intact whisker runs at Q_i. After a trim Δ the gauge reads more per millimetre of
 deflection; lowering the chamber pressure to some Q ∈ [0, Q_i] brings it back.
 
-Analytic compensation (SPEC §8, last item)
+Analytic compensation
     Q such that the compensator's (trimmed design at Q) ε/δ equals the target's (intact
     design at Q_i), both from the beam model at a = 1, δ = 1 mm; a root of
     ``S_c(Q) - S_t`` by Brent's method. If no root lies in [0, Q_i], Q is clipped to the
     endpoint with the smaller mismatch and the result says so.
 
-Response-based ("FE") compensation (issue 8)
+Response-based ("FE") compensation
     With any response function ``response(design, Q, deltas) -> ε(δ)`` (the FE scene, or
     :class:`whisker_opt.analysis.beam.BeamResponse` as a stand-in), Q minimises the mean gap
 
@@ -17,15 +17,15 @@ Response-based ("FE") compensation (issue 8)
 
     over Q ∈ [0, Q_i] (bounded Brent, ``scipy.optimize.minimize_scalar``; the end points
     are evaluated too, so a clipped optimum is found exactly). g is the same measure as
-    the GA's objective f1 (SPEC §6). A cheaper variant (``method='root'``) brackets the
+    the GA's objective f1. A cheaper variant (``method='root'``) brackets the
     root of the signed mean difference instead.
 
-Measures (SPEC §7)
+Measures
     recovery rate (%)       = (1 - |(ε_c - ε_o) / (ε_b - ε_o)|) · 100
     compensation error (%)  = |(ε_after - ε_target) / (ε_before - ε_target)| · 100
     with ε_o = ε_target the intact response at Q_i, ε_b = ε_before the trimmed response
     left at Q_i (uncompensated), ε_c = ε_after the trimmed response at the chosen Q.
-    SPEC §7 does not say which scalar ε of a curve ε(δ) is meant; ``scalar`` chooses:
+    The thesis does not say which scalar ε of a curve ε(δ) is meant; ``scalar`` chooses:
     'mean' (default) the mean of the curve over the δ samples, 'last' its value at the
     last (largest) δ, 'gap' the mean absolute gap itself (recovery = 1 - g(Q)/g(Q_i)).
     With one scalar both measures are complementary: recovery = 100 - error
@@ -55,13 +55,13 @@ ResponseFn = Callable[[WhiskerDesign, float, np.ndarray], np.ndarray]
 SensitivityFn = Callable[[WhiskerDesign, float, float], float]
 Scalar = Literal["mean", "last", "gap"]
 
-#: Default deflection samples [mm]: 0.5 … 5 (δ = 0 reads 0 by construction, SPEC §5).
+#: Default deflection samples [mm]: 0.5 … 5 (δ = 0 reads 0 by construction).
 DEFAULT_DELTAS = np.linspace(0.5, 5.0, 10)
 
 
 # --------------------------------------------------------------------------- measures
 def recovery_rate(eps_o: float, eps_b: float, eps_c: float) -> float:
-    """Recovery rate [%] = (1 - |(ε_c - ε_o)/(ε_b - ε_o)|)·100 (SPEC §7).
+    """Recovery rate [%] = (1 - |(ε_c - ε_o)/(ε_b - ε_o)|)·100.
 
     Parameters
     ----------
@@ -80,7 +80,7 @@ def recovery_rate(eps_o: float, eps_b: float, eps_c: float) -> float:
 
 
 def compensation_error(eps_target: float, eps_before: float, eps_after: float) -> float:
-    """Compensation error [%] = |(ε_after - ε_target)/(ε_before - ε_target)|·100 (SPEC §7).
+    """Compensation error [%] = |(ε_after - ε_target)/(ε_before - ε_target)|·100.
 
     NaN when ε_before = ε_target.
     """
@@ -91,14 +91,14 @@ def compensation_error(eps_target: float, eps_before: float, eps_after: float) -
 
 
 def curve_measures(eps_o, eps_b, eps_c, scalar: Scalar = "mean") -> tuple[float, float]:
-    """(recovery rate %, compensation error %) of three response curves ε(δ) (SPEC §7).
+    """(recovery rate %, compensation error %) of three response curves ε(δ).
 
     Parameters
     ----------
     eps_o, eps_b, eps_c : array_like, shape (n_delta,)
         Intact at Q_i, trimmed at Q_i, trimmed at the compensation pressure.
     scalar : {'mean', 'last', 'gap'}
-        How a curve becomes the scalar ε of SPEC §7 (see module docstring).
+        How a curve becomes the scalar ε of the measures (see module docstring).
     """
     o, b, c = (np.asarray(v, dtype=float) for v in (eps_o, eps_b, eps_c))
     if scalar == "mean":
@@ -155,7 +155,7 @@ class AnalyticCompensation:
 
 def analytic_compensation(design: WhiskerDesign, Q_i: float, trim: float, model: BeamModel | None = None,
                           *, a: float = 1.0, delta: float = 1.0, xtol: float = 1e-12) -> AnalyticCompensation:
-    """Beam-model compensation pressure (SPEC §8): S_trimmed(Q) = S_intact(Q_i) at a = 1, δ = 1 mm.
+    """Beam-model compensation pressure: S_trimmed(Q) = S_intact(Q_i) at a = 1, δ = 1 mm.
 
     Parameters
     ----------
@@ -224,7 +224,7 @@ class ResponseCompensation:
     gap_before, gap_after : float
         Mean |ε - ε_o| over δ, uncompensated and compensated.
     recovery_rate, compensation_error : float
-        SPEC §7 [%] on the scalar ``scalar``.
+        the measures [%] on the scalar ``scalar``.
     scalar : str
     at_bound : str or None
         'lower' (Q = 0) or 'upper' (Q = Q_i) when the optimum is an end point, else None.
@@ -251,7 +251,7 @@ class ResponseCompensation:
 def fe_compensation(design: WhiskerDesign, Q_i: float, trim: float, response: ResponseFn,
                     deltas=None, *, scalar: Scalar = "mean", method: Literal["bounded", "root"] = "bounded",
                     xatol: float = 1e-4, maxiter: int = 60, eps_target=None) -> ResponseCompensation:
-    """Vent pressure Q ∈ [0, Q_i] minimising the mean gap to the intact response (issue 8, SPEC §7).
+    """Vent pressure Q ∈ [0, Q_i] minimising the mean gap to the intact response.
 
     Parameters
     ----------
@@ -267,7 +267,7 @@ def fe_compensation(design: WhiskerDesign, Q_i: float, trim: float, response: Re
     deltas : array_like, optional
         Deflection samples [mm]; default :data:`DEFAULT_DELTAS`.
     scalar : {'mean', 'last', 'gap'}
-        Scalar of a curve for the SPEC §7 measures.
+        Scalar of a curve for the recovery/compensation measures.
     method : {'bounded', 'root'}
         'bounded' (default): bounded Brent minimisation of the mean gap g(Q) (about 15-20
         response calls at xatol = 1e-4 MPa). 'root': Brent root of the signed mean
@@ -383,7 +383,7 @@ class CompensationRow:
 
 @dataclass(frozen=True, eq=False)
 class CompensationTable:
-    """Δ → Q table of a design: what a robot would store (issue 8).
+    """Δ → Q table of a design: what a robot would store.
 
     Attributes
     ----------
@@ -396,7 +396,7 @@ class CompensationTable:
     deltas : ndarray
         Deflection samples used [mm].
     scalar : str
-        Scalar of the SPEC §7 measures.
+        Scalar of the recovery/compensation measures.
     """
 
     design: WhiskerDesign
@@ -431,7 +431,7 @@ class CompensationTable:
         return out
 
     def measures_at(self, delta: float) -> dict[str, np.ndarray]:
-        """The SPEC §7 measures on the readings at one deflection δ (e.g. 1 mm, as SPEC §8 uses).
+        """The recovery/compensation measures on the readings at one deflection δ (e.g. 1 mm, as the beam model uses).
 
         ``delta`` must be one of :attr:`deltas` (within 1e-9 mm). Returns arrays over the
         rows: ``eps_target``, ``eps_broken``, ``eps_compensated`` (ε at δ), ``recovery_rate``
@@ -452,7 +452,7 @@ def compensation_table(design: WhiskerDesign, Q_i: float, trim_max: float, respo
                        step: float = 1.0, deltas=None, scalar: Scalar = "mean", method: str = "bounded",
                        xatol: float = 1e-4, analytic_model: BeamModel | None = None,
                        maxiter: int = 60) -> CompensationTable:
-    """Compensation pressure for trims Δ = 0, step, …, Δmax (issue 8).
+    """Compensation pressure for trims Δ = 0, step, …, Δmax.
 
     Parameters
     ----------
@@ -507,110 +507,10 @@ def compensation_table(design: WhiskerDesign, Q_i: float, trim_max: float, respo
     return table
 
 
-_TABLE_COLUMNS = ("trim_mm", "Q_MPa", "recovery_rate_pct", "compensation_error_pct", "gap_before", "gap_after",
-                  "at_bound", "Q_analytic_MPa", "Q_minus_Q_analytic_MPa", "analytic_root_found",
-                  "eps_o_mean", "eps_b_mean", "eps_c_mean", "delta_ref_mm", "eps_o_ref", "eps_b_ref", "eps_c_ref",
-                  "recovery_rate_ref_pct", "compensation_error_ref_pct")
-
-
-def _fmt(v) -> str:
-    if v is None:
-        return ""
-    if isinstance(v, (bool, np.bool_)):
-        return str(bool(v)).lower()
-    if isinstance(v, str):
-        return v
-    return f"{float(v):.10g}"
-
-
-def _reference_delta(table: CompensationTable, delta_ref: float | None) -> float | None:
-    """``delta_ref`` if it is a sample of the table, else None (with a log line)."""
-    if delta_ref is None:
-        return None
-    if np.any(np.abs(table.deltas - float(delta_ref)) <= 1e-9):
-        return float(delta_ref)
-    logger.warning("write_table: δ_ref = %g mm is not a deflection sample; point measures left out", delta_ref)
-    return None
-
-
-def write_table(path_dir, table: CompensationTable, delta_ref: float | None = 1.0) -> dict[str, Path]:
-    """Write a compensation table: ``compensation_table.csv``, ``.json`` (metadata, curves) and ``.png``.
-
-    CSV columns: trim_mm, Q_MPa, recovery_rate_pct, compensation_error_pct (on the table's
-    scalar, default the curve mean), gap_before, gap_after, at_bound ('lower'/'upper'/''),
-    Q_analytic_MPa, Q_minus_Q_analytic_MPa, analytic_root_found; the curve means
-    eps_o_mean, eps_b_mean, eps_c_mean (intact at Q_i, trimmed at Q_i, trimmed at Q); and
-    the readings and SPEC §7 measures at the single deflection delta_ref_mm (eps_o_ref,
-    eps_b_ref, eps_c_ref, recovery_rate_ref_pct, compensation_error_ref_pct; SPEC §8
-    compares at δ = 1 mm). Empty/NaN where not applicable (Δ = 0 has nothing to recover;
-    no point columns when ``delta_ref`` is None or not a sample of the table).
-
-    Returns
-    -------
-    dict
-        ``{'csv': Path, 'json': Path, 'png': Path}``.
-    """
-    out = Path(path_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    paths = {"csv": out / "compensation_table.csv", "json": out / "compensation_table.json",
-             "png": out / "compensation_table.png"}
-    means = {w: np.nanmean(table.curves(w), axis=1) if table.deltas.size else np.full(len(table.rows), np.nan)
-             for w in ("target", "broken", "compensated")}
-    dref = _reference_delta(table, delta_ref)
-    nan = np.full(len(table.rows), np.nan)
-    pm = table.measures_at(dref) if dref is not None else {
-        k: nan for k in ("eps_target", "eps_broken", "eps_compensated", "recovery_rate", "compensation_error")}
-    with paths["csv"].open("w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(_TABLE_COLUMNS)
-        for i, r in enumerate(table.rows):
-            w.writerow([_fmt(v) for v in (
-                r.trim, r.Q, r.recovery_rate, r.compensation_error, r.gap_before, r.gap_after, r.at_bound,
-                r.Q_analytic, r.Q_difference, r.analytic_root_found, means["target"][i], means["broken"][i],
-                means["compensated"][i], dref if dref is not None else float("nan"), pm["eps_target"][i],
-                pm["eps_broken"][i], pm["eps_compensated"][i], pm["recovery_rate"][i], pm["compensation_error"][i])])
-    meta = {
-        "design": table.design.as_dict(), "Q_i_MPa": table.Q_i, "scalar": table.scalar,
-        "deltas_mm": [float(d) for d in table.deltas], "monotone": table.is_monotone(), "delta_ref_mm": dref,
-        "measures": "SPEC §7; recovery = (1-|(e_c-e_o)/(e_b-e_o)|)*100, error = |(e_c-e_o)/(e_b-e_o)|*100",
-        "curves": [{"trim_mm": r.trim, "Q_MPa": r.Q, "eps_o": list(r.eps_target), "eps_b": list(r.eps_broken),
-                    "eps_c": list(r.eps_compensated)} for r in table.rows],
-    }
-    paths["json"].write_text(json.dumps(meta, indent=2))
-
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(9, 3.8), layout="constrained")
-    ax1, ax2 = fig.subplots(1, 2)
-    tr = table.trims
-    ax1.plot(tr, table.pressures, "o-", label="response (FE) compensation")
-    qa = table.column("Q_analytic")
-    if np.any(np.isfinite(qa)):
-        ax1.plot(tr, qa, "s--", label="analytic (beam)")
-    ax1.axhline(table.Q_i, color="0.6", lw=0.8, ls=":")
-    ax1.set_xlabel("trim Δ [mm]")
-    ax1.set_ylabel("vent pressure Q [MPa]")
-    ax1.set_ylim(bottom=0.0)
-    ax1.legend(fontsize=8)
-    ax1.set_title(f"Δ → Q  (Q_i = {table.Q_i:g} MPa)")
-    ax2.plot(tr, table.column("recovery_rate"), "o-", label=f"curve {table.scalar}")
-    if dref is not None:
-        ax2.plot(tr, pm["recovery_rate"], "s--", label=f"at δ = {dref:g} mm")
-    ax2.axhline(85.0, color="0.6", lw=0.8, ls=":")
-    ax2.set_xlabel("trim Δ [mm]")
-    ax2.set_ylabel("recovery rate [%]")
-    ax2.set_ylim(0.0, 105.0)
-    ax2.legend(fontsize=8)
-    ax2.set_title("recovery rate (SPEC §7)")
-    fig.savefig(paths["png"], dpi=120)
-    logger.info("wrote compensation table to %s", out)
-    return paths
-
-
 # --------------------------------------------------------------------------- beam vs FE
 @dataclass(frozen=True, eq=False)
 class SensitivityComparison:
-    """Beam model vs FE gauge sensitivity on a grid a × Q (issue 8).
+    """Beam model vs FE gauge sensitivity on a grid a × Q.
 
     Attributes
     ----------
@@ -639,7 +539,7 @@ class SensitivityComparison:
 
 def compare_sensitivity(design: WhiskerDesign, fe_sensitivity: SensitivityFn, *, a_values=None, Q_values=None,
                         model: BeamModel | None = None) -> SensitivityComparison:
-    """Beam model against a supplied FE sensitivity ``fe_sensitivity(design, a, Q) -> ε/δ`` (issue 8).
+    """Beam model against a supplied FE sensitivity ``fe_sensitivity(design, a, Q) -> ε/δ``.
 
     Parameters
     ----------
@@ -664,44 +564,3 @@ def compare_sensitivity(design: WhiskerDesign, fe_sensitivity: SensitivityFn, *,
     logger.info("beam vs FE sensitivity: max |rel. diff| = %.3g over %d points", cmp.max_abs_relative_difference,
                 beam.size)
     return cmp
-
-
-def write_comparison(path_dir, comparison: SensitivityComparison) -> dict[str, Path]:
-    """Write ``sensitivity_comparison.csv`` (long format: a, Q_MPa, beam, fe, rel_diff) and ``.png``.
-
-    Returns
-    -------
-    dict
-        ``{'csv': Path, 'png': Path}``.
-    """
-    out = Path(path_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    paths = {"csv": out / "sensitivity_comparison.csv", "png": out / "sensitivity_comparison.png"}
-    rel = comparison.relative_difference
-    with paths["csv"].open("w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(("a", "Q_MPa", "beam_per_mm", "fe_per_mm", "rel_diff"))
-        for i, ai in enumerate(comparison.a):
-            for j, qj in enumerate(comparison.Q):
-                w.writerow([_fmt(v) for v in (ai, qj, comparison.beam[i, j], comparison.fe[i, j], rel[i, j])])
-
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(9, 3.8), layout="constrained")
-    ax1, ax2 = fig.subplots(1, 2)
-    colors = [f"C{j % 10}" for j in range(comparison.Q.size)]
-    for j, qj in enumerate(comparison.Q):
-        ax1.plot(comparison.a, comparison.fe[:, j], "-", color=colors[j], label=f"FE Q={qj:g}")
-        ax1.plot(comparison.a, comparison.beam[:, j], "--", color=colors[j])
-        ax2.plot(comparison.a, 100.0 * rel[:, j], "o-", color=colors[j], ms=3, label=f"Q={qj:g} MPa")
-    ax1.set_yscale("log")
-    ax1.set_xlabel("contact ratio a")
-    ax1.set_ylabel("ε/δ [1/mm] (FE solid, beam dashed)")
-    ax1.legend(fontsize=7)
-    ax2.axhline(0.0, color="0.6", lw=0.8)
-    ax2.set_xlabel("contact ratio a")
-    ax2.set_ylabel("(beam − FE)/FE [%]")
-    ax2.legend(fontsize=7)
-    fig.savefig(paths["png"], dpi=120)
-    logger.info("wrote sensitivity comparison to %s", out)
-    return paths

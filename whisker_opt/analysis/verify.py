@@ -17,6 +17,7 @@ import logging
 from pathlib import Path
 from typing import Any
 
+from whisker_opt.genes import GENE_NAMES
 from whisker_opt.output import storage
 
 logger = logging.getLogger(__name__)
@@ -25,7 +26,7 @@ class VerifyError(ValueError):
     """Unusable arguments for :func:`verify_run` (a user error: the message names the field)."""
 
 
-COLUMNS = ("rank_run", "rank_verify", "alpha", "l", "t", "Q_i", "f1_run", "f1_verify", "f1_change",
+COLUMNS = ("rank_run", "rank_verify", *GENE_NAMES, "f1_run", "f1_verify", "f1_change",
            "F_p_run", "F_p_verify", "status", "reason", "time_s")
 
 

@@ -1,6 +1,6 @@
 """The GA's fitness: one design evaluation = intact scene at Q_i + trimmed, vented scene.
 
-f1 (SPEC §6) is the mean over the deflection samples δ_k = k·Δδ (k = 1 … δ_max/Δδ,
+f1 is the mean over the deflection samples δ_k = k·Δδ (k = 1 … δ_max/Δδ,
 Δδ = 0.01 mm by default) of |ε_i(δ_k) − ε_c(δ_k)|, both curves interpolated from the
 solved increments (:meth:`whisker_opt.experiment.scene.SceneResult.curve`). Failures are
 classified (invalid geometry, mesh failure, unconverged solve, other error) and

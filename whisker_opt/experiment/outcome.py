@@ -1,8 +1,8 @@
 """The result of evaluating one design: the contract between an evaluator and the GA.
 
 An evaluator is any picklable callable ``evaluate(genes: dict[str, float]) -> EvalOutcome``
-(shared/CONTRACT.md, "Fitness interface for the GA"). It reports the raw objective
-f1 = mean |ε_i − ε_c| (SPEC §6) when it succeeds, or a failure status with a human-readable
+(:mod:`whisker_opt.optimise.ga`). It reports the raw objective
+f1 = mean |ε_i − ε_c| when it succeeds, or a failure status with a human-readable
 reason. The GA, not the evaluator, turns an outcome into the penalised fitness F_p
 (:mod:`whisker_opt.optimise.penalty`).
 
@@ -44,7 +44,7 @@ class EvalOutcome:
     status : str
         One of :data:`STATUSES`.
     f1 : float or None
-        Objective 1, mean |ε_i(δ) − ε_c(δ)| over the deflection samples [-] (SPEC §6);
+        Objective 1, mean |ε_i(δ) − ε_c(δ)| over the deflection samples [-];
         required (finite, >= 0) when ``status == "ok"``, ``None`` otherwise.
     reason : str
         Why the evaluation failed (empty on success).

@@ -1,8 +1,7 @@
 """Evaluation cache keyed by the rounded genome.
 
 Elites, unchanged clones and designs that crossover/mutation happen to reproduce are
-not solved again: an evaluation costs two FE scenes (SPEC §9, "re-evaluating a design
-already evaluated"). The key is the tuple of genes rounded to ``decimals`` decimals, so
+not solved again: an evaluation costs two FE scenes. The key is the tuple of genes rounded to ``decimals`` decimals, so
 two genomes closer than half a unit in the last kept decimal share one outcome. The
 cache is part of the GA state and is saved with every checkpoint, so a resumed run does
 not re-solve anything and reproduces the uninterrupted run exactly.

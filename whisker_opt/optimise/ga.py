@@ -1,4 +1,4 @@
-"""The generational GA of SPEC §6, written by hand on DEAP.
+"""The generational GA of the optimisation problem (docs/physics.md), written by hand on DEAP.
 
 Loop (one generation)::
 
@@ -143,7 +143,7 @@ def _invalidate(ind) -> None:
 
 
 class GeneticAlgorithm:
-    """The GA of SPEC §6 on the genes [α, l, t, Q_i].
+    """The GA on the genes [α, l, t, Q_i].
 
     Parameters
     ----------

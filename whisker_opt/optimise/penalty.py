@@ -1,4 +1,4 @@
-"""Dynamic penalty of SPEC §6 and the graded penalty of failed evaluations.
+"""Dynamic penalty (docs/physics.md) and the graded penalty of failed evaluations.
 
 Feasible designs
     F_p(x) = f1(x) + Σ_j C_j κ_j(x),  κ_j(x) = f1(x) · d_j(x),
@@ -101,7 +101,7 @@ def penalty_terms(cfg: OptimiserConfig) -> tuple[PenaltyTerm, ...]:
 
 
 def dynamic_penalty(f1: float, genes: Mapping[str, float], terms: tuple[PenaltyTerm, ...]) -> tuple[dict[str, float], float]:
-    """κ_j and F_p of a feasible design (SPEC §6).
+    """κ_j and F_p of a feasible design.
 
     Parameters
     ----------
