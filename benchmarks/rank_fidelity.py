@@ -21,21 +21,20 @@ from scipy import stats
 
 from whisker_opt.config.model import load_config
 from whisker_opt import wiring
+from whisker_opt.experiment.fidelity import PRESET_NAMES
+from whisker_opt.genes import GENE_NAMES
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--config", type=Path, default=Path("configs/case1_trim5.yaml"))
     ap.add_argument("--n", type=int, default=8, help="number of random designs")
-    ap.add_argument("--low", default="default", choices=("coarse", "default", "fine"))
-    ap.add_argument("--high", default="fine", choices=("coarse", "default", "fine"))
+    ap.add_argument("--low", default="default", choices=PRESET_NAMES)
+    ap.add_argument("--high", default="fine", choices=PRESET_NAMES)
     ap.add_argument("--seed", type=int, default=1)
     args = ap.parse_args()
     cfg = load_config(args.config)
-    from whisker_opt.config.optimiser import OptimiserConfig
-from whisker_opt.genes import GENE_NAMES
-
-    opt = cfg.optimiser or OptimiserConfig()
+    opt = wiring.optimiser_of(cfg)
     bounds = dict(zip(GENE_NAMES, opt.genes.bounds()))
     rng = np.random.default_rng(args.seed)
     evs = {p: wiring.evaluator(wiring.with_preset(cfg, p)) for p in (args.low, args.high)}

@@ -20,7 +20,6 @@ Tangent of the volumetric term: ∂(p J G_Ji)/∂F_kL = p J (G_Ji G_Lk − G_Jk 
 
 from __future__ import annotations
 
-import logging
 
 import numpy as np
 
@@ -31,8 +30,6 @@ from fem.quadrature import tet_rule, tri_rule
 from fem.sparsity import Pattern, build_pattern
 from fem.tensor3 import det3, det_inv3
 from fem.truss import TrussKernel
-
-logger = logging.getLogger(__name__)
 
 
 class InvertedElements(ArithmeticError):

@@ -23,11 +23,8 @@ with g[a, i] = Σ_J dN_aJ G_Ji (G = F⁻¹), f[a, i] = Σ_J dN_aJ F_iJ, v[a, i] 
 
 from __future__ import annotations
 
-import logging
 
 import numpy as np
-
-logger = logging.getLogger(__name__)
 
 try:  # numba is a dependency of cadquery, hence always installed with whisker-opt
     import numba

@@ -26,13 +26,10 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-import logging
 import math
 from dataclasses import dataclass
 
 import numpy as np
-
-logger = logging.getLogger(__name__)
 
 
 class InvalidDesignError(ValueError):

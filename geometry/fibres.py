@@ -13,15 +13,12 @@ finer than the output.
 
 from __future__ import annotations
 
-import logging
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from geometry.design import WhiskerDesign
-
-logger = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)

@@ -21,15 +21,12 @@ their faces, and a straight-tet guess may rank the true host low).
 
 from __future__ import annotations
 
-import logging
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial import cKDTree
 
 from fem import element
-
-logger = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)

@@ -26,7 +26,6 @@
 from __future__ import annotations
 
 import dataclasses
-import logging
 from dataclasses import dataclass
 
 import numpy as np
@@ -38,8 +37,6 @@ from geometry import analytic
 from geometry.design import WhiskerDesign
 from geometry.locate import PointLocator
 from geometry.quadratic import CHECK_POINTS
-
-logger = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)

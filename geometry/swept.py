@@ -41,7 +41,6 @@ Vertices lie exactly on the analytic surfaces (polygonal rings); the TET10 upgra
 
 from __future__ import annotations
 
-import logging
 import math
 from dataclasses import dataclass
 
@@ -49,8 +48,6 @@ import numpy as np
 
 from fem.mesh import orient_linear, signed_volumes_linear
 from geometry.design import WhiskerDesign
-
-logger = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)

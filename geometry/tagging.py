@@ -22,7 +22,6 @@ clipped to the reference tet (barycentrics clipped at 0 and renormalised).
 
 from __future__ import annotations
 
-import logging
 
 import numpy as np
 
@@ -31,8 +30,6 @@ from geometry.design import WhiskerDesign
 from geometry.fibres import FibrePath, fibre_phases, sample_helix
 from geometry.locate import PointLocator
 from geometry.quadratic import QuadraticMesh
-
-logger = logging.getLogger(__name__)
 
 FACE_SET_NAMES = ("base", "cavity", "outer", "tip", "gauge", "cavity_wall", "cavity_start", "cavity_end")
 

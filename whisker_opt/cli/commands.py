@@ -7,14 +7,11 @@ modules lazily so ``whisker-opt --help`` stays fast.
 from __future__ import annotations
 
 import argparse
-import logging
 from pathlib import Path
 from typing import Callable
 
 from whisker_opt.config.model import ConfigError, load_config
 from whisker_opt.experiment.fidelity import PRESET_NAMES
-
-logger = logging.getLogger(__name__)
 
 
 def _user_errors() -> tuple[type[BaseException], ...]:

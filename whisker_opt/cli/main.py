@@ -9,11 +9,8 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
-from pathlib import Path
 
 from whisker_opt.cli import commands
-
-logger = logging.getLogger("whisker_opt")
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -44,10 +41,6 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"whisker-opt {args.command}: interrupted", file=sys.stderr)
         return 130
-
-
-def _path(s: str) -> Path:
-    return Path(s)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -33,8 +33,6 @@ from dataclasses import dataclass, replace
 
 from geometry.sizing import MeshSizing
 
-logger = logging.getLogger(__name__)
-
 
 @dataclass(frozen=True)
 class Preset:

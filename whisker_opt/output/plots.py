@@ -7,7 +7,6 @@ backend switch, works without a display) and written atomically.
 from __future__ import annotations
 
 import io
-import logging
 import math
 from pathlib import Path
 from typing import Sequence
@@ -19,8 +18,6 @@ from matplotlib.figure import Figure
 from whisker_opt.output import storage
 from whisker_opt.output.storage import atomic_write_bytes
 from whisker_opt.experiment import objective
-
-logger = logging.getLogger(__name__)
 
 
 def _save(fig: Figure, path: Path) -> Path:

@@ -23,7 +23,6 @@ from __future__ import annotations
 import csv
 import io
 import json
-import logging
 import math
 import os
 import platform
@@ -34,8 +33,6 @@ import time
 from importlib import metadata
 from pathlib import Path
 from typing import Any, Iterable, Sequence
-
-logger = logging.getLogger(__name__)
 
 EVALUATIONS_CSV = "evaluations.csv"
 GENERATIONS_CSV = "generations.csv"
