@@ -22,8 +22,10 @@ from __future__ import annotations
 
 import math
 import os
+import signal
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -43,7 +45,7 @@ class FailureRegion:
     kind: str = "invalid_geometry"
 
     def __post_init__(self) -> None:
-        allowed = FAILURE_STATUSES + ("raise", "nan", "hang", "crash")
+        allowed = FAILURE_STATUSES + ("raise", "nan", "hang", "crash", "kill", "kill_once")
         if self.kind not in allowed:
             raise ValueError(f"FailureRegion.kind: {self.kind!r} not in {allowed}")
         if self.gene not in GENE_NAMES:
@@ -75,6 +77,10 @@ class AnalyticFitness:
     with_curves : bool
         Add small response curves (``delta``, ``eps_i``, ``eps_c``) to ``extra``, built so
         that the mean of |ε_i − ε_c| over δ > 0 equals f1.
+    marker_dir : str or None
+        Folder of the marker files of ``"kill_once"`` regions: the first evaluation of such a
+        design leaves a marker and SIGKILLs its own process (as the system would kill a worker),
+        later ones evaluate normally. ``"kill"`` regions SIGKILL their process every time.
     """
 
     optimum: tuple[float, ...] = (3.0, 12.0, 4.0, 0.05)
@@ -86,6 +92,7 @@ class AnalyticFitness:
     sleep_s: float = 0.0
     hang_s: float = 30.0
     with_curves: bool = False
+    marker_dir: str | None = None
 
     def f1(self, genes: dict[str, float]) -> float:
         """The analytic objective (no failures, no sleep)."""
@@ -107,6 +114,14 @@ class AnalyticFitness:
                     return EvalOutcome("ok", math.nan)
                 if region.kind == "crash":
                     os._exit(3)
+                if region.kind == "kill_once":
+                    marker = Path(self.marker_dir) / ("killed_" + "_".join(f"{genes[n]:.9g}" for n in GENE_NAMES))
+                    if not marker.exists():
+                        marker.touch()
+                        os.kill(os.getpid(), signal.SIGKILL)
+                    continue
+                if region.kind == "kill":
+                    os.kill(os.getpid(), signal.SIGKILL)
                 if region.kind == "hang":
                     time.sleep(self.hang_s)
                     continue

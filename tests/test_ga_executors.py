@@ -6,7 +6,8 @@ import pickle
 
 import pytest
 
-from whisker_opt.optimise.executors import DaskExecutor, ProcessExecutor, SerialExecutor, make_executor
+from whisker_opt.optimise.executors import (DaskExecutor, MachineFailure, ProcessExecutor, SerialExecutor,
+                                            connect_scheduler, make_executor, preflight)
 from whisker_opt.config.optimiser import ExecutorConfig, OptimiserConfig
 from whisker_opt.optimise.runner import run_optimisation
 from tests.analytic_fitness import AnalyticFitness, FailureRegion
@@ -75,7 +76,7 @@ def test_process_pool_timeout_crash_and_exception_are_recorded_and_pool_recovers
         assert out[0].f1 == pytest.approx(ev.f1(GOOD))
         assert out[1].reason.startswith("RuntimeError: deliberate failure") and "traceback" in out[1].extra
         assert "exceeded 0.5 s" in out[2].reason
-        assert "worker process died (exit code 3)" in out[3].reason
+        assert "worker process died (exit code 3) in 3 attempts" in out[3].reason  # its own crash, every time
         again = ex.map([GOOD] * 3, [1, 1, 1])  # replaced workers keep serving
         assert [o.status for o in again] == ["ok"] * 3
         assert all(o.timings["eval_s"] >= 0 for o in out + again)
@@ -108,3 +109,47 @@ def test_test_fitness_is_picklable():
     ev = AnalyticFitness(failures=(FailureRegion("alpha", 5.0),), with_curves=True)
     again = pickle.loads(pickle.dumps(ev))
     assert again == ev and again(GOOD).f1 == ev(GOOD).f1
+
+
+def test_a_worker_killed_from_outside_is_retried_not_recorded(tmp_path):
+    """A SIGKILLed worker (as the OOM killer does) costs a retry, never a penalised design."""
+    ref = run_optimisation(_cfg("serial"), tmp_path / "serial", EV, seed=5, progress=False)
+    kill_once = AnalyticFitness(optimum=EV.optimum, failures=EV.failures + (FailureRegion("l", 11.0, "kill_once"),),
+                                marker_dir=str(tmp_path))
+    got = run_optimisation(_cfg("processes"), tmp_path / "proc", kill_once, seed=5, progress=False)
+    assert len(list(tmp_path.glob("killed_*"))) > 0  # workers were killed
+    assert _fingerprint(got) == _fingerprint(ref)
+    assert got.n_failures == ref.n_failures
+
+
+def test_a_design_whose_worker_is_always_killed_stops_the_run():
+    ev = AnalyticFitness(failures=(FailureRegion("l", 14.0, "kill"),))
+    with ProcessExecutor(ev, n_workers=1, max_retries=1) as ex:
+        with pytest.raises(MachineFailure, match="killed by signal 9 2 times"):
+            ex.map([GOOD, {**GOOD, "l": 14.5}], [1, 2])
+
+
+def test_dask_worker_killed_mid_evaluation_ends_as_the_local_run(tmp_path):
+    """A LocalCluster worker process SIGKILLed during an evaluation: the task runs again, the run
+    is identical to the serial one and nothing is recorded against the design."""
+    ref = run_optimisation(_cfg("serial"), tmp_path / "serial", EV, seed=8, progress=False)
+    kill_once = AnalyticFitness(optimum=EV.optimum, failures=EV.failures + (FailureRegion("l", 11.0, "kill_once"),),
+                                marker_dir=str(tmp_path))
+    got = run_optimisation(_cfg("dask", dask_processes=True), tmp_path / "dask", kill_once, seed=8, progress=False)
+    assert len(list(tmp_path.glob("killed_*"))) > 0
+    assert _fingerprint(got) == _fingerprint(ref)
+
+
+def test_unreachable_scheduler_is_one_line_and_quick():
+    import socket
+    import time
+
+    with socket.socket() as s:  # a free loopback port nobody listens on
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    t0 = time.monotonic()
+    with pytest.raises(MachineFailure, match=r"cannot reach the dask scheduler at 'tcp://127.0.0.1:\d+'") as err:
+        connect_scheduler(f"tcp://127.0.0.1:{port}", timeout_s=2.0)
+    assert "\n" not in str(err.value) and time.monotonic() - t0 < 30
+    with pytest.raises(MachineFailure):
+        preflight(ExecutorConfig(kind="dask", scheduler_address=f"tcp://127.0.0.1:{port}"))

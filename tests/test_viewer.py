@@ -1,4 +1,4 @@
-"""Off-screen tests of the pyvista result viewer (whisker_opt/viewer.py, issue 6).
+"""Off-screen tests of the pyvista result viewer (whisker_opt/viewer/).
 
 Synthetic scenes are small TET10 boxes (fem.meshgen.box_mesh) written with fem.io.write_vtu,
 with displacement fields whose deformed bounds and log strains are known in closed form.
@@ -17,10 +17,13 @@ import pytest
 pv = pytest.importorskip("pyvista")
 pv.OFF_SCREEN = True
 
+from fem import post  # noqa: E402
 from fem.io import write_vtu  # noqa: E402
 from fem.mesh import TetMesh, volumes  # noqa: E402
 from fem.meshgen import box_mesh, map_mesh  # noqa: E402
-from whisker_opt.viewer import legacy as V  # noqa: E402
+from whisker_opt.viewer import command, evaluations, fields, guard, overlays, rundir, sceneinfo  # noqa: E402
+from whisker_opt.viewer import render as rendering  # noqa: E402
+from whisker_opt.viewer import state as vstate  # noqa: E402
 
 WS = (320, 200)  # small images keep the tests fast
 
@@ -53,13 +56,13 @@ def _image(path):
 # ------------------------------------------------------------------ fields and geometry
 def test_warp_moves_bounds_by_the_displacement(box_vtu):
     for scale in (1.0, 2.5):
-        sv = V.prepare_state(box_vtu, scale=scale)
+        sv = vstate.prepare_state(box_vtu, scale=scale)
         assert sv.displacement == "displacement"
         b = np.array(sv.outer.bounds)
         # x unchanged, y from -100·a·scale (tip, y=0) to 2 (base, y=2), z unchanged
         np.testing.assert_allclose(b, [0.0, 10.0, -1.0 * scale, 2.0, 0.0, 2.0], atol=1e-9)
         np.testing.assert_allclose(np.array(sv.warped.bounds), b, atol=1e-9)
-    ref = V.prepare_state(box_vtu, scale=0.0)
+    ref = vstate.prepare_state(box_vtu, scale=0.0)
     np.testing.assert_allclose(ref.outer.bounds, [0, 10, 0, 2, 0, 2], atol=1e-12)
 
 
@@ -68,14 +71,14 @@ def test_axial_log_strain_closed_forms(box):
     k = 0.2
     u = np.zeros_like(X)
     u[:, 0] = k * X[:, 0]  # uniform stretch: LE_xx = ln(1 + k)
-    np.testing.assert_allclose(V.axial_log_strain(X, box.cells, u), math.log(1 + k), atol=1e-12)
+    np.testing.assert_allclose(post.axial_log_strain(X, box.cells, u), math.log(1 + k), atol=1e-12)
     th = math.radians(30.0)  # rigid rotation about z: no strain (a linear strain would give cos θ - 1)
     R = np.array([[math.cos(th), -math.sin(th), 0], [math.sin(th), math.cos(th), 0], [0, 0, 1]])
-    np.testing.assert_allclose(V.axial_log_strain(X, box.cells, X @ R.T - X), 0.0, atol=1e-12)
+    np.testing.assert_allclose(post.axial_log_strain(X, box.cells, X @ R.T - X), 0.0, atol=1e-12)
     # stretch λ along x then rotation: Eulerian ln V has xx = ln λ cos² θ
     lam = 1.3
     Fu = R @ np.diag([lam, 1.0, 1.0])
-    np.testing.assert_allclose(V.axial_log_strain(X, box.cells, X @ Fu.T - X), math.log(lam) * math.cos(th) ** 2,
+    np.testing.assert_allclose(post.axial_log_strain(X, box.cells, X @ Fu.T - X), math.log(lam) * math.cos(th) ** 2,
                                atol=1e-12)
 
 
@@ -84,16 +87,16 @@ def test_quadratic_cell_ordering_matches_vtk(tmp_path):
     m = map_mesh(box_mesh(1.0, 1.0, 1.0, 2, 2, 2, distort=0.2, seed=3),
                  lambda p: np.c_[p[:, 0] * (1 + 0.3 * p[:, 1] ** 2), p[:, 1], p[:, 2] + 0.2 * np.sin(3 * p[:, 0])])
     path = write_vtu(tmp_path / "m.vtu", m)
-    grid = V.load_grid(path)
+    grid = fields.load_grid(path)
     np.testing.assert_array_equal(np.unique(grid.celltypes), [pv.CellType.QUADRATIC_TETRA])
-    vol_vtk = V.cell_volumes(grid)
+    vol_vtk = fields.cell_volumes(grid)
     vol_fem = volumes(m.points, m.cells)
     assert vol_vtk.min() > 0
     np.testing.assert_allclose(vol_vtk, vol_fem, rtol=0.05)  # VTK integrates a linear sub-tet split
     assert abs(vol_vtk.sum() / vol_fem.sum() - 1) < 0.01
     # the test can fail: Gmsh's order (last two edge nodes swapped) is detected
     gmsh = pv.UnstructuredGrid({pv.CellType.QUADRATIC_TETRA: m.cells[:, [0, 1, 2, 3, 4, 5, 6, 7, 9, 8]]}, m.points)
-    assert np.max(np.abs(V.cell_volumes(gmsh) / vol_fem - 1)) > 0.2
+    assert np.max(np.abs(fields.cell_volumes(gmsh) / vol_fem - 1)) > 0.2
 
 
 def test_surfaces_outer_and_cavity_are_separated():
@@ -107,71 +110,73 @@ def test_surfaces_outer_and_cavity_are_separated():
     holed = TetMesh(m.points[used], remap[m.cells[keep]])
     grid = pv.UnstructuredGrid({pv.CellType.QUADRATIC_TETRA: holed.cells}, holed.points)
     grid.point_data["u"] = np.zeros_like(holed.points)
-    sv = V.prepare_state(grid)
+    sv = vstate.prepare_state(grid)
     np.testing.assert_allclose(sv.outer.bounds, [0, 3, 0, 3, 0, 3], atol=1e-12)
     np.testing.assert_allclose(sv.cavity.bounds, [1, 2, 1, 2, 1, 2], atol=1e-12)
     assert sv.outline is not None and sv.outline.n_points > 0
 
 
 def test_fields_and_errors(box_vtu):
-    sv = V.prepare_state(box_vtu)
-    names = V.field_names(sv.grid)
-    assert names[:2] == [V.STRAIN_FIELD, V.MAGNITUDE_FIELD]
-    assert V.resolve_field(sv.grid, None)[0] == V.STRAIN_FIELD
-    assert V.resolve_field(sv.grid, "LE11")[0] == V.STRAIN_FIELD
-    assert V.resolve_field(sv.grid, "|u|")[0] == V.MAGNITUDE_FIELD
-    assert V.resolve_field(sv.grid, "displacement:y") == ("displacement", "displacement [y]", 1)
-    assert V.resolve_field(sv.grid, "none")[0] is None
-    with pytest.raises(V.ViewerError, match=r"no field 'stress'.*available fields"):
-        V.resolve_field(sv.grid, "stress", str(box_vtu))
-    with pytest.raises(V.ViewerError, match="displacement array 'w' not found"):
-        V.prepare_state(box_vtu, displacement="w")
-    with pytest.raises(V.ViewerError, match="scale"):
-        V.prepare_state(box_vtu, scale=-1.0)
-    lo, hi = V.shared_clim([sv], (V.STRAIN_FIELD, "", None))
-    assert (lo, hi) == pytest.approx(sv.field_range(V.STRAIN_FIELD))  # one sign: the data range
-    sv.outer.point_data[V.STRAIN_FIELD][0] = 0.002
-    assert V.shared_clim([sv], (V.STRAIN_FIELD, "", None)) == pytest.approx((lo, -lo))  # both signs: symmetric
+    sv = vstate.prepare_state(box_vtu)
+    names = fields.field_names(sv.grid)
+    assert names[:2] == [fields.STRAIN_FIELD, fields.MAGNITUDE_FIELD]
+    assert fields.resolve_field(sv.grid, None)[0] == fields.STRAIN_FIELD
+    assert fields.resolve_field(sv.grid, "LE11")[0] == fields.STRAIN_FIELD
+    assert fields.resolve_field(sv.grid, "|u|")[0] == fields.MAGNITUDE_FIELD
+    assert fields.resolve_field(sv.grid, "displacement:y") == ("displacement", "displacement [y]", 1)
+    assert fields.resolve_field(sv.grid, "none")[0] is None
+    with pytest.raises(guard.ViewerError, match=r"no field 'stress'.*available fields"):
+        fields.resolve_field(sv.grid, "stress", str(box_vtu))
+    with pytest.raises(guard.ViewerError, match="displacement array 'w' not found"):
+        vstate.prepare_state(box_vtu, displacement="w")
+    with pytest.raises(guard.ViewerError, match="scale"):
+        vstate.prepare_state(box_vtu, scale=-1.0)
+    lo, hi = rendering.shared_clim([sv], (fields.STRAIN_FIELD, "", None))
+    assert (lo, hi) == pytest.approx(sv.field_range(fields.STRAIN_FIELD))  # one sign: the data range
+    sv.outer.point_data[fields.STRAIN_FIELD][0] = 0.002
+    # both signs: symmetric
+    assert rendering.shared_clim([sv], (fields.STRAIN_FIELD, "", None)) == pytest.approx((lo, -lo))
     # percentile range: one outlier node (a cavity corner) no longer sets the colours
     n = sv.outer.n_points
     vals = np.linspace(-0.01, 0.02, n)
     vals[n // 2] = 5.0
-    sv.outer.point_data[V.STRAIN_FIELD] = vals
-    f = (V.STRAIN_FIELD, "", None)
-    assert V.shared_clim([sv], f, percentile=0.0) == pytest.approx((-5.0, 5.0))
-    lo1, hi1 = V.shared_clim([sv], f, percentile=1.0)
+    sv.outer.point_data[fields.STRAIN_FIELD] = vals
+    f = (fields.STRAIN_FIELD, "", None)
+    assert rendering.shared_clim([sv], f, percentile=0.0) == pytest.approx((-5.0, 5.0))
+    lo1, hi1 = rendering.shared_clim([sv], f, percentile=1.0)
     assert n >= 100 and 0.019 < hi1 < 0.021 and lo1 == pytest.approx(-hi1)
-    with pytest.raises(V.ViewerError, match="percentile"):
-        V.shared_clim([sv], f, percentile=60.0)
+    with pytest.raises(guard.ViewerError, match="percentile"):
+        rendering.shared_clim([sv], f, percentile=60.0)
 
 
 # ------------------------------------------------------------------ discovery and metadata
 def test_missing_files_name_the_path(tmp_path):
     missing = tmp_path / "no_such_run"
     with pytest.raises(FileNotFoundError, match=str(missing)):
-        V.discover(missing)
+        rundir.discover(missing)
     (tmp_path / "empty").mkdir()
     (tmp_path / "empty" / "curve.csv").write_text("delta_mm\n0\n")
     with pytest.raises(FileNotFoundError, match=r"empty: no \*\.vtu file found"):
-        V.discover(tmp_path / "empty")
+        rundir.discover(tmp_path / "empty")
     with pytest.raises(FileNotFoundError, match="nothing.vtu"):
-        V.load_grid(tmp_path / "nothing.vtu")
+        fields.load_grid(tmp_path / "nothing.vtu")
     (tmp_path / "broken.vtu").write_text("not xml")
-    with pytest.raises(V.ViewerError, match="broken.vtu"):
-        V.load_grid(tmp_path / "broken.vtu")
+    with pytest.raises(guard.ViewerError, match="broken.vtu"):
+        fields.load_grid(tmp_path / "broken.vtu")
     (tmp_path / "notes.txt").write_text("x")
-    with pytest.raises(V.ViewerError, match="notes.txt: not a .vtu"):
-        V.discover(tmp_path / "notes.txt")
+    with pytest.raises(guard.ViewerError, match="notes.txt: not a .vtu"):
+        rundir.discover(tmp_path / "notes.txt")
 
 
 def test_split_stem_and_state_order():
-    assert V.split_stem("intact_deflected") == ("intact", "deflected")
-    assert V.split_stem("trimmed_vented_pressurised") == ("trimmed_vented", "pressurised")
-    assert V.split_stem("trimmed_vented_deflected", ["trimmed_vented"]) == ("trimmed_vented", "deflected")
-    assert V.split_stem("mesh") == ("mesh", "reference")
-    assert V.split_stem("intact_delta_1.5") == ("intact", "delta_1.5")
+    assert rundir.split_stem("intact_deflected") == ("intact", "deflected")
+    assert rundir.split_stem("trimmed_vented_pressurised") == ("trimmed_vented", "pressurised")
+    assert rundir.split_stem("trimmed_vented_deflected", ["trimmed_vented"]) == ("trimmed_vented", "deflected")
+    assert rundir.split_stem("mesh") == ("mesh", "reference")
+    assert rundir.split_stem("intact_delta_1.5") == ("intact", "delta_1.5")
     states = ["deflected", "delta_2", "pressurised", "delta_0.5", "reference"]
-    assert sorted(states, key=V.state_sort_key) == ["reference", "pressurised", "delta_0.5", "delta_2", "deflected"]
+    assert sorted(states, key=rundir.state_sort_key) == [
+        "reference", "pressurised", "delta_0.5", "delta_2", "deflected"]
 
 
 def _pair_dir(tmp_path, box):
@@ -194,22 +199,22 @@ def _pair_dir(tmp_path, box):
 
 def test_discover_run_directory(tmp_path, box):
     run = _pair_dir(tmp_path, box)
-    c = V.discover(run)
+    c = rundir.discover(run)
     assert c.groups == ["."]
     assert c.scene_names(".") == ["intact", "trimmed"]
     assert [f.state for f in c.states(".", "intact")] == ["pressurised", "deflected"]
     info = c.info(".", "intact")
-    assert info.Q == 0.03 and info.gauge == V.GaugeSpot(2.0, 2.0, 20.0) and info.contact_x == 9.5
+    assert info.Q == 0.03 and info.gauge == sceneinfo.GaugeSpot(2.0, 2.0, 20.0) and info.contact_x == 9.5
     assert info.reading("deflected") == (2.0, 0.02)
     assert c.info(".", "trimmed").trim == 2.0
     assert [f.state for f in c.select(".", state="press")] == ["pressurised", "pressurised"]
-    with pytest.raises(V.ViewerError, match=r"no state 'bent'.*pressurised"):
+    with pytest.raises(guard.ViewerError, match=r"no state 'bent'.*pressurised"):
         c.select(".", state="bent")
-    with pytest.raises(V.ViewerError, match=r"no scene 'vented'.*intact"):
+    with pytest.raises(guard.ViewerError, match=r"no scene 'vented'.*intact"):
         c.select(".", scenes=["vented"])
     (run / "scenes.json").write_text("{broken")
-    with pytest.raises(V.ViewerError, match="scenes.json: not valid JSON"):
-        V.discover(run)
+    with pytest.raises(guard.ViewerError, match="scenes.json: not valid JSON"):
+        rundir.discover(run)
 
 
 def test_rank_and_eval_selection(tmp_path, box):
@@ -222,15 +227,15 @@ def test_rank_and_eval_selection(tmp_path, box):
         "7,0,2.5,14,3,0.03,0.005,0.2,ok,,1,False\n"
         "9,1,3,16,3,0.03,,1e9,solve_failed,diverged,1,False\n"
     )
-    c = V.discover(run)
+    c = rundir.discover(run)
     assert c.default_group() == "best"
-    assert V.evaluation_row(run, rank=1)["eval_id"] == "7"
-    assert V.evaluation_row(run, eval_id=3)["F_p"] == "0.5"
-    assert V.group_for_evaluation(c, "7") == "eval_7"
-    with pytest.raises(V.ViewerError, match=r"rank 3 out of range: 1\.\.2"):
-        V.evaluation_row(run, rank=3)
-    with pytest.raises(V.ViewerError, match="no meshes stored for evaluation 3"):
-        V.group_for_evaluation(c, "3")
+    assert evaluations.evaluation_row(run, rank=1)["eval_id"] == "7"
+    assert evaluations.evaluation_row(run, eval_id=3)["F_p"] == "0.5"
+    assert evaluations.group_for_evaluation(c, "7") == "eval_7"
+    with pytest.raises(guard.ViewerError, match=r"rank 3 out of range: 1\.\.2"):
+        evaluations.evaluation_row(run, rank=3)
+    with pytest.raises(guard.ViewerError, match="no meshes stored for evaluation 3"):
+        evaluations.group_for_evaluation(c, "3")
 
 
 # ------------------------------------------------------------------ rendering
@@ -238,8 +243,8 @@ def test_screenshot_written_not_blank_and_follows_displacement(tmp_path, box):
     shots = []
     for k, a in enumerate((0.0, 0.03)):
         path = write_vtu(tmp_path / f"s{k}.vtu", box, point_data={"displacement": _bend(box.points, a)})
-        sv = V.prepare_state(path)
-        out = V.render([sv], field="displacement", screenshot=tmp_path / f"shot{k}.png", window_size=WS)
+        sv = vstate.prepare_state(path)
+        out = rendering.render([sv], field="displacement", screenshot=tmp_path / f"shot{k}.png", window_size=WS)
         assert out.is_file() and out.stat().st_size > 0
         img = _image(out)
         assert img.shape[:2] == (WS[1], WS[0])
@@ -251,30 +256,30 @@ def test_screenshot_written_not_blank_and_follows_displacement(tmp_path, box):
 
 def test_side_by_side_compare_with_markers(tmp_path, box):
     run = _pair_dir(tmp_path, box)
-    c = V.discover(run)
-    views = V.load_views(c, ".")
+    c = rundir.discover(run)
+    views = vstate.load_views(c, ".")
     assert [v.title for v in views] == ["intact · deflected", "trimmed, vented · deflected"]
-    assert V.gauge_patch(views[0]) is not None and V.contact_point(views[0]) is not None
-    assert V.gauge_patch(views[1]) is None
-    f = V.resolve_field(views[0].grid, None)
-    lo, hi = V.shared_clim(views, f, percentile=0.0)
+    assert overlays.gauge_patch(views[0]) is not None and overlays.contact_point(views[0]) is not None
+    assert overlays.gauge_patch(views[1]) is None
+    f = fields.resolve_field(views[0].grid, None)
+    lo, hi = rendering.shared_clim(views, f, percentile=0.0)
     for v in views:
         r = v.field_range(f[0])
         assert lo <= r[0] and r[1] <= hi
-    for cav in V.CAVITY_MODES:
-        out = V.render(views, screenshot=tmp_path / f"cmp_{cav}.png", window_size=(320, 360), cavity=cav)
+    for cav in rendering.CAVITY_MODES:
+        out = rendering.render(views, screenshot=tmp_path / f"cmp_{cav}.png", window_size=(320, 360), cavity=cav)
         img = _image(out)
         assert img.shape[:2] == (360, 320) and img[..., :3].var() > 1e-3
-    with pytest.raises(V.ViewerError, match="cavity='open'"):
-        V.render(views, screenshot=tmp_path / "x.png", window_size=WS, cavity="open")
+    with pytest.raises(guard.ViewerError, match="cavity='open'"):
+        rendering.render(views, screenshot=tmp_path / "x.png", window_size=WS, cavity="open")
 
 
 def test_interactive_plotter_steps_states_offscreen(tmp_path, box):
     run = _pair_dir(tmp_path, box)
-    c = V.discover(run)
-    series = [[V.prepare_state(f.path, c.info(".", f.scene), f.state) for f in c.select(".", state=s)]
+    c = rundir.discover(run)
+    series = [[vstate.prepare_state(f.path, c.info(".", f.scene), f.state) for f in c.select(".", state=s)]
               for s in ("pressurised", "deflected")]
-    p, set_step = V.interactive_plotter(series, "displacement", off_screen=True, window_size=(320, 360))
+    p, set_step = rendering.interactive_plotter(series, "displacement", off_screen=True, window_size=(320, 360))
     img_last = p.screenshot()
     set_step(0)
     img_first = p.screenshot()
@@ -285,51 +290,51 @@ def test_interactive_plotter_steps_states_offscreen(tmp_path, box):
 # ------------------------------------------------------------------ command line
 def _args(*argv):
     ap = argparse.ArgumentParser()
-    V.VIEW_COMMAND[1](ap)
+    command.VIEW_COMMAND[1](ap)
     return ap.parse_args([str(a) for a in argv])
 
 
 def test_cli_screenshot_list_plots_and_errors(tmp_path, box, capsys):
     run = _pair_dir(tmp_path, box)
     out = tmp_path / "shots" / "view.png"
-    assert V.VIEW_COMMAND[2](_args(run, "--screenshot", out, "--window-size", 320, 360, "--plots")) == 0
+    assert command.VIEW_COMMAND[2](_args(run, "--screenshot", out, "--window-size", 320, 360, "--plots")) == 0
     assert out.is_file() and (tmp_path / "shots" / "curves.png").is_file()
-    assert V.VIEW_COMMAND[2](_args(run, "--list")) == 0
+    assert command.VIEW_COMMAND[2](_args(run, "--list")) == 0
     assert "scene intact" in capsys.readouterr().out
     missing = tmp_path / "gone"
-    assert V.VIEW_COMMAND[2](_args(missing)) == 2
+    assert command.VIEW_COMMAND[2](_args(missing)) == 2
     assert str(missing) in capsys.readouterr().err
-    assert V.VIEW_COMMAND[2](_args(run, "--field", "stress", "--screenshot", out)) == 2
+    assert command.VIEW_COMMAND[2](_args(run, "--field", "stress", "--screenshot", out)) == 2
     assert "no field 'stress'" in capsys.readouterr().err
 
 
 def test_headless_detection_and_missing_pyvista(monkeypatch):
-    assert V.is_headless({}, "linux")
-    assert not V.is_headless({"DISPLAY": ":0"}, "linux")
-    assert not V.is_headless({"WAYLAND_DISPLAY": "wayland-0"}, "linux")
-    assert not V.is_headless({}, "darwin")
+    assert guard.is_headless({}, "linux")
+    assert not guard.is_headless({"DISPLAY": ":0"}, "linux")
+    assert not guard.is_headless({"WAYLAND_DISPLAY": "wayland-0"}, "linux")
+    assert not guard.is_headless({}, "darwin")
     monkeypatch.setitem(sys.modules, "pyvista", None)
-    with pytest.raises(V.ViewerUnavailable, match=r"whisker-opt\[viewer\]"):
-        V.require_pyvista()
+    with pytest.raises(guard.ViewerUnavailable, match=r"whisker-opt\[viewer\]"):
+        guard.require_pyvista()
 
 
 def test_cli_without_screenshot_headless_and_with_display(tmp_path, box, monkeypatch, capsys):
     run = _pair_dir(tmp_path, box)
-    monkeypatch.setattr(V, "is_headless", lambda *a, **k: True)
-    assert V.VIEW_COMMAND[2](_args(run, "--window-size", 320, 360)) == 0
+    monkeypatch.setattr(command, "is_headless", lambda *a, **k: True)
+    assert command.VIEW_COMMAND[2](_args(run, "--window-size", 320, 360)) == 0
     assert (run / "view.png").is_file()
     assert "no display found" in capsys.readouterr().err
     # a display: the interactive plotter with the state slider (pv.OFF_SCREEN keeps it off-screen here)
-    monkeypatch.setattr(V, "is_headless", lambda *a, **k: False)
-    assert V.VIEW_COMMAND[2](_args(run, "--scene", "intact", "--window-size", 320, 200)) == 0
-    assert V.VIEW_COMMAND[2](_args(run, "--scene", "vented", "--window-size", 320, 200)) == 2
+    monkeypatch.setattr(command, "is_headless", lambda *a, **k: False)
+    assert command.VIEW_COMMAND[2](_args(run, "--scene", "intact", "--window-size", 320, 200)) == 0
+    assert command.VIEW_COMMAND[2](_args(run, "--scene", "vented", "--window-size", 320, 200)) == 2
     assert "no scene 'vented'" in capsys.readouterr().err
 
 
 def test_registers_in_the_cli(tmp_path, box, monkeypatch):
     from whisker_opt.cli import commands, main as cli
 
-    monkeypatch.setitem(commands.REGISTRY, "view", V.VIEW_COMMAND)
+    monkeypatch.setitem(commands.REGISTRY, "view", command.VIEW_COMMAND)
     run = _pair_dir(tmp_path, box)
     out = tmp_path / "v.png"
     assert cli.main(["view", str(run), "--screenshot", str(out), "--state", "pressurised", "--field", "|u|",
@@ -342,13 +347,13 @@ def test_von_mises_uniaxial_closed_form(box):
     lam, c10 = 1.4, 0.14
     X = box.points
     Fu = np.diag([lam, lam**-0.5, lam**-0.5])  # incompressible uniaxial stretch
-    F, used = V.nodal_deformation_gradient(X, box.cells, X @ Fu.T - X)
+    F, used = post.nodal_deformation_gradient(X, box.cells, X @ Fu.T - X)
     assert used.all()
-    np.testing.assert_allclose(V.von_mises_neo_hookean(F, c10), 2 * c10 * (lam**2 - 1 / lam), rtol=1e-12)
+    np.testing.assert_allclose(post.von_mises_neo_hookean(F, c10), 2 * c10 * (lam**2 - 1 / lam), rtol=1e-12)
     # a superposed rigid rotation changes nothing
     th = 0.7
     R = np.array([[1, 0, 0], [0, math.cos(th), -math.sin(th)], [0, math.sin(th), math.cos(th)]])
-    np.testing.assert_allclose(V.von_mises_neo_hookean(R @ F, c10), 2 * c10 * (lam**2 - 1 / lam), rtol=1e-12)
+    np.testing.assert_allclose(post.von_mises_neo_hookean(R @ F, c10), 2 * c10 * (lam**2 - 1 / lam), rtol=1e-12)
 
 
 def test_run_directory_best_without_scenes_json(tmp_path, box):
@@ -365,27 +370,27 @@ def test_run_directory_best_without_scenes_json(tmp_path, box):
     (run / "best.json").write_text(json.dumps(
         {"genes": {"alpha": 1.5, "l": 5.5, "t": 0.6, "Q_i": 0.02}, "f1": 0.003, "F_p": 0.004, "eval_id": 11}))
     (run / "best_curves.csv").write_text("delta_mm,eps_i,eps_c\n0,0,0\n1,0.01,0.011\n2,0.02,0.023\n")
-    c = V.discover(run)
+    c = rundir.discover(run)
     assert c.default_group() == "best" and c.c10 == 0.14
     intact, trimmed = c.info("best", "intact"), c.info("best", "trimmed")
     assert intact.design["alpha"] == 1.5 and intact.design["t"] == 0.6 and intact.Q == 0.02
     assert trimmed.trim == 2.0 and trimmed.Q == 0.0 and trimmed.reading("deflected") == (2.0, 0.023)
     assert intact.notes["F_p"] == 0.004 and intact.contact_x == pytest.approx(10.0)
-    views = V.load_views(c, "best")
-    assert V.MISES_FIELD in V.field_names(views[0].grid) and "pressure" in V.field_names(views[0].grid)
-    assert len(V.fibre_lines(views[0])) == 2
+    views = vstate.load_views(c, "best")
+    assert fields.MISES_FIELD in fields.field_names(views[0].grid) and "pressure" in fields.field_names(views[0].grid)
+    assert len(overlays.fibre_lines(views[0])) == 2
     out = tmp_path / "best.png"
-    assert V.VIEW_COMMAND[2](_args(run, "--screenshot", out, "--field", "mises", "--window-size", 320, 360)) == 0
+    assert command.VIEW_COMMAND[2](_args(run, "--screenshot", out, "--field", "mises", "--window-size", 320, 360)) == 0
     assert _image(out)[..., :3].var() > 1e-3
 
 
 def test_repeated_loads_and_renders_keep_the_heap_intact(tmp_path, box):
     """Regression: surfaces once shared VTK-backed arrays with their source grid, which
     corrupted the heap (segfault / free(): invalid pointer within a few iterations)."""
-    c = V.discover(_pair_dir(tmp_path, box))
+    c = rundir.discover(_pair_dir(tmp_path, box))
     for k in range(5):
-        views = V.load_views(c, ".", edges=bool(k % 2))
-        V.render(views, screenshot=tmp_path / "loop.png", window_size=(200, 240), show_edges=False,
+        views = vstate.load_views(c, ".", edges=bool(k % 2))
+        rendering.render(views, screenshot=tmp_path / "loop.png", window_size=(200, 240), show_edges=False,
                  cavity="translucent")
     assert (tmp_path / "loop.png").is_file()
 
@@ -431,20 +436,20 @@ def _write_triple(folder, box, with_json=True):
 def test_three_panel_intact_uncompensated_vented(tmp_path, box):
     run = tmp_path / "sim"
     _write_triple(run, box)
-    c = V.discover(run)
+    c = rundir.discover(run)
     assert c.scene_names(".") == ["intact", "trimmed_uncompensated", "trimmed"]
-    views = V.load_views(c, ".")
+    views = vstate.load_views(c, ".")
     assert [v.title for v in views] == ["intact · deflected", "trimmed, uncompensated · deflected",
                                         "trimmed, vented · deflected"]
-    texts = [V._text_lines(v) for v in views]
+    texts = [overlays.text_lines(v) for v in views]
     assert [t[1].splitlines()[0] for t in texts] == [
         "gauge eps = 0.03 at delta = 3 mm", "gauge eps = 0.042 at delta = 3 mm", "gauge eps = 0.031 at delta = 3 mm"]
     assert "Q=0.03 MPa" in texts[1][0] and "trim=2 mm" in texts[1][0] and "Q=0 MPa" in texts[2][0]
-    f = V.resolve_field(views[0].grid, None)
-    lo, hi = V.shared_clim(views, f, percentile=0.0)
+    f = fields.resolve_field(views[0].grid, None)
+    lo, hi = rendering.shared_clim(views, f, percentile=0.0)
     assert all(lo <= v.field_range(f[0])[0] and v.field_range(f[0])[1] <= hi for v in views)
     out = tmp_path / "three.png"
-    assert V.VIEW_COMMAND[2](_args(run, "--screenshot", out, "--window-size", 300, 540)) == 0
+    assert command.VIEW_COMMAND[2](_args(run, "--screenshot", out, "--window-size", 300, 540)) == 0
     img = _image(out)
     assert img.shape[:2] == (540, 300)
     for k in range(3):  # a long whisker: one panel per row, each drawn
@@ -453,45 +458,47 @@ def test_three_panel_intact_uncompensated_vented(tmp_path, box):
     data = json.loads((run / "scenes.json").read_text())
     data["trimmed"]["gauge_variant"] = "centroid"
     (run / "scenes.json").write_text(json.dumps(data))
-    assert V.discover(run).info(".", "trimmed").reading("deflected") == pytest.approx((3.0, 0.031 * 0.9))
+    assert rundir.discover(run).info(".", "trimmed").reading("deflected") == pytest.approx((3.0, 0.031 * 0.9))
 
 
 def test_delta_states_select_step_and_screenshot(tmp_path, box, capsys):
     run = tmp_path / "sim"
     _write_triple(run, box)
-    c = V.discover(run)
+    c = rundir.discover(run)
     sts = c.states(".", "trimmed_uncompensated")
     assert [f.state for f in sts] == ["pressurised", "delta_1.00", "delta_2.00", "deflected"]
     assert [c.delta_of(f) for f in sts] == [0.0, 1.0, 2.0, 3.0]
     assert [f.state for f in c.select_delta(".", 2.0)] == ["delta_2.00"] * 3
     assert [f.state for f in c.select_delta(".", 3.0, ["intact"])] == ["deflected"]
     assert [f.state for f in c.select_delta(".", 0)] == ["pressurised"] * 3
-    with pytest.raises(V.ViewerError, match=r"no state at delta=1\.5 mm; states exist at delta = \[0\.0, 1\.0, 2\.0"):
+    with pytest.raises(guard.ViewerError,
+                       match=r"no state at delta=1\.5 mm; states exist at delta = \[0\.0, 1\.0, 2\.0"):
         c.select_delta(".", 1.5)
     steps = c.delta_steps(".")
     assert [d for d, _ in steps] == [0.0, 1.0, 2.0, 3.0]
     assert [f.state for f in steps[1][1]] == ["delta_1.00"] * 3
-    views = V.load_views(c, ".", files=steps[2][1])
+    views = vstate.load_views(c, ".", files=steps[2][1])
     assert views[0].title == "intact · delta = 2 mm"
-    assert V._text_lines(views[0])[1].startswith("gauge eps = 0.02 at delta = 2 mm")
-    assert [v.title for v in V.load_views(c, ".", files=steps[0][1])] == [
+    assert overlays.text_lines(views[0])[1].startswith("gauge eps = 0.02 at delta = 2 mm")
+    assert [v.title for v in vstate.load_views(c, ".", files=steps[0][1])] == [
         "intact · pressurised", "trimmed, uncompensated · pressurised", "trimmed, vented · not pressurised (Q = 0)"]
     # screenshots at two deflections differ; same size, not blank
     shots = []
     for d in (1, 3):
         out = tmp_path / f"d{d}.png"
-        assert V.VIEW_COMMAND[2](_args(run, "--delta", d, "--screenshot", out, "--window-size", 300, 540)) == 0
+        assert command.VIEW_COMMAND[2](_args(run, "--delta", d, "--screenshot", out, "--window-size", 300, 540)) == 0
         img = _image(out)
         assert img.shape[:2] == (540, 300) and img[..., :3].var() > 1e-3
         shots.append(img)
     assert np.abs(shots[0][..., :3] - shots[1][..., :3]).mean() > 1e-3
-    assert V.VIEW_COMMAND[2](_args(run, "--delta", 1.5, "--screenshot", tmp_path / "x.png")) == 2
+    assert command.VIEW_COMMAND[2](_args(run, "--delta", 1.5, "--screenshot", tmp_path / "x.png")) == 2
     assert "states exist at delta" in capsys.readouterr().err
-    assert V.VIEW_COMMAND[2](_args(run, "--delta", 1, "--state", "deflected", "--screenshot", tmp_path / "x.png")) == 2
+    assert command.VIEW_COMMAND[2](
+        _args(run, "--delta", 1, "--state", "deflected", "--screenshot", tmp_path / "x.png")) == 2
     assert "--state and --delta are exclusive" in capsys.readouterr().err
     # the interactive slider runs over delta
-    series = [V.load_views(c, ".", files=files) for _, files in steps]
-    p, set_step = V.interactive_plotter(series, "displacement", off_screen=True, window_size=(300, 540),
+    series = [vstate.load_views(c, ".", files=files) for _, files in steps]
+    p, set_step = rendering.interactive_plotter(series, "displacement", off_screen=True, window_size=(300, 540),
                                         step_values=[d for d, _ in steps], start=1)
     img1 = p.screenshot()
     set_step(3)
@@ -503,7 +510,7 @@ def test_delta_states_select_step_and_screenshot(tmp_path, box, capsys):
 def test_delta_steps_without_metadata_go_by_index(tmp_path, box):
     run = tmp_path / "sim"
     _write_triple(run, box, with_json=False)
-    c = V.discover(run)
+    c = rundir.discover(run)
     steps = c.delta_steps(".", ["intact"])
     assert [d for d, _ in steps] == [None] * 4  # 'deflected' has no known delta without scenes.json
     assert [f.state for _, (f,) in steps] == ["pressurised", "delta_1.00", "delta_2.00", "deflected"]
@@ -541,29 +548,29 @@ def test_rank_and_eval_rerun_into_a_cached_folder(tmp_path, box, monkeypatch, ca
 
     monkeypatch.setattr(workflows, "write_design_scenes", fake_write)
     out = tmp_path / "eval3.png"
-    with caplog.at_level("WARNING", logger="whisker_opt.viewer.legacy"):
-        assert V.VIEW_COMMAND[2](_args(run, "--eval", 3, "--screenshot", out, "--window-size", 300, 540)) == 0
+    with caplog.at_level("WARNING", logger="whisker_opt.viewer.evaluations"):
+        assert command.VIEW_COMMAND[2](_args(run, "--eval", 3, "--screenshot", out, "--window-size", 300, 540)) == 0
     assert "evaluation 3" in caplog.text and "re-running its scenes" in caplog.text and "eval_3" in caplog.text
     assert len(calls) == 1 and calls[0][1] == {"alpha": 2.0, "l": 15.0, "t": 3.0, "Q_i": 0.03}
     assert (run / "eval_3" / "scenes.json").is_file() and not (run / ".eval_3.partial").exists()
     assert _image(out)[..., :3].var() > 1e-3
-    c = V.discover(run)
+    c = rundir.discover(run)
     assert c.groups == ["best", "eval_3"] and c.scene_names("eval_3") == ["intact", "trimmed_uncompensated", "trimmed"]
     # cached: shown again without solving; rank 2 is evaluation 3
-    assert V.VIEW_COMMAND[2](_args(run, "--rank", 2, "--screenshot", out, "--delta", 2)) == 0
+    assert command.VIEW_COMMAND[2](_args(run, "--rank", 2, "--screenshot", out, "--delta", 2)) == 0
     assert len(calls) == 1
     # rank 1 is the best design, stored in best/
-    c2, group = V.evaluation_group(c, V.evaluation_row(run, rank=1))
+    c2, group = evaluations.evaluation_group(c, evaluations.evaluation_row(run, rank=1))
     assert group == "best" and len(calls) == 1
-    views = V.load_views(c2, group, notes={"eval_id": "7"})
+    views = vstate.load_views(c2, group, notes={"eval_id": "7"})
     assert len(views) == 3
     # a design that cannot be re-run: a clear error, nothing left behind
-    assert V.VIEW_COMMAND[2](_args(run, "--eval", 9, "--screenshot", out)) == 2
+    assert command.VIEW_COMMAND[2](_args(run, "--eval", 9, "--screenshot", out)) == 2
     err = capsys.readouterr().err
     assert "evaluation 9" in err and "cannot be re-run" in err and "cone tip radius" in err
     assert not (run / "eval_9").exists() and not (run / ".eval_9.partial").exists()
-    with pytest.raises(V.ViewerError, match="no meshes stored for evaluation 9"):
-        V.evaluation_group(c, V.evaluation_row(run, eval_id=9), rerun=False)
+    with pytest.raises(guard.ViewerError, match="no meshes stored for evaluation 9"):
+        evaluations.evaluation_group(c, evaluations.evaluation_row(run, eval_id=9), rerun=False)
 
 
 def test_design_scene_specs_three_scenes():
@@ -573,7 +580,7 @@ def test_design_scene_specs_three_scenes():
     cfg = WhiskerConfig.model_validate({"optimiser": {"trim": 4.0}, "fidelity": {"preset": "coarse"}})
     genes = {"alpha": 2.0, "l": 20.0, "t": 1.6, "Q_i": 0.15}
     specs = design_scene_specs(cfg, genes)
-    assert list(specs) == ["intact", UNCOMPENSATED, "trimmed"] and UNCOMPENSATED == V.UNCOMPENSATED
+    assert list(specs) == ["intact", UNCOMPENSATED, "trimmed"] and UNCOMPENSATED == rundir.UNCOMPENSATED
     assert [(s.Q, s.design.trim) for s in specs.values()] == [(0.15, 0.0), (0.15, 4.0), (0.0, 4.0)]
     assert specs[UNCOMPENSATED].design == specs["trimmed"].design
     assert list(design_scene_specs(cfg, dict(genes, Q_i=0.0))) == ["intact", "trimmed"]

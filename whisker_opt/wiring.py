@@ -34,8 +34,9 @@ def optimiser_of(cfg: WhiskerConfig) -> OptimiserConfig:
     return cfg.optimiser or OptimiserConfig()
 
 
-def design_from_config(cfg: WhiskerConfig, trim: float = 0.0):
-    """The validated :class:`geometry.design.WhiskerDesign` described by ``cfg.design``.
+def design_from_config(cfg: WhiskerConfig, trim: float = 0.0, validate: bool = True):
+    """The :class:`geometry.design.WhiskerDesign` described by ``cfg.design``, validated unless
+    ``validate`` is False.
 
     Raises
     ------
@@ -45,7 +46,8 @@ def design_from_config(cfg: WhiskerConfig, trim: float = 0.0):
     from geometry.design import WhiskerDesign
 
     d = WhiskerDesign(**cfg.design.model_dump(), trim=trim)
-    d.validate()
+    if validate:
+        d.validate()
     return d
 
 
@@ -72,11 +74,12 @@ def scene_spec(cfg: WhiskerConfig, design, Q: float):
     )
 
 
-def evaluator(cfg: WhiskerConfig, keep_curves: bool = False):
-    """The GA's :class:`whisker_opt.experiment.evaluator.SceneEvaluator` for a config."""
+def evaluator(cfg: WhiskerConfig, keep_curves: bool = False, validate: bool = True):
+    """The GA's :class:`whisker_opt.experiment.evaluator.SceneEvaluator` for a config (its base
+    design validated unless ``validate`` is False)."""
     from whisker_opt.experiment.evaluator import SceneEvaluator
 
-    base = scene_spec(cfg, design_from_config(cfg, 0.0), 0.0)
+    base = scene_spec(cfg, design_from_config(cfg, 0.0, validate), 0.0)
     return SceneEvaluator(base, optimiser_of(cfg).trim, cfg.scene.delta_step, cfg.scene.gauge_variant,
                           keep_curves)
 
@@ -88,7 +91,7 @@ def with_preset(cfg: WhiskerConfig, preset: str) -> WhiskerConfig:
     return cfg.model_copy(update={"fidelity": fid})
 
 
-def design_scene_specs(cfg: WhiskerConfig, genes: Mapping[str, float]) -> dict:
+def design_scene_specs(cfg: WhiskerConfig, genes: Mapping[str, float], validate: bool = True) -> dict:
     """The scenes of a genome: ``intact``, ``trimmed_uncompensated`` (only when Q_i > 0, else it
     would equal the vented one) and ``trimmed`` (see the module docstring).
 
@@ -97,6 +100,8 @@ def design_scene_specs(cfg: WhiskerConfig, genes: Mapping[str, float]) -> dict:
     cfg : WhiskerConfig
     genes : mapping
         ``alpha`` [deg], ``l``, ``t`` [mm], ``Q_i`` [MPa] (numbers or numeric strings).
+    validate : bool
+        Check the designs (False describes stored results whose design may not pass today's checks).
 
     Returns
     -------
@@ -105,9 +110,9 @@ def design_scene_specs(cfg: WhiskerConfig, genes: Mapping[str, float]) -> dict:
     Raises
     ------
     geometry.design.InvalidDesignError
-        The genome's intact or trimmed geometry is impossible.
+        The genome's intact or trimmed geometry is impossible (only when ``validate``).
     """
-    intact, trimmed = evaluator(cfg).specs(genes)
+    intact, trimmed = evaluator(cfg, validate=validate).specs(genes, validate=validate)
     specs = {INTACT: intact}
     if intact.Q > 0:
         specs[UNCOMPENSATED] = replace(trimmed, Q=intact.Q)

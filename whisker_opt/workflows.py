@@ -219,13 +219,18 @@ def run(cfg: WhiskerConfig, run_dir: Path, progress: bool = True):
     ------
     FileExistsError
         ``run_dir`` already holds a run (resume it instead).
+    whisker_opt.optimise.executors.MachineFailure
+        The executor cannot start (an unreachable dask scheduler), or workers were lost during
+        the run (it resumes from its last checkpoint).
     """
+    from whisker_opt.optimise.executors import preflight
     from whisker_opt.optimise.runner import check_new_run_dir, run_optimisation
 
     opt = wiring.optimiser_of(cfg)
     ev = wiring.evaluator(cfg)
     run_dir = Path(run_dir)
     check_new_run_dir(run_dir)  # before anything is written into the directory
+    preflight(opt.executor)
     run_dir.mkdir(parents=True, exist_ok=True)
     if not (run_dir / "config.yaml").exists():
         (run_dir / "config.yaml").write_text(dump_config(cfg))

@@ -16,10 +16,12 @@ from whisker_opt.experiment.fidelity import PRESET_NAMES
 
 def _user_errors() -> tuple[type[BaseException], ...]:
     # FileExistsError: `run --out DIR` where DIR already holds a run (resume it instead)
+    # MachineFailure: workers lost or killed, scheduler unreachable (the run resumes later)
     from geometry.design import InvalidDesignError
     from whisker_opt.analysis.verify import VerifyError
+    from whisker_opt.optimise.executors import MachineFailure
 
-    return (ConfigError, FileNotFoundError, FileExistsError, InvalidDesignError, VerifyError)
+    return (ConfigError, FileNotFoundError, FileExistsError, InvalidDesignError, VerifyError, MachineFailure)
 
 
 USER_ERRORS = _user_errors()
@@ -95,6 +97,7 @@ def _run_args(p: argparse.ArgumentParser) -> None:
 
 def _run_run(args: argparse.Namespace) -> int:
     from whisker_opt import wiring, workflows
+    from whisker_opt.optimise.executors import preflight
     from whisker_opt.optimise.runner import report
 
     cfg = load_config(args.config)
@@ -103,6 +106,7 @@ def _run_run(args: argparse.Namespace) -> int:
 
         check_args(args.verify, args.verify_top)
     wiring.evaluator(cfg)  # an impossible design section is refused before the directory is made
+    preflight(wiring.optimiser_of(cfg).executor)  # and an unreachable dask scheduler
     run_dir = _out_dir(args, cfg, "run")
     workflows.run(cfg, run_dir, progress=not args.no_progress)
     print(report(run_dir))
@@ -201,7 +205,7 @@ def _compensate_run(args: argparse.Namespace) -> int:
 
 # ----------------------------------------------------------------------------- view
 def _view_command():
-    from whisker_opt.viewer.legacy import VIEW_COMMAND
+    from whisker_opt.viewer.command import VIEW_COMMAND
 
     return VIEW_COMMAND
 

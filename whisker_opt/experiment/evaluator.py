@@ -48,12 +48,14 @@ class SceneEvaluator:
     gauge_variant: str = "line"
     keep_curves: bool = False
 
-    def specs(self, genes: dict) -> tuple:
-        """(intact, trimmed) SceneSpecs of a genome (designs validated)."""
+    def specs(self, genes: dict, validate: bool = True) -> tuple:
+        """(intact, trimmed) SceneSpecs of a genome; both designs validated unless ``validate`` is False
+        (for describing stored results whose design may not pass today's checks)."""
         d0 = design_from_genes(self.base_spec.design, genes, trim=0.0)
-        d0.validate()
         dc = replace(d0, trim=float(self.trim))
-        dc.validate()
+        if validate:
+            d0.validate()
+            dc.validate()
         intact = replace(self.base_spec, design=d0, Q=float(genes["Q_i"]))
         trimmed = replace(self.base_spec, design=dc, Q=0.0)
         return intact, trimmed
@@ -65,7 +67,7 @@ class SceneEvaluator:
         return np.arange(1, n + 1) * (dm / n)
 
     def __call__(self, genes: dict) -> EvalOutcome:
-        from fem.stepping import SolveFailed
+        from fem.newton import SolveFailed
         from geometry.design import InvalidDesignError
         from whisker_opt.experiment.scene import run_scene
 

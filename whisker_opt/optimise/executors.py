@@ -9,8 +9,14 @@ and guarantees, for every design, one :class:`~whisker_opt.experiment.outcome.Ev
 order, whatever happens inside the evaluator:
 
 - an exception becomes status ``"error"`` with ``"<Type>: <message>"`` as reason and the
-  traceback in ``extra["traceback"]``; a worker process that dies (segfault, OOM kill)
-  becomes ``"error"`` too; the run never crashes because of one design;
+  traceback in ``extra["traceback"]``; the run never crashes because of one design;
+- a failure of the machine is never recorded against a design: a worker process that dies
+  (killed by the operating system, out of memory, a signal) or a dask task whose worker is
+  lost is run again on a fresh worker, up to ``max_retries`` times. A design that still
+  kills its worker by a crash of its own (an exit code, a segfault) is then recorded as
+  ``"error"``; one whose worker is still killed from outside (SIGKILL/SIGTERM, a lost dask
+  worker) raises :class:`MachineFailure`, which stops the run; it resumes from its last
+  checkpoint;
 - an evaluation longer than ``timeout_s`` becomes status ``"timeout"``;
 - before each call, Python's ``random`` and NumPy's global RNG are seeded with the
   design's seed (:func:`whisker_opt.optimise.evalcache.evaluation_seed`), so the evaluator's
@@ -57,6 +63,21 @@ logger = logging.getLogger(__name__)
 Evaluator = Callable[[dict[str, float]], EvalOutcome]
 
 _THREAD_ENV_VARS = ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")
+
+
+#: Re-runs of a design whose worker died or was lost, before the failure is final.
+MAX_RETRIES = 2
+#: Seconds between warnings while dask tasks wait (e.g. no worker connected).
+HEARTBEAT_S = 30.0
+#: Seconds to reach a dask scheduler before giving up.
+CONNECT_TIMEOUT_S = 20.0
+#: Exit codes of a worker process killed from outside (SIGKILL, SIGTERM): a machine failure.
+_KILLED_FROM_OUTSIDE = (-signal.SIGKILL, -signal.SIGTERM)
+
+
+class MachineFailure(RuntimeError):
+    """Evaluations cannot run for a reason outside the designs (workers killed or lost, no
+    scheduler): the run stops, nothing is recorded against a design, and it can be resumed."""
 
 
 class _EvalTimeout(BaseException):
@@ -225,9 +246,35 @@ class SerialExecutor(_BaseExecutor):
         return [guarded_call(self.evaluator, g, s, self.timeout_s, mode) for g, s in zip(genes_list, seeds)]
 
 
-def _worker_main(conn, evaluator: Evaluator) -> None:
+def _die_with_parent(parent_pid: int) -> None:
+    """End this worker as soon as its parent process ends (even when the parent is SIGKILLed).
+
+    Linux: ``prctl(PR_SET_PDEATHSIG, SIGKILL)``; elsewhere a daemon thread polls the parent pid.
+    """
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL("libc.so.6", use_errno=True)
+        if libc.prctl(1, signal.SIGKILL) == 0:  # PR_SET_PDEATHSIG = 1
+            if os.getppid() != parent_pid:  # the parent died before prctl took effect
+                os._exit(1)
+            return
+    except (OSError, AttributeError):
+        pass
+
+    def _watch() -> None:
+        while os.getppid() == parent_pid:
+            time.sleep(0.5)
+        os._exit(1)
+
+    threading.Thread(target=_watch, name="whisker-parent-watch", daemon=True).start()
+
+
+def _worker_main(conn, evaluator: Evaluator, parent_pid: int | None = None) -> None:
     """Loop of a pool worker: receive (index, genes, seed), send (index, outcome); None stops."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is handled by the parent
+    if parent_pid is not None:
+        _die_with_parent(parent_pid)
     try:
         conn.send("ready")
     except (BrokenPipeError, EOFError, OSError):
@@ -279,6 +326,8 @@ class ProcessExecutor(_BaseExecutor):
         A worker that does not report ready within this time (e.g. the evaluator cannot be
         imported in a fresh interpreter) aborts with ``RuntimeError``: that is a set-up
         problem, not a design failure.
+    max_retries : int
+        Re-runs of a design whose worker died (see the module docstring).
     """
 
     kind = "processes"
@@ -291,8 +340,10 @@ class ProcessExecutor(_BaseExecutor):
         start_method: str = "spawn",
         threads_per_worker: int = 1,
         start_timeout_s: float = 120.0,
+        max_retries: int = MAX_RETRIES,
     ) -> None:
         _check_picklable(evaluator)
+        self.max_retries = int(max_retries)
         self.evaluator = evaluator
         self.n_workers = int(n_workers)
         self.timeout_s = timeout_s
@@ -306,7 +357,8 @@ class ProcessExecutor(_BaseExecutor):
         parent, child = self._ctx.Pipe(duplex=True)
         self._counter += 1
         proc = self._ctx.Process(
-            target=_worker_main, args=(child, self.evaluator), daemon=True, name=f"whisker-worker-{self._counter}"
+            target=_worker_main, args=(child, self.evaluator, os.getpid()), daemon=True,
+            name=f"whisker-worker-{self._counter}",
         )
         with _thread_env(self.threads_per_worker):
             proc.start()
@@ -361,6 +413,7 @@ class ProcessExecutor(_BaseExecutor):
         if missing > 0:
             self._grow(missing)
         pending = deque(range(n))
+        deaths = [0] * n
         inf = float("inf")
         while pending or any(w.task for w in self._workers):
             for w in list(self._workers):
@@ -399,11 +452,22 @@ class ProcessExecutor(_BaseExecutor):
                     continue
                 if not w.proc.is_alive():
                     code = w.proc.exitcode
-                    logger.warning("worker %s died (exit code %s) evaluating design %d", w.proc.name, code, i)
-                    results[i] = EvalOutcome.failure(
-                        "error", f"worker process died (exit code {code})", timings={"eval_s": 0.0}
-                    )
+                    deaths[i] += 1
+                    logger.warning("worker %s died (exit code %s) evaluating design %d %s (attempt %d of %d)",
+                                   w.proc.name, code, i, dict(genes_list[i]), deaths[i], self.max_retries + 1)
+                    w.task = None
                     self._replace(w, kill=False)
+                    if deaths[i] <= self.max_retries:
+                        pending.appendleft(i)  # a fresh worker tries again: the machine may be at fault
+                    elif code in _KILLED_FROM_OUTSIDE:
+                        raise MachineFailure(
+                            f"the worker evaluating design {dict(genes_list[i])} was killed by signal {-code} "
+                            f"{deaths[i]} times (out of memory, or stopped by the system); the run stops here "
+                            "and resumes from its last checkpoint")
+                    else:
+                        results[i] = EvalOutcome.failure(
+                            "error", f"worker process died (exit code {code}) in {deaths[i]} attempts",
+                            timings={"eval_s": 0.0})
                 elif now >= deadline:
                     logger.warning("design %d exceeded %.3g s: killing worker %s", i, self.timeout_s, w.proc.name)
                     results[i] = EvalOutcome.failure(
@@ -445,6 +509,17 @@ class DaskExecutor(_BaseExecutor):
         at a time (``nthreads=1``), so concurrent evaluations never share a global RNG.
     timeout_s : float or None
         Per-evaluation limit, enforced inside the task (see the module docstring).
+    max_retries : int
+        Re-submissions of a design whose task was lost with its worker.
+    heartbeat_s : float
+        While tasks wait, a log line every ``heartbeat_s`` (a warning when no worker is connected).
+    connect_timeout_s : float
+        Time to reach ``scheduler_address``.
+
+    Raises
+    ------
+    MachineFailure
+        The scheduler cannot be reached.
     """
 
     kind = "dask"
@@ -457,18 +532,21 @@ class DaskExecutor(_BaseExecutor):
         processes: bool = True,
         threads_per_worker: int = 1,
         timeout_s: float | None = None,
+        max_retries: int = MAX_RETRIES,
+        heartbeat_s: float = HEARTBEAT_S,
+        connect_timeout_s: float = CONNECT_TIMEOUT_S,
     ) -> None:
         _check_picklable(evaluator)
-        try:
-            from distributed import Client, LocalCluster
-        except ImportError as exc:  # pragma: no cover - optional extra
-            raise ImportError("executor 'dask' needs dask[distributed]: pip install 'whisker-opt[dask]'") from exc
         self.evaluator = evaluator
         self.timeout_s = timeout_s
+        self.max_retries = int(max_retries)
+        self.heartbeat_s = float(heartbeat_s)
         self._cluster = None
         if scheduler_address:
-            self._client = Client(scheduler_address)
+            self._client = connect_scheduler(scheduler_address, connect_timeout_s)
         else:
+            from distributed import Client, LocalCluster
+
             kwargs: dict[str, Any] = {}
             if processes:
                 kwargs["env"] = {k: str(threads_per_worker) for k in _THREAD_ENV_VARS}
@@ -483,24 +561,70 @@ class DaskExecutor(_BaseExecutor):
             self._client = Client(self._cluster)
         logger.info("dask executor: %s", self._client)
 
+    def _submit(self, genes: dict[str, float], seed: int):
+        return self._client.submit(_dask_task, self.evaluator, dict(genes), int(seed), self.timeout_s, pure=False)
+
+    def _n_workers(self) -> int:
+        try:
+            return len(self._client.scheduler_info().get("workers", {}))
+        except Exception:  # noqa: BLE001 - the scheduler itself is gone: reported by the caller
+            return 0
+
     def map(self, genes_list: Sequence[dict[str, float]], seeds: Sequence[int]) -> list[EvalOutcome]:
-        """Submit every design, gather in input order; a lost task becomes ``"error"``."""
+        """Submit every design and gather in input order.
+
+        A task that does not finish (its worker was lost, or dask gave up on it) is
+        submitted again, up to ``max_retries`` times; then :class:`MachineFailure`. The task
+        itself never raises for a design's fault (:func:`guarded_call`), so a task that does
+        not finish is always the machine's fault. While tasks wait, a warning every
+        ``heartbeat_s`` says when no worker is connected.
+        """
         from distributed import wait
 
-        futures = [
-            self._client.submit(_dask_task, self.evaluator, dict(g), int(s), self.timeout_s, pure=False)
-            for g, s in zip(genes_list, seeds)
-        ]
-        wait(futures)
-        results: list[EvalOutcome] = []
-        for f in futures:
-            if f.status == "finished":
-                results.append(f.result())
-            else:
-                exc = f.exception() if f.status == "error" else f.status
-                results.append(EvalOutcome.failure("error", f"dask task {f.status}: {exc}", timings={"eval_s": 0.0}))
-            f.release()
-        return results
+        n = len(genes_list)
+        results: list[EvalOutcome | None] = [None] * n
+        attempts = [1] * n
+        pending = {i: self._submit(genes_list[i], seeds[i]) for i in range(n)}
+        waited = 0.0
+        while pending:
+            try:
+                done = wait(list(pending.values()), timeout=self.heartbeat_s, return_when="FIRST_COMPLETED").done
+            except TimeoutError:
+                done = set()
+            if not done:
+                waited += self.heartbeat_s
+                n_workers = self._n_workers()
+                log = logger.warning if n_workers == 0 else logger.info
+                log("dask: %d evaluation(s) waiting for %.0f s; %d worker(s) connected to %s", len(pending), waited,
+                    n_workers, self._client.scheduler.address)
+                continue
+            waited = 0.0
+            for i, f in list(pending.items()):
+                if f not in done:
+                    continue
+                del pending[i]
+                out = None
+                if f.status == "finished":
+                    with contextlib.suppress(Exception):  # its result may be lost with its worker meanwhile
+                        out = f.result()
+                reason = f.status if out is None else ""
+                if out is None and f.status == "error":
+                    with contextlib.suppress(Exception):
+                        reason = f"error: {f.exception()}"
+                f.release()
+                if out is not None:
+                    results[i] = out
+                    continue
+                if attempts[i] > self.max_retries:
+                    raise MachineFailure(
+                        f"dask could not evaluate design {dict(genes_list[i])} in {attempts[i]} attempts "
+                        f"(task {reason}: its worker was lost); the run stops here and resumes from its last "
+                        "checkpoint")
+                attempts[i] += 1
+                logger.warning("dask task of design %d %s %s; submitting it again (attempt %d of %d)", i,
+                               dict(genes_list[i]), reason, attempts[i], self.max_retries + 1)
+                pending[i] = self._submit(genes_list[i], seeds[i])
+        return results  # type: ignore[return-value]
 
     def close(self) -> None:
         """Close the client and the LocalCluster, if any."""
@@ -510,6 +634,37 @@ class DaskExecutor(_BaseExecutor):
             with contextlib.suppress(Exception):
                 self._cluster.close()
             self._cluster = None
+
+
+def connect_scheduler(address: str, timeout_s: float = CONNECT_TIMEOUT_S):
+    """A dask ``Client`` of the scheduler at ``address``.
+
+    Raises
+    ------
+    ImportError
+        dask.distributed is not installed.
+    MachineFailure
+        The scheduler cannot be reached within ``timeout_s`` (one line naming the address).
+    """
+    try:
+        from distributed import Client
+    except ImportError as exc:  # pragma: no cover - optional extra
+        raise ImportError("executor 'dask' needs dask[distributed]: pip install 'whisker-opt[dask]'") from exc
+    try:
+        return Client(address, timeout=timeout_s)
+    except (OSError, TimeoutError) as exc:
+        raise MachineFailure(f"executor.scheduler_address: cannot reach the dask scheduler at {address!r} within "
+                             f"{timeout_s:g} s ({type(exc).__name__}: {str(exc).splitlines()[0][:200]})") from None
+
+
+def preflight(cfg: ExecutorConfig) -> None:
+    """Check that the executor of ``cfg`` can start, before a run writes anything.
+
+    A dask scheduler given by address must be reachable (:func:`connect_scheduler`); the
+    other executors start their workers on this machine.
+    """
+    if cfg.kind == "dask" and cfg.scheduler_address:
+        connect_scheduler(cfg.scheduler_address).close()
 
 
 def make_executor(cfg: ExecutorConfig, evaluator: Evaluator) -> _BaseExecutor:

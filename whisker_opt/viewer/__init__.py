@@ -1,1 +1,37 @@
-"""The pyvista viewer of run directories and result meshes."""
+"""The pyvista viewer of run directories and result meshes, on screen or as PNG screenshots.
+
+A *source* is a results directory or a single ``.vtu`` file; each VTU is one *state* of one
+*scene* (``intact_deflected.vtu``), VTU files in a sub-folder form a *group* (``best/``,
+``eval_12/``). A view shows the whisker warped by the displacement, coloured by a field
+(the axial log strain by default), with the undeformed outline, the cavity, the fibres,
+the gauge footprint, the contact point and the gauge reading; scenes side by side share
+the camera and the colour range.
+
+Modules, each importing only those listed before it:
+
+:mod:`~whisker_opt.viewer.guard`
+    pyvista import guard, headless detection, the viewer's errors.
+:mod:`~whisker_opt.viewer.sceneinfo`
+    Facts about a scene (``scenes.json`` entries): design, Q, trim, gauge, readings.
+:mod:`~whisker_opt.viewer.genome`
+    The scenes of a genome from the run's config (:mod:`whisker_opt.wiring`).
+:mod:`~whisker_opt.viewer.rundir`
+    Discovering the VTU states and metadata of a results directory.
+:mod:`~whisker_opt.viewer.evaluations`
+    ``--rank`` / ``--eval``: rows of ``evaluations.csv``, their meshes, re-runs.
+:mod:`~whisker_opt.viewer.fields`
+    Reading a VTU grid; derived point fields (from :mod:`fem.post`); choosing the colour field.
+:mod:`~whisker_opt.viewer.state`
+    A loaded state: warped smooth surfaces, curved edges, outline, titles.
+:mod:`~whisker_opt.viewer.overlays`
+    Gauge patch, contact point, fibre lines, panel text.
+:mod:`~whisker_opt.viewer.render`
+    Plotter, layout, camera, colour range, screenshots, the interactive slider.
+:mod:`~whisker_opt.viewer.plots`
+    Convergence and response-curve images beside the screenshots.
+:mod:`~whisker_opt.viewer.command`
+    The ``whisker-opt view`` command (:data:`~whisker_opt.viewer.command.VIEW_COMMAND`).
+
+No module imports pyvista at import time (:func:`whisker_opt.viewer.guard.require_pyvista`),
+so the command registers, and prints its ``--help``, without the ``viewer`` extra.
+"""

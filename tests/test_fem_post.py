@@ -1,0 +1,138 @@
+"""Nodal post-processing of TET10 fields (fem.post) against closed forms.
+
+A displacement linear in X, u = (F - I) X, is reproduced exactly by the P2 interpolation,
+so every node carries F, on straight and on curved elements; its log strain and the
+neo-Hookean von Mises stress then have closed forms.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from fem import element, post, query
+from fem.mesh import TetMesh
+from fem.meshgen import box_mesh, map_mesh
+
+
+def _rot_x(th: float) -> np.ndarray:
+    return np.array([[1, 0, 0], [0, math.cos(th), -math.sin(th)], [0, math.sin(th), math.cos(th)]])
+
+
+def _rot_z(th: float) -> np.ndarray:
+    return np.array([[math.cos(th), -math.sin(th), 0], [math.sin(th), math.cos(th), 0], [0, 0, 1]])
+
+
+def _shear(g: float) -> np.ndarray:
+    return np.array([[1.0, g, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+
+
+def _uniaxial(lam: float) -> np.ndarray:
+    return np.diag([lam, lam**-0.5, lam**-0.5])
+
+
+MESHES = {
+    "box": box_mesh(2.0, 1.0, 1.0, 2, 1, 1),
+    "distorted": box_mesh(1.0, 1.0, 1.0, 2, 2, 2, distort=0.2, seed=3),
+    "curved": map_mesh(
+        box_mesh(1.0, 1.0, 1.0, 2, 2, 2),
+        lambda p: np.c_[p[:, 0] * (1 + 0.3 * p[:, 1] ** 2), p[:, 1], p[:, 2] + 0.2 * np.sin(3 * p[:, 0])],
+    ),
+}
+HOMOGENEOUS = {
+    "uniaxial": _uniaxial(1.4),
+    "shear": _shear(0.6),
+    "rotated_stretch": _rot_z(0.5) @ np.diag([1.3, 0.9, 1.1]),
+}
+
+
+@pytest.mark.parametrize("mesh_name", MESHES)
+@pytest.mark.parametrize("f_name", HOMOGENEOUS)
+def test_nodal_F_of_a_homogeneous_deformation_is_exact(mesh_name, f_name):
+    m, F = MESHES[mesh_name], HOMOGENEOUS[f_name]
+    u = m.points @ (F - np.eye(3)).T
+    Fn, used = post.nodal_deformation_gradient(m.points, m.cells, u)
+    assert used.all() and Fn.shape == (m.n_nodes, 3, 3)
+    np.testing.assert_allclose(Fn, np.broadcast_to(F, Fn.shape), atol=1e-12)
+
+
+def test_nodal_F_of_one_element_equals_the_point_query():
+    """Without averaging (one element), the nodal F of a quadratic field is the element's F at its nodes."""
+    rng = np.random.default_rng(0)
+    X = element.NODES + 0.05 * rng.standard_normal((10, 3))
+    m = TetMesh(X, np.arange(10)[None, :])
+    u = 0.1 * rng.standard_normal((10, 3))
+    Fn, used = post.nodal_deformation_gradient(m.points, m.cells, u)
+    Fq = query.deformation_gradient_at(m, u, np.zeros(10, dtype=np.int64), element.NODES)
+    assert used.all()
+    np.testing.assert_allclose(Fn, Fq, atol=1e-12)
+
+
+def test_unused_nodes_are_flagged_and_nan():
+    m = box_mesh(1.0, 1.0, 1.0, 1, 1, 1)
+    pts = np.vstack([m.points, [[5.0, 5.0, 5.0]]])  # a node no cell uses
+    u = np.zeros_like(pts)
+    u[:, 0] = 0.2 * pts[:, 0]
+    F, used = post.nodal_deformation_gradient(pts, m.cells, u)
+    assert used[:-1].all() and not used[-1] and len(F) == len(pts) - 1
+    le = post.axial_log_strain(pts, m.cells, u)
+    assert np.isnan(le[-1])
+    np.testing.assert_allclose(le[:-1], math.log(1.2), atol=1e-12)
+    full = post.spread_to_nodes(F, used, fill=0.0)
+    assert full.shape == (len(pts), 3, 3) and not full[-1].any()
+
+
+def test_log_strain_closed_forms():
+    lam = 1.4
+    np.testing.assert_allclose(post.eulerian_log_strain(_uniaxial(lam)[None])[0],
+                               np.diag([1.0, -0.5, -0.5]) * math.log(lam), atol=1e-14)
+    R = _rot_x(0.7)
+    np.testing.assert_allclose(post.eulerian_log_strain(R[None])[0], 0.0, atol=1e-14)  # no strain in a rotation
+    # Eulerian: ln(V) of R·U is R ln(U) Rᵀ
+    U = np.diag([1.3, 0.9, 1.1])
+    np.testing.assert_allclose(post.eulerian_log_strain((R @ U)[None])[0], R @ np.diag(np.log([1.3, 0.9, 1.1])) @ R.T,
+                               atol=1e-14)
+    # simple shear γ: principal stretch λ = γ/2 + sqrt(1 + γ²/4); ln V in the xy plane is
+    # ln λ / sqrt(γ² + 4) · [[γ, 2], [2, -γ]], and zero along z
+    g = 0.6
+    lp = math.log(g / 2 + math.sqrt(1 + g * g / 4))
+    expected = lp / math.sqrt(g * g + 4) * np.array([[g, 2.0, 0.0], [2.0, -g, 0.0], [0.0, 0.0, 0.0]])
+    np.testing.assert_allclose(post.eulerian_log_strain(_shear(g)[None])[0], expected, atol=1e-14)
+
+
+def test_axial_log_strain_on_a_mesh():
+    m = MESHES["curved"]
+    for axis in range(3):
+        F = np.eye(3)
+        F[axis, axis] = 1.25
+        np.testing.assert_allclose(post.axial_log_strain(m.points, m.cells, m.points @ (F - np.eye(3)).T, axis=axis),
+                                   math.log(1.25), atol=1e-12)
+    # stretch λ along x, then a rotation θ about z: LE_xx = ln λ cos² θ
+    lam, th = 1.3, 0.5
+    F = _rot_z(th) @ np.diag([lam, 1.0, 1.0])
+    np.testing.assert_allclose(post.axial_log_strain(m.points, m.cells, m.points @ (F - np.eye(3)).T),
+                               math.log(lam) * math.cos(th) ** 2, atol=1e-12)
+
+
+def test_von_mises_closed_forms():
+    c10 = 0.14
+    lam, g = 1.4, 0.6
+    F = np.stack([_uniaxial(lam), _shear(g), _rot_x(0.7) @ _uniaxial(lam), 1.2 * np.eye(3), 1.1 * _uniaxial(lam)])
+    vm = post.von_mises_neo_hookean(F, c10)
+    uniaxial = 2 * c10 * (lam**2 - 1 / lam)
+    np.testing.assert_allclose(vm, [
+        uniaxial,
+        2 * c10 * g * math.sqrt(3 + g * g),  # incompressible simple shear
+        uniaxial,  # a superposed rotation changes nothing
+        0.0,  # a pure dilation has no deviatoric stress
+        1.1**-3 * uniaxial,  # J^(-5/3) dev(B) scales by s² · s⁻⁵ under F -> s F
+    ], rtol=1e-12, atol=1e-14)
+
+
+def test_von_mises_of_a_sheared_mesh():
+    m, c10, g = MESHES["distorted"], 0.2, 0.3
+    u = m.points @ (_shear(g) - np.eye(3)).T  # u = (γ y, 0, 0)
+    F, used = post.nodal_deformation_gradient(m.points, m.cells, u)
+    np.testing.assert_allclose(post.von_mises_neo_hookean(F, c10), 2 * c10 * g * math.sqrt(3 + g * g), rtol=1e-12)

@@ -1,0 +1,197 @@
+"""The arrays a view is coloured by: reading a VTU grid and adding derived point fields.
+
+By default a view shows the axial logarithmic strain ``LE_xx = (½ ln(F Fᵀ))_xx`` (the
+Eulerian Hencky strain, Abaqus' LE11), else the displacement magnitude, or any array
+stored in the VTU; with the run's neo-Hookean C10 also the von Mises stress. The numbers
+come from :mod:`fem.post`; this module only puts them on the grid.
+"""
+
+from __future__ import annotations
+
+import re
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from fem import post
+from whisker_opt.viewer.guard import ViewerError, require_pyvista
+
+DISPLACEMENT_NAMES = ("displacement", "u", "U", "disp", "Displacement", "DISP")
+STRAIN_FIELD = "axial_log_strain"
+MAGNITUDE_FIELD = "displacement_magnitude"
+MISES_FIELD = "von_mises"
+STORED_STRAIN_NAMES = ("axial_log_strain", "le11", "le_xx", "log_strain_xx", "lexx")
+FIELD_ALIASES = {
+    "strain": STRAIN_FIELD,
+    "axial_strain": STRAIN_FIELD,
+    "log_strain": STRAIN_FIELD,
+    "le11": STRAIN_FIELD,
+    "le_xx": STRAIN_FIELD,
+    "displacement": MAGNITUDE_FIELD,
+    "magnitude": MAGNITUDE_FIELD,
+    "|u|": MAGNITUDE_FIELD,
+    "mises": MISES_FIELD,
+    "stress": MISES_FIELD,
+    "von_mises_stress": MISES_FIELD,
+}
+FIELD_LABELS = {STRAIN_FIELD: "LE_xx [-]", MAGNITUDE_FIELD: "displacement [mm]", MISES_FIELD: "von Mises [MPa]"}
+
+
+def load_grid(path: str | Path):
+    """Read a VTU file as a pyvista ``UnstructuredGrid``.
+
+    Raises
+    ------
+    FileNotFoundError
+        The file does not exist.
+    ViewerError
+        It cannot be read or holds no tetrahedra (the message names the path).
+    """
+    pv = require_pyvista()
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such VTU file")
+    with path.open("rb") as fh:
+        head = fh.read(512).lstrip()
+    if not (head.startswith(b"<?xml") or head.startswith(b"<VTKFile")):
+        raise ViewerError(f"{path}: not a VTU file (no XML VTKFile header)")
+    with warnings.catch_warnings(record=True) as caught, pv.vtk_verbosity("off"):
+        warnings.simplefilter("always")
+        try:
+            grid = pv.read(path)
+        except Exception as exc:  # noqa: BLE001 - VTK raises various types
+            raise ViewerError(f"{path}: cannot read as VTU ({exc})") from None
+    if not isinstance(grid, pv.UnstructuredGrid) or grid.n_cells == 0:
+        why = "; ".join(str(w.message).splitlines()[0] for w in caught)
+        n = f", {grid.n_cells} cells" if hasattr(grid, "n_cells") else ""
+        raise ViewerError(
+            f"{path}: not a readable VTU unstructured grid with cells (got {type(grid).__name__}{n})"
+            + (f"; reader: {why}" if why else "")
+        )
+    types = set(np.unique(grid.celltypes).tolist())
+    if not types & {int(pv.CellType.QUADRATIC_TETRA), int(pv.CellType.TETRA)}:
+        raise ViewerError(
+            f"{path}: no tetrahedra (VTK cell types {sorted(types)}; need 24 = quadratic tetra or 10 = tetra)"
+        )
+    return grid
+
+
+def cell_volumes(grid) -> np.ndarray:
+    """Signed VTK volumes of the cells (VTK's own node ordering), shape (n_cells,).
+
+    An inverted or misordered 10-node tet (e.g. Gmsh's edge order) gives a negative or
+    wrong volume; compare with :func:`fem.mesh.volumes`.
+    """
+    return np.asarray(grid.compute_cell_sizes(length=False, area=False, volume=True)["Volume"])
+
+
+def displacement_name(grid, requested: str | None = None, where: str = "grid") -> str | None:
+    """Name of the point displacement array: ``requested``, else the first of
+    :data:`DISPLACEMENT_NAMES` present (3-component), else None.
+
+    Raises
+    ------
+    ViewerError
+        ``requested`` is not a 3-component point array (lists the arrays).
+    """
+    if requested:
+        arr = grid.point_data.get(requested)
+        if arr is None or np.ndim(arr) != 2 or np.shape(arr)[1] != 3:
+            raise ViewerError(
+                f"{where}: displacement array {requested!r} not found as a 3-component point array; "
+                f"point arrays: {list(grid.point_data.keys())}"
+            )
+        return requested
+    for name in DISPLACEMENT_NAMES:
+        arr = grid.point_data.get(name)
+        if arr is not None and np.ndim(arr) == 2 and np.shape(arr)[1] == 3:
+            return name
+    return None
+
+
+def quadratic_cells(grid) -> np.ndarray:
+    """The (n, 10) connectivity of the grid's quadratic tetrahedra (VTK = fem TET10 order)."""
+    pv = require_pyvista()
+    cells = grid.cells_dict.get(int(pv.CellType.QUADRATIC_TETRA), np.zeros((0, 10), np.int64))
+    return np.asarray(cells, dtype=np.int64)
+
+
+def add_derived_fields(grid, disp: str | None, c10: float | None = None) -> None:
+    """Add ``X_ref``, ``displacement_magnitude``, ``axial_log_strain`` and (given ``c10``)
+    ``von_mises`` point arrays in place.
+
+    The strain (:func:`fem.post.eulerian_log_strain`, xx component) is computed only for
+    quadratic tets and when no stored axial strain exists; the von Mises stress
+    (:func:`fem.post.von_mises_neo_hookean`) only for quadratic tets with a known
+    neo-Hookean C10 [MPa]. Nodes outside every cell get NaN.
+    """
+    grid.point_data["X_ref"] = np.asarray(grid.points, dtype=float).copy()
+    if disp is None:
+        return
+    u = np.asarray(grid.point_data[disp], dtype=float)
+    grid.point_data[MAGNITUDE_FIELD] = np.linalg.norm(u, axis=1)
+    cells = quadratic_cells(grid)
+    stored = [k for k in grid.point_data.keys() if k.lower() in STORED_STRAIN_NAMES]
+    if stored:
+        if stored[0] != STRAIN_FIELD:
+            grid.point_data[STRAIN_FIELD] = np.array(grid.point_data[stored[0]], dtype=float)
+    if not len(cells) or (stored and c10 is None):
+        return
+    F, used = post.nodal_deformation_gradient(grid.points, cells, u)
+    if not stored:
+        grid.point_data[STRAIN_FIELD] = post.spread_to_nodes(post.eulerian_log_strain(F)[:, 0, 0], used)
+    if c10 is not None:
+        grid.point_data[MISES_FIELD] = post.spread_to_nodes(post.von_mises_neo_hookean(F, c10), used)
+
+
+def field_names(grid) -> list[str]:
+    """Fields a view can be coloured by: derived ones first, then stored point and cell arrays."""
+    names = [n for n in (STRAIN_FIELD, MAGNITUDE_FIELD, MISES_FIELD) if n in grid.point_data]
+    skip = {"X_ref", "vtkOriginalPointIds", "vtkOriginalCellIds", *names}
+    names += [k for k in grid.point_data.keys() if k not in skip]
+    names += [k for k in grid.cell_data.keys() if k not in skip and k not in names]
+    return names
+
+
+def resolve_field(grid, requested: str | None, where: str = "grid") -> tuple[str | None, str, int | None]:
+    """(array name, label, component) for colouring; ``None`` array = plain colour.
+
+    ``requested`` may be an alias (``strain``, ``LE11``, ``displacement``, ``|u|``), an
+    array name (vectors are shown by magnitude) or ``name:x`` / ``name:0`` for a component.
+    The default is the axial log strain, else the displacement magnitude, else the first
+    stored array.
+
+    Raises
+    ------
+    ViewerError
+        Unknown field, naming it and listing the available ones.
+    """
+    available = field_names(grid)
+    if requested is None:
+        if not available:
+            return None, "", None
+        name = available[0]
+        return name, FIELD_LABELS.get(name, name), None
+    if requested.lower() in ("none", "solid", ""):
+        return None, "", None
+    comp = None
+    base = requested
+    m = re.match(r"^(.+?)[:\[]([xyz012])\]?$", requested)
+    if m and m.group(1) in available:
+        base, c = m.group(1), m.group(2)
+        comp = "xyz".index(c) if c in "xyz" else int(c)
+    base = FIELD_ALIASES.get(base.lower(), base) if base not in available else base
+    if base not in available:
+        raise ViewerError(
+            f"{where}: no field {requested!r}; available fields: {available} (or aliases {sorted(FIELD_ALIASES)})"
+        )
+    arr = grid.point_data.get(base)
+    if arr is None:
+        arr = grid.cell_data.get(base)
+    if comp is not None and (np.ndim(arr) != 2 or comp >= np.shape(arr)[1]):
+        raise ViewerError(f"{where}: field {base!r} has no component {comp} (shape {np.shape(arr)})")
+    label = FIELD_LABELS.get(base, base) + (f" [{'xyz'[comp]}]" if comp is not None and comp < 3 else "")
+    if comp is None and np.ndim(arr) == 2 and np.shape(arr)[1] > 1:
+        label = f"|{base}|"
+    return base, label, comp

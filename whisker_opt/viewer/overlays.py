@@ -1,0 +1,136 @@
+"""What a view draws on top of the whisker: the gauge footprint, the contact point, the fibre
+helices and the panel text.
+
+* The gauge footprint ``x_ss <= x <= x_ss + e``, ``|angle from +y| <= gauge_half_angle_deg``
+  on the outer cone (:func:`gauge_patch`).
+* The contact point on the +y generator (:func:`contact_point`).
+* The fibre helices (:mod:`geometry.fibres`) mapped by the interpolated displacement
+  (:func:`fibre_lines`).
+* The design parameters, the scene (Q, trim) and the gauge reading as text (:func:`text_lines`).
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+
+from whisker_opt.viewer.guard import require_pyvista
+from whisker_opt.viewer.sceneinfo import finite_float
+from whisker_opt.viewer.state import StateView, displaced
+
+logger = logging.getLogger(__name__)
+
+
+def design_of(design: dict | None):
+    """The :class:`geometry.design.WhiskerDesign` of a scene's design metadata; None when absent
+    or not usable (e.g. written by another version)."""
+    if not design:
+        return None
+    try:
+        from geometry.design import WhiskerDesign
+
+        return WhiskerDesign.from_dict(design)
+    except Exception as exc:  # noqa: BLE001 - metadata may be from another version
+        logger.info("design metadata not usable (%s)", exc)
+        return None
+
+
+def radius_at(sv: StateView, x: np.ndarray, design) -> np.ndarray:
+    """Outer radius at reference axial positions: the design's cone, else the widest reference node near x."""
+    if design is not None:
+        return np.asarray(design.r_outer(x), dtype=float)
+    X = np.asarray(sv.grid.points)
+    r = np.hypot(X[:, 1], X[:, 2])
+    out = []
+    h = 0.02 * (X[:, 0].max() - X[:, 0].min()) + 1e-12
+    for xi in np.atleast_1d(x):
+        sel = np.abs(X[:, 0] - xi) <= h
+        out.append(r[sel].max() if sel.any() else r.max())
+    return np.asarray(out)
+
+
+def gauge_patch(sv: StateView, n_x: int = 12, n_phi: int = 12):
+    """The gauge footprint (warped) as a PolyData patch, or None without gauge metadata."""
+    pv = require_pyvista()
+    g = sv.info.gauge
+    if g is None:
+        return None
+    design = design_of(sv.info.design)
+    x = np.linspace(g.x_ss, g.x_ss + g.e, n_x)
+    phi = np.radians(np.linspace(-g.half_angle_deg, g.half_angle_deg, n_phi))
+    xx, pp = np.meshgrid(x, phi, indexing="ij")
+    r = radius_at(sv, xx.ravel(), design).reshape(xx.shape)
+    ref = np.stack([xx, r * np.cos(pp), r * np.sin(pp)], axis=-1).reshape(-1, 3)
+    # sample just inside the boundary (the P2 surface interpolates the cone)
+    inward = ref * np.array([1.0, 0.995, 0.995])
+    cur = displaced(sv, inward) + (ref - inward)
+    grid = pv.StructuredGrid(*(cur[:, k].reshape(n_x, n_phi) for k in range(3)))
+    return grid.extract_surface(algorithm="dataset_surface")
+
+
+def contact_point(sv: StateView) -> np.ndarray | None:
+    """Current position of the contact point on the +y generator, or None when unknown.
+
+    ``contact_x`` is the contact's axial position in the pressurised configuration; its
+    reference position is taken as ``contact_x - Δl`` clipped to the whisker length.
+    """
+    cx = sv.info.contact_x
+    if cx is None:
+        return None
+    X = np.asarray(sv.grid.points)
+    x_ref = float(np.clip(cx - (sv.info.delta_l or 0.0), X[:, 0].min(), X[:, 0].max()))
+    design = design_of(sv.info.design)
+    r = float(radius_at(sv, np.array([x_ref]), design)[0])
+    ref = np.array([[x_ref, r, 0.0]])
+    return displaced(sv, ref * np.array([1.0, 0.995, 1.0]))[0] + np.array([0.0, 0.005 * r, 0.0])
+
+
+def fibre_lines(sv: StateView, ds: float = 0.5) -> list:
+    """Warped fibre helices (:func:`geometry.fibres.sample_helix`) as PolyData lines; [] without a design."""
+    pv = require_pyvista()
+    design = design_of(sv.info.design)
+    if design is None or int(design.n_fibres) == 0:
+        return []
+    from geometry.fibres import fibre_phases, sample_helix
+
+    out = []
+    for ph in fibre_phases(design):
+        pts = displaced(sv, sample_helix(design, ph, ds))
+        out.append(pv.lines_from_points(pts))
+    return out
+
+
+def text_lines(sv: StateView) -> tuple[str, str]:
+    """(design text, gauge text) of a panel.
+
+    The design text lists α, l, t, L, the trim, Q, the scene's notes (f1, F_p, ...) and the
+    displacement magnification; the gauge text the reading at the state's δ and the axial
+    extension by the pressure.
+    """
+    info = sv.info
+    parts = []
+    d = info.design
+    if d:
+        for key, label, unit in (("alpha", "alpha", " deg"), ("l", "l", ""), ("t", "t", ""), ("L", "L", "")):
+            if finite_float(d.get(key)) is not None:
+                parts.append(f"{label}={float(d[key]):.4g}{unit}")
+        parts[-1:] = [parts[-1] + " mm"] if parts else []
+    if info.trim is not None:
+        parts.append(f"trim={info.trim:.3g} mm")
+    if info.Q is not None:
+        parts.append(f"Q={info.Q:.4g} MPa")
+    for k, v in info.notes.items():
+        if k == "genes" and isinstance(v, dict) and not d:
+            parts.append(", ".join(f"{g}={float(x):.4g}" for g, x in v.items()))
+        elif finite_float(v) is not None:
+            parts.append(f"{k}={float(v):.4g}")
+    if sv.scale != 1.0 and sv.displacement:
+        parts.append(f"displacement x{sv.scale:g}")
+    reading = info.reading(sv.state) if sv.state else None
+    gtxt = ""
+    if reading is not None:
+        gtxt = f"gauge eps = {reading[1]:.5g} at delta = {reading[0]:.3g} mm"
+    if info.delta_l is not None and sv.state.lower() not in ("reference", "undeformed"):
+        gtxt += ("\n" if gtxt else "") + f"dl(Q) = {info.delta_l:.4g} mm"
+    return ", ".join(parts), gtxt

@@ -1,0 +1,378 @@
+"""Drawing states: the plotter, its panels, camera, colour range, and on-screen or PNG output.
+
+Side-by-side views (:func:`render`) put one scene per panel with linked cameras and a
+shared colour range: intact at Q_i, trimmed uncompensated (``trimmed_uncompensated``: the
+trimmed whisker still at Q_i) and trimmed vented (``trimmed`` at Q = 0, the GA's compensated
+state), each with its gauge reading. :func:`interactive_plotter` steps through states (e.g.
+the solved deflections) with a slider and the ``n`` / ``b`` keys.
+
+The chamber cavity is either revealed by a cut at ``z = 0`` (``cavity="clip"``) or seen
+through a translucent outer surface (``cavity="translucent"``).
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+import numpy as np
+
+from whisker_opt.viewer.fields import STRAIN_FIELD, field_names, resolve_field
+from whisker_opt.viewer.guard import ViewerError, is_headless, require_pyvista
+from whisker_opt.viewer.overlays import contact_point, fibre_lines, gauge_patch, text_lines
+from whisker_opt.viewer.state import StateView
+
+logger = logging.getLogger(__name__)
+
+CAVITY_MODES = ("clip", "translucent", "hidden")
+FIBRE_COLOURS = ("darkorange", "saddlebrown")  # alternate, so the interleaved helices of a double helix stand apart
+
+
+def _clip(poly, on: bool, z: float = 0.0):
+    if poly is None or not on or poly.n_points == 0:
+        return poly
+    return poly.clip(normal=(0.0, 0.0, 1.0), origin=(0.0, 0.0, z), invert=True)
+
+
+def add_state(
+    plotter,
+    sv: StateView,
+    field: tuple[str | None, str, int | None],
+    clim: tuple[float, float] | None = None,
+    cmap: str = "coolwarm",
+    cavity: str = "clip",
+    show_edges: bool = True,
+    show_outline: bool = True,
+    show_fibres: bool = True,
+    show_gauge: bool = True,
+    show_contact: bool = True,
+    show_text: bool = True,
+    prefix: str = "",
+) -> None:
+    """Draw one state into the plotter's current renderer (actors named ``prefix + part``).
+
+    Parameters
+    ----------
+    plotter : pyvista.Plotter
+    sv : StateView
+    field : tuple
+        ``(array, label, component)`` from :func:`resolve_field`.
+    clim : (float, float), optional
+        Colour range (shared between panels).
+    cavity : {'clip', 'translucent', 'hidden'}
+        ``clip`` removes the half z > 0 (the cut shows the wall section and the cavity),
+        ``translucent`` shows the outer surface at 35 % opacity over the cavity.
+    """
+    if cavity not in CAVITY_MODES:
+        raise ViewerError(f"cavity={cavity!r}: must be one of {CAVITY_MODES}")
+    name, label, comp = field
+    clip = cavity == "clip"
+    mesh_kw: dict[str, Any] = dict(smooth_shading=True, show_scalar_bar=name is not None)
+    if name is not None:
+        mesh_kw.update(scalars=name, component=comp, cmap=cmap, clim=clim,
+                       scalar_bar_args=dict(title=label, n_labels=5, fmt="%.3g", vertical=True, position_x=0.88,
+                                            position_y=0.12, width=0.05, height=0.62, title_font_size=12,
+                                            label_font_size=11))
+    else:
+        mesh_kw.update(color="lightsteelblue")
+    outer = _clip(sv.outer, clip, sv.cut_z)
+    opacity = 0.35 if cavity == "translucent" and sv.cavity is not None else 1.0
+    if outer is not None and outer.n_points:
+        plotter.add_mesh(outer, opacity=opacity, name=prefix + "outer", **mesh_kw)
+    if clip:
+        sec = sv.warped.slice(normal=(0.0, 0.0, 1.0), origin=(0.0, 0.0, sv.cut_z))
+        if sec.n_points:
+            plotter.add_mesh(sec, name=prefix + "section", **dict(mesh_kw, smooth_shading=False, show_scalar_bar=False))
+    if sv.cavity is not None and cavity != "hidden":
+        cav = _clip(sv.cavity, clip, sv.cut_z)
+        if cav is not None and cav.n_points:
+            plotter.add_mesh(cav, color="lightskyblue", opacity=0.6 if clip else 1.0, smooth_shading=True,
+                             name=prefix + "cavity")
+    if show_edges and sv.edges is not None:
+        ed = _clip(sv.edges, clip, sv.cut_z)
+        if ed is not None and ed.n_points:
+            plotter.add_mesh(ed, color="black", opacity=0.2, line_width=1, name=prefix + "edges")
+    if show_outline and sv.outline is not None and sv.outline.n_points:
+        plotter.add_mesh(sv.outline, color="dimgrey", line_width=2, name=prefix + "outline")
+    if show_fibres:
+        r_tube = 0.5 * float((sv.info.design or {}).get("fibre_diameter", 0.38) or 0.38)
+        for k, line in enumerate(fibre_lines(sv)):
+            line = _clip(line, clip, sv.cut_z)
+            if line is not None and line.n_points:
+                plotter.add_mesh(line.tube(radius=r_tube, n_sides=10), color=FIBRE_COLOURS[k % len(FIBRE_COLOURS)],
+                                 name=f"{prefix}fibre{k}")
+    if show_gauge:
+        patch = gauge_patch(sv)  # drawn whole even when the body is cut: it is a marker
+        if patch is not None and patch.n_points:
+            plotter.add_mesh(patch, color="gold", name=prefix + "gauge")
+            plotter.add_mesh(patch.extract_feature_edges(boundary_edges=True, feature_edges=False,
+                                                         manifold_edges=False, non_manifold_edges=False),
+                             color="black", line_width=3, name=prefix + "gauge_outline")
+    if show_contact:
+        cp = contact_point(sv)
+        if cp is not None:
+            size = 0.04 * sv.grid.length
+            pv = require_pyvista()
+            plotter.add_mesh(pv.Sphere(radius=0.3 * size, center=cp), color="red", name=prefix + "contact")
+            plotter.add_mesh(pv.Arrow(start=cp + np.array([0.0, 2.5 * size, 0.0]), direction=(0.0, -1.0, 0.0),
+                                      scale=2.2 * size), color="red", name=prefix + "contact_arrow")
+    if show_text:
+        dtxt, gtxt = text_lines(sv)
+        plotter.add_text(sv.title, position="upper_left", font_size=11, name=prefix + "title")
+        if dtxt:
+            plotter.add_text(dtxt, position="lower_left", font_size=8, name=prefix + "design")
+        if gtxt:
+            plotter.add_text(gtxt, position="upper_right", font_size=9, name=prefix + "gauge_text")
+
+
+def shared_clim(views: Sequence[StateView], field: tuple[str | None, str, int | None],
+                percentile: float = 0.0) -> tuple[float, float] | None:
+    """One colour range over all views; symmetric about 0 for a strain that changes sign.
+
+    ``percentile`` = p > 0 spans each view's (p, 100 − p) percentiles instead of its
+    extremes: the whisker's strain range is set by a few nodes at the cavity's corners
+    (LE_xx ≈ ±0.7 at Q = 0.2 MPa) while the gauge region bends to ~0.05, which a full
+    range paints in one colour. Values beyond the range saturate.
+    """
+    if not (0.0 <= percentile < 50.0):
+        raise ViewerError(f"clim percentile={percentile!r} outside the allowed range [0, 50)")
+    name, _, comp = field
+    rngs = [r for r in (v.field_range(name, comp, percentile) for v in views) if r is not None]
+    if not rngs:
+        return None
+    lo, hi = min(r[0] for r in rngs), max(r[1] for r in rngs)
+    if name == STRAIN_FIELD and lo < 0 < hi:
+        m = max(-lo, hi)
+        lo, hi = -m, m
+    if hi <= lo:
+        hi = lo + (abs(lo) * 1e-6 or 1e-12)
+    return lo, hi
+
+
+def _clipped_label(field: tuple[str | None, str, int | None], percentile: float):
+    """The field tuple with its scalar-bar label marked when the colour range is clipped."""
+    name, label, comp = field
+    if name is None or percentile <= 0.0:
+        return field
+    return name, f"{label} ({percentile:g}-{100 - percentile:g} %)", comp
+
+
+def _layout(views: Sequence[StateView], layout: str) -> tuple[int, int]:
+    n = len(views)
+    if layout == "auto":
+        b = np.array(views[0].warped.bounds).reshape(3, 2)
+        ext = b[:, 1] - b[:, 0]
+        layout = "rows" if ext[0] > 1.8 * max(ext[1], ext[2], 1e-12) else "columns"
+    if layout == "rows":
+        return n, 1
+    if layout == "columns":
+        return 1, n
+    raise ViewerError(f"layout={layout!r}: must be 'auto', 'rows' or 'columns'")
+
+
+def default_window_size(shape: tuple[int, int]) -> tuple[int, int]:
+    """Window size for a panel grid: 1400 × 460 per row, 640 × 620 per column."""
+    rows, cols = shape
+    if cols == 1:
+        return 1400, max(480, 440 * rows)
+    return 640 * cols, 620
+
+
+def _set_camera(plotter, view: str, margin: float = 0.85, reserve_right: float = 0.16) -> None:
+    """Point the current renderer's camera and fit the visible props.
+
+    ``iso`` looks from +z turned 25° about y and x, ``xy`` from +z. The props fill
+    ``margin`` of the panel height and of its width less the right-hand strip
+    ``reserve_right`` (a fraction of the width, kept free for the scalar bar).
+    """
+    if view == "xy":
+        plotter.view_xy()
+    elif view == "iso":
+        plotter.view_xy()
+        plotter.camera.azimuth = -25
+        plotter.camera.elevation = 25
+    else:
+        raise ViewerError(f"camera view={view!r}: must be 'iso' or 'xy'")
+    ren = plotter.renderer
+    b = ren.ComputeVisiblePropBounds()
+    ren.ResetCamera(b)
+    cam = ren.GetActiveCamera()
+
+    def view_extent() -> tuple[float, float, float, float]:
+        xs, ys = [], []
+        for x in b[0:2]:
+            for y in b[2:4]:
+                for z in b[4:6]:
+                    ren.SetWorldPoint(x, y, z, 1.0)
+                    ren.WorldToView()
+                    vx, vy, _ = ren.GetViewPoint()
+                    xs.append(vx)
+                    ys.append(vy)
+        return min(xs), max(xs), min(ys), max(ys)
+
+    x0, x1, y0, y1 = view_extent()  # view coordinates, the panel is [-1, 1]²
+    half_w = (1.0 - reserve_right)  # usable width [-1, 1 - 2 reserve_right] has half-width 1 - reserve_right
+    zx = margin * half_w / max(0.5 * (x1 - x0), 1e-12)
+    zy = margin / max(0.5 * (y1 - y0), 1e-12)
+    z = min(zx, zy)
+    if np.isfinite(z) and z > 0:
+        cam.Zoom(z)
+        cam.SetWindowCenter(reserve_right, 0.0)  # shift the image left by the reserved strip
+
+
+def make_plotter(views: Sequence[StateView], off_screen: bool, window_size: tuple[int, int] | None = None,
+                 layout: str = "auto"):
+    """A Plotter with one renderer per view (linked cameras)."""
+    pv = require_pyvista()
+    if not views:
+        raise ViewerError("nothing to draw: no states selected")
+    shape = _layout(views, layout)
+    ws = tuple(window_size) if window_size else default_window_size(shape)
+    if off_screen and is_headless():
+        logger.info("no display (DISPLAY/WAYLAND_DISPLAY unset): rendering off-screen")
+    p = pv.Plotter(shape=shape, off_screen=off_screen, window_size=list(ws), border=False)
+    p.set_background("white")
+    # no depth peeling: with VTK 9.6 on EGL it drops translucent layers altogether
+    return p
+
+
+def draw(plotter, views: Sequence[StateView], field, clim, camera: str = "iso", prefix: str = "", **kw) -> None:
+    """Draw the views into the plotter's panels (row-major), sharing ``clim`` and the camera."""
+    rows, cols = plotter.shape
+    if prefix:  # redraw: drop this prefix's actors (a part may be absent in the new state)
+        for ren in plotter.renderers:
+            for name in [n for n in ren.actors if str(n).startswith(prefix)]:
+                ren.remove_actor(name, render=False)
+    for i, sv in enumerate(views):
+        plotter.subplot(i // cols, i % cols)
+        add_state(plotter, sv, field, clim=clim, prefix=f"{prefix}{i}:", **kw)
+    if not prefix:
+        plotter.subplot(0, 0)
+        _set_camera(plotter, camera)
+        if len(views) > 1:
+            plotter.link_views()
+
+
+def render(
+    views: Sequence[StateView],
+    field: str | None = None,
+    screenshot: str | Path | None = None,
+    off_screen: bool | None = None,
+    window_size: tuple[int, int] | None = None,
+    layout: str = "auto",
+    camera: str = "iso",
+    cmap: str = "coolwarm",
+    clim_percentile: float = 1.0,
+    **kw,
+):
+    """Render views side by side (same camera and colour range) on screen or to a PNG.
+
+    Parameters
+    ----------
+    views : sequence of StateView
+    field : str, optional
+        See :func:`resolve_field` (resolved on the first view).
+    screenshot : path-like, optional
+        Write the image there (off-screen) and return its path.
+    off_screen : bool, optional
+        Default: True when ``screenshot`` is given or no display exists.
+    window_size : (int, int), optional
+    layout : {'auto', 'rows', 'columns'}
+    camera : {'iso', 'xy'}
+    clim_percentile : float
+        Colour range over the (p, 100 − p) percentiles of the field (0 = full range);
+        see :func:`shared_clim`.
+    **kw
+        Passed to :func:`add_state` (``cavity``, ``show_edges``, ...).
+
+    Returns
+    -------
+    Path or pyvista.Plotter
+        The screenshot path, or the (already shown and closed) plotter.
+    """
+    if off_screen is None:
+        off_screen = screenshot is not None or is_headless()
+    f = resolve_field(views[0].grid, field, str(views[0].path or views[0].title)) if views else (None, "", None)
+    for v in views[1:]:  # every panel must hold the field
+        if f[0] is not None and f[0] not in field_names(v.grid):
+            raise ViewerError(f"{v.path or v.title}: no field {f[0]!r}; available fields: {field_names(v.grid)}")
+    clim = shared_clim(views, f, clim_percentile)
+    f = _clipped_label(f, clim_percentile)
+    p = make_plotter(views, off_screen, window_size, layout)
+    draw(p, views, f, clim, camera=camera, cmap=cmap, **kw)
+    if screenshot is not None:
+        out = Path(screenshot)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        p.screenshot(str(out))
+        p.close()
+        logger.info("screenshot written to %s", out)
+        return out
+    p.show()
+    return p
+
+
+def interactive_plotter(
+    series: Sequence[Sequence[StateView]],
+    field: str | None = None,
+    off_screen: bool = False,
+    window_size: tuple[int, int] | None = None,
+    layout: str = "auto",
+    camera: str = "iso",
+    start: int | None = None,
+    step_values: Sequence[float] | None = None,
+    clim_percentile: float = 1.0,
+    **kw,
+) -> tuple[Any, Callable[[int], None]]:
+    """A plotter that steps through states with a slider and the keys ``n`` / ``b``.
+
+    Parameters
+    ----------
+    series : sequence of sequence of StateView
+        ``series[k]`` are the panels shown at step k (e.g. every scene at its k-th state,
+        or every scene at the k-th deflection).
+    start : int, optional
+        Initial step (default the last).
+    step_values : sequence of float, optional
+        The deflection δ [mm] of each step: the slider then runs over δ and snaps to the
+        nearest step (default: over the step index).
+
+    Returns
+    -------
+    plotter, set_step
+        ``set_step(k)`` redraws step k (also what the slider and keys call).
+    """
+    if not series or not series[0]:
+        raise ViewerError("nothing to draw: no states selected")
+    all_views = [v for step in series for v in step]
+    f = resolve_field(series[-1][0].grid, field, str(series[-1][0].path or series[-1][0].title))
+    clim = shared_clim(all_views, f, clim_percentile)
+    f = _clipped_label(f, clim_percentile)
+    p = make_plotter(series[0], off_screen, window_size, layout)
+    current = {"k": len(series) - 1 if start is None else int(start)}
+
+    def set_step(k: float) -> None:
+        k = int(round(k)) % len(series)
+        current["k"] = k
+        draw(p, series[k], f, clim, camera=camera, prefix="s:", **kw)
+        p.render()
+
+    draw(p, series[current["k"]], f, clim, camera=camera, prefix="s:", **kw)
+    p.subplot(0, 0)
+    _set_camera(p, camera)
+    if len(series[0]) > 1:
+        p.link_views()
+    if len(series) > 1:
+        if step_values is not None:
+            if len(step_values) != len(series):
+                raise ViewerError(f"step_values: {len(step_values)} values for {len(series)} steps")
+            vals = np.asarray(step_values, dtype=float)
+            p.add_slider_widget(lambda v: set_step(int(np.argmin(np.abs(vals - v)))), [vals[0], vals[-1]],
+                                value=vals[current["k"]], title="delta [mm] (n / b keys)", pointa=(0.55, 0.92),
+                                pointb=(0.95, 0.92), fmt="%.2f", style="modern")
+        else:
+            p.add_slider_widget(set_step, [0, len(series) - 1], value=current["k"], title="state (n / b keys)",
+                                pointa=(0.55, 0.92), pointb=(0.95, 0.92), fmt="%.0f", style="modern")
+        p.add_key_event("n", lambda: set_step(current["k"] + 1))
+        p.add_key_event("b", lambda: set_step(current["k"] - 1))
+    return p, set_step
