@@ -1,16 +1,19 @@
 """Typed, validated configuration of whisker-opt runs (YAML -> pydantic models).
 
-Every numeric field carries its range and unit; unknown keys are errors that name the
-key (``extra="forbid"`` on :class:`whisker_opt.config.base.StrictModel`). Units: mm, N,
-MPa, degrees for angles. Defaults reproduce shared/SPEC.md.
+Every numeric field carries its range (the ``Field`` constraints) and its unit
+(``json_schema_extra={"unit": ...}``, ``-`` for a pure number); unknown keys are errors
+that name the key (``extra="forbid"`` on :class:`whisker_opt.config.base.StrictModel`).
+Units: mm, N, MPa, degrees for angles. The defaults describe the thesis' prototype
+(docs/physics.md). ``docs/config.md`` is generated from these models
+(``python3 -m whisker_opt.config.reference``).
 
 A YAML file has these top-level sections, all optional::
 
-    design:     the whisker geometry and fibres (SPEC §2-3)
-    material:   rubber law (SPEC §4)
-    scene:      the simulated experiment (SPEC §5)
+    design:     the whisker geometry and fibres
+    material:   rubber law
+    scene:      the simulated experiment (pressurise, deflect, read the gauge)
     fidelity:   preset name and optional overrides of mesh size / increments
-    optimiser:  genes, penalties, GA, stopping, executor (SPEC §6), see whisker_opt.config.optimiser
+    optimiser:  genes, penalties, GA, stopping, executor, see whisker_opt.config.optimiser
     output:     where results go
 """
 
@@ -32,38 +35,46 @@ class ConfigError(ValueError):
 
 
 class DesignConfig(StrictModel):
-    """Whisker geometry (SPEC §2) and fibre winding (SPEC §3)."""
+    """Whisker geometry (a truncated cone along +x with a chamber from x = c to x = l) and fibre winding."""
 
     SECTION = "design"
     RENAMED = {"alpha_deg": "alpha"}
 
-    D: float = Field(18.0, gt=0, le=100, description="base outer diameter at x = 0 [mm], (0, 100]")
-    L: float = Field(70.0, gt=0, le=500, description="intact whisker length [mm], (0, 500]")
-    alpha: float = Field(2.862, ge=0, lt=45, description="cone half-angle α [deg], [0, 45)")
-    c: float = Field(2.0, gt=0, le=50, description="cap thickness, chamber starts at x = c [mm], (0, 50]")
-    l: float = Field(15.0, gt=0, le=200, description="x where the chamber ends [mm], (0, 200]")
-    t: float = Field(3.0, gt=0, le=50, description="chamber wall thickness (radial) [mm], (0, 50]")
-    x_ss: float = Field(6.0, ge=0, le=200, description="gauge position from the base [mm], [0, 200]")
-    e: float = Field(2.0, gt=0, le=50, description="gauge grid length (axial) [mm], (0, 50]")
+    D: float = Field(18.0, gt=0, le=100, description="base outer diameter at x = 0", json_schema_extra={"unit": "mm"})
+    L: float = Field(70.0, gt=0, le=500, description="intact whisker length", json_schema_extra={"unit": "mm"})
+    alpha: float = Field(2.862, ge=0, lt=45, description="cone half-angle α; outer radius r_o(x) = D/2 − x tan α",
+                         json_schema_extra={"unit": "deg"})
+    c: float = Field(2.0, gt=0, le=50, description="cap thickness; the chamber starts at x = c",
+                     json_schema_extra={"unit": "mm"})
+    l: float = Field(15.0, gt=0, le=200, description="x where the chamber ends", json_schema_extra={"unit": "mm"})
+    t: float = Field(3.0, gt=0, le=50, description="chamber wall thickness (radial)", json_schema_extra={"unit": "mm"})
+    x_ss: float = Field(6.0, ge=0, le=200, description="gauge start, measured from the base",
+                        json_schema_extra={"unit": "mm"})
+    e: float = Field(2.0, gt=0, le=50, description="gauge grid length (axial)", json_schema_extra={"unit": "mm"})
     fibre_radius_frac: float = Field(
-        0.5, ge=0, le=1, description="fibre radius inside the wall: 0 = cavity, 1 = outer surface [-], [0, 1]"
+        0.5, ge=0, le=1, description="fibre radius inside the wall: 0 = cavity, 1 = outer surface",
+        json_schema_extra={"unit": "-"},
     )
-    fibre_pitch: float = Field(3.0, gt=0, le=100, description="helix pitch [mm], (0, 100]")
-    fibre_diameter: float = Field(0.38, gt=0, le=5, description="fibre diameter [mm], (0, 5]")
-    n_fibres: int = Field(2, ge=0, le=8, description="number of helices, evenly rotated [-], 0..8")
-    fibre_E: float = Field(31067.0, gt=0, le=1e6, description="fibre Young's modulus [MPa], (0, 1e6]")
-    fibre_nu: float = Field(0.36, ge=0, lt=0.5, description="fibre Poisson ratio [-], [0, 0.5)")
+    fibre_pitch: float = Field(3.0, gt=0, le=100, description="helix pitch", json_schema_extra={"unit": "mm"})
+    fibre_diameter: float = Field(0.38, gt=0, le=5, description="fibre diameter", json_schema_extra={"unit": "mm"})
+    n_fibres: int = Field(2, ge=0, le=8, description="number of helices, evenly rotated",
+                          json_schema_extra={"unit": "-"})
+    fibre_E: float = Field(31067.0, gt=0, le=1e6, description="fibre Young's modulus",
+                           json_schema_extra={"unit": "MPa"})
+    fibre_nu: float = Field(0.36, ge=0, lt=0.5, description="fibre Poisson ratio (recorded; a truss has no lateral "
+                            "strain, so the solve does not use it)", json_schema_extra={"unit": "-"})
 
 
 class MaterialConfig(StrictModel):
-    """Incompressible neo-Hookean rubber, W = C10 (I1bar - 3) + (1/D1)(J - 1)^2 (SPEC §4)."""
+    """Neo-Hookean rubber, W = C10 (Ī1 − 3) + (1/D1)(J − 1)²; D1 = 0 is fully incompressible."""
 
-    C10: float = Field(0.14, gt=0, le=100, description="neo-Hookean C10 = mu/2 [MPa], (0, 100]")
-    D1: float = Field(0.0, ge=0, le=100, description="compressibility D1 = 2/K; 0 = incompressible [1/MPa], [0, 100]")
+    C10: float = Field(0.14, gt=0, le=100, description="neo-Hookean C10 = μ/2", json_schema_extra={"unit": "MPa"})
+    D1: float = Field(0.0, ge=0, le=100, description="compressibility D1 = 2/K; 0 = incompressible",
+                      json_schema_extra={"unit": "1/MPa"})
 
 
 class SceneConfig(StrictModel):
-    """The simulated experiment: pressurise, then deflect, read the gauge (SPEC §5)."""
+    """The simulated experiment: pressurise, then deflect, read the gauge (docs/physics.md)."""
 
     SECTION = "scene"
     RENAMED = {"Q": "Q_i", "delta_max": "deflection"}
@@ -71,40 +82,50 @@ class SceneConfig(StrictModel):
     Q_i: float = Field(
         0.0, ge=0, le=1.0,
         description="initial (intact) chamber pressure Q_i of `simulate` and `compensate`; the pressure of the "
-        "single scene when `pair` is false [MPa], [0, 1]",
+        "single scene when `pair` is false (the GA takes Q_i from its genes)",
+        json_schema_extra={"unit": "MPa"},
     )
-    trim: float = Field(0.0, ge=0, le=100, description="trimmed length for `simulate` [mm], [0, 100]")
-    contact_ratio: float = Field(1.0, gt=0, le=1, description="contact position a, x = a L_Q [-], (0, 1]")
+    trim: float = Field(0.0, ge=0, le=100, description="length cut off the tip Δ for `simulate` and `mesh` (the GA "
+                        "uses optimiser.trim)", json_schema_extra={"unit": "mm"})
+    contact_ratio: float = Field(1.0, gt=0, le=1, description="contact ratio a: the contact is at x = a·L_Q; "
+                                 "1 = the tip", json_schema_extra={"unit": "-"})
     contact_at: Literal["pressurised", "reference"] = Field(
         "pressurised",
-        description="'pressurised': the contact at x = a L_Q (SPEC §5); 'reference': at x = a L, the pusher "
-        "staying where it stood before the whisker extended",
+        description="'pressurised': the contact at x = a·L_Q, of the pressurised length; 'reference': at "
+        "x = a·(L − Δ), the pusher staying where it stood before the whisker extended",
     )
-    deflection: float = Field(5.0, gt=0, le=30, description="largest tip deflection δ_max [mm], (0, 30]")
-    delta_step: float = Field(0.01, gt=0, le=1, description="deflection sampling of the curve [mm], (0, 1]")
-    calibration: float = Field(3.9, gt=0, le=100, description="gauge calibration factor xi [-], (0, 100]")
+    deflection: float = Field(5.0, gt=0, le=30, description="largest deflection δ_max of the contact",
+                              json_schema_extra={"unit": "mm"})
+    delta_step: float = Field(0.01, gt=0, le=1, description="deflection sampling Δδ of the curves and of f1",
+                              json_schema_extra={"unit": "mm"})
+    calibration: float = Field(3.9, gt=0, le=100, description="gauge calibration factor ξ: every reading (hence f1 "
+                               "and F_p) is the simulated strain times ξ", json_schema_extra={"unit": "-"})
     band_width: float = Field(
-        1.0, gt=0, le=10, description="axial width of the contact band of nodes [mm], (0, 10]"
+        1.0, gt=0, le=10, description="axial width of the contact band of nodes (off-tip contact)",
+        json_schema_extra={"unit": "mm"},
     )
     gauge_variant: Literal["line", "centroid"] = Field(
-        "line", description="'line': mean log strain of the gauge line; 'centroid': thesis' element-centroid log strain"
+        "line", description="'line': mean log strain along the gauge line; 'centroid': the thesis' axial log "
+        "strain at the centroid of the element under the gauge"
     )
     pair: bool = Field(
-        True, description="`simulate` runs the intact (Q) / trimmed (vented) pair instead of one scene"
+        True, description="`simulate` runs the intact (at Q_i) / trimmed (vented) pair instead of one scene"
     )
 
 
 class FidelityConfig(StrictModel):
     """Accuracy/speed preset, optionally overridden field by field."""
 
-    preset: Literal[PRESET_NAMES] = Field("default", description="named preset (see whisker_opt.experiment.fidelity)")
-    h_wall: float | None = Field(None, gt=0, le=10, description="override: element size in the chamber wall [mm]")
-    h_body: float | None = Field(None, gt=0, le=50, description="override: element size in the solid body [mm]")
+    preset: Literal[PRESET_NAMES] = Field("default", description="named preset (whisker_opt.experiment.fidelity)")
+    h_wall: float | None = Field(None, gt=0, le=10, description="override: element size in the chamber wall "
+                                 "(meshes afresh: no template applies)", json_schema_extra={"unit": "mm"})
+    h_body: float | None = Field(None, gt=0, le=50, description="override: largest element size in the solid body",
+                                 json_schema_extra={"unit": "mm"})
     n_deflection_steps: int | None = Field(
-        None, ge=1, le=1000, description="override: solved deflection increments [-], 1..1000"
+        None, ge=1, le=1000, description="override: solved deflection increments", json_schema_extra={"unit": "-"}
     )
     n_pressure_steps: int | None = Field(
-        None, ge=1, le=1000, description="override: solved pressure increments [-], 1..1000"
+        None, ge=1, le=1000, description="override: solved pressure increments", json_schema_extra={"unit": "-"}
     )
     mesh_method: Literal["auto", "fresh", "template", "swept"] = Field(
         "auto",
@@ -117,19 +138,26 @@ class OutputConfig(StrictModel):
     """Where results are written."""
 
     results_dir: Path = Field(Path("results"), description="parent folder of run directories")
-    name: str | None = Field(None, min_length=1, max_length=100, description="run name (default: config stem + time)")
+    name: str | None = Field(None, min_length=1, max_length=100,
+                             description="run name; null = the config file's stem (the command and the UTC time "
+                             "are appended)")
 
 
 class WhiskerConfig(StrictModel):
-    """A whole run file. ``optimiser`` is validated by :mod:`whisker_opt.config.optimiser` when present."""
+    """A whole run file: the sections below and the master ``seed``.
+
+    ``optimiser`` is validated by :mod:`whisker_opt.config.optimiser` when present; commands
+    that need it use its defaults when it is absent.
+    """
 
     design: DesignConfig = DesignConfig()
     material: MaterialConfig = MaterialConfig()
     scene: SceneConfig = SceneConfig()
     fidelity: FidelityConfig = FidelityConfig()
-    optimiser: OptimiserConfig | None = Field(None, description="GA section, see whisker_opt.config.optimiser")
+    optimiser: OptimiserConfig | None = Field(None, description="GA section (whisker_opt.config.optimiser); null = "
+                                                "its defaults")
     output: OutputConfig = OutputConfig()
-    seed: int = Field(0, ge=0, le=2**32 - 1, description="master random seed [-]")
+    seed: int = Field(0, ge=0, le=2**32 - 1, description="master random seed", json_schema_extra={"unit": "-"})
 
 
 def format_validation_error(err: ValidationError, source: str = "config") -> str:

@@ -1,11 +1,13 @@
-"""Typed configuration of the optimiser (the ``optimiser:`` section of a run file, SPEC §6).
+"""Typed configuration of the optimiser (the ``optimiser:`` section of a run file, docs/physics.md).
 
-Defaults reproduce shared/SPEC.md §6: genes x = [α, l, t, Q_i] in [2.5, 6] deg × [10, 15] mm ×
+The defaults are the thesis' GA settings: genes x = [α, l, t, Q_i] in [2.5, 6] deg × [10, 15] mm ×
 [2, 6] mm × [0.01, 0.2] MPa; penalties C = [0.5, 0.2, 0.2] on (Q_i low, t high, α low);
 population 50, tournament of size 2; stop at 50 generations, best F_p ≤ 1e-3, or a mean
 relative improvement of the best F_p over 20 generations ≤ 1e-9. The variation settings
 (SBX / polynomial-mutation indices and probabilities) are not given by the thesis; the
 defaults are the usual ones for bounded real genes (Deb & Agrawal 1995, NSGA-II code).
+Every numeric field carries its range (``Field`` constraints) and its unit
+(``json_schema_extra``); ``docs/config.md`` is generated from these models.
 
 Example::
 
@@ -33,7 +35,10 @@ from whisker_opt.genes import GENE_NAMES, GeneName
 
 
 class _Bounds(StrictModel):
-    """A closed interval [lo, hi] with lo < hi; subclasses set the units and the outer limits."""
+    """A closed interval [lo, hi] with lo < hi; subclasses set the units and the outer limits.
+
+    Written ``{lo: .., hi: ..}`` or as a two-item list ``[lo, hi]``.
+    """
 
     @model_validator(mode="before")
     @classmethod
@@ -54,35 +59,35 @@ class _Bounds(StrictModel):
 
 
 class AlphaBounds(_Bounds):
-    """Range of the cone half-angle α."""
+    """Range of the gene α, the cone half-angle: ``{lo, hi}`` or ``[lo, hi]``, lo < hi."""
 
-    lo: float = Field(2.5, ge=0, lt=45, description="lower bound of alpha [deg], [0, 45)")
-    hi: float = Field(6.0, gt=0, lt=45, description="upper bound of alpha [deg], (0, 45)")
+    lo: float = Field(2.5, ge=0, lt=45, description="lower bound of alpha", json_schema_extra={"unit": "deg"})
+    hi: float = Field(6.0, gt=0, lt=45, description="upper bound of alpha", json_schema_extra={"unit": "deg"})
 
 
 class ChamberEndBounds(_Bounds):
-    """Range of l, the x where the chamber ends."""
+    """Range of the gene l, the x where the chamber ends: ``{lo, hi}`` or ``[lo, hi]``, lo < hi."""
 
-    lo: float = Field(10.0, gt=0, le=200, description="lower bound of l [mm], (0, 200]")
-    hi: float = Field(15.0, gt=0, le=200, description="upper bound of l [mm], (0, 200]")
+    lo: float = Field(10.0, gt=0, le=200, description="lower bound of l", json_schema_extra={"unit": "mm"})
+    hi: float = Field(15.0, gt=0, le=200, description="upper bound of l", json_schema_extra={"unit": "mm"})
 
 
 class WallBounds(_Bounds):
-    """Range of the chamber wall thickness t."""
+    """Range of the gene t, the chamber wall thickness: ``{lo, hi}`` or ``[lo, hi]``, lo < hi."""
 
-    lo: float = Field(2.0, gt=0, le=50, description="lower bound of t [mm], (0, 50]")
-    hi: float = Field(6.0, gt=0, le=50, description="upper bound of t [mm], (0, 50]")
+    lo: float = Field(2.0, gt=0, le=50, description="lower bound of t", json_schema_extra={"unit": "mm"})
+    hi: float = Field(6.0, gt=0, le=50, description="upper bound of t", json_schema_extra={"unit": "mm"})
 
 
 class PressureBounds(_Bounds):
-    """Range of the initial pressure Q_i."""
+    """Range of the gene Q_i, the initial pressure: ``{lo, hi}`` or ``[lo, hi]``, lo < hi."""
 
-    lo: float = Field(0.01, ge=0, le=1, description="lower bound of Q_i [MPa], [0, 1]")
-    hi: float = Field(0.2, gt=0, le=1, description="upper bound of Q_i [MPa], (0, 1]")
+    lo: float = Field(0.01, ge=0, le=1, description="lower bound of Q_i", json_schema_extra={"unit": "MPa"})
+    hi: float = Field(0.2, gt=0, le=1, description="upper bound of Q_i", json_schema_extra={"unit": "MPa"})
 
 
 class GenesConfig(StrictModel):
-    """Bounds of the four genes [α, l, t, Q_i] (SPEC §6)."""
+    """Bounds of the four genes [α, l, t, Q_i]."""
 
     alpha: AlphaBounds = AlphaBounds()
     l: ChamberEndBounds = ChamberEndBounds()
@@ -95,11 +100,14 @@ class GenesConfig(StrictModel):
 
 
 class PenaltyConfig(StrictModel):
-    """One preference term C_j κ_j of the dynamic penalty (SPEC §6)."""
+    """One preference term C_j κ_j of the dynamic penalty, κ_j = f1 · d_j (docs/physics.md).
+
+    One term per gene at most.
+    """
 
     gene: GeneName = Field(description="gene the preference applies to")
     prefer: Literal["low", "high"] = Field(description="preferred end of the gene's range")
-    weight: float = Field(ge=0, le=100, description="penalty coefficient C_j [-], [0, 100]")
+    weight: float = Field(ge=0, le=100, description="penalty coefficient C_j", json_schema_extra={"unit": "-"})
 
 
 _DEFAULT_PENALTIES = (
@@ -110,17 +118,24 @@ _DEFAULT_PENALTIES = (
 
 
 class GAConfig(StrictModel):
-    """Selection, variation and elitism of the generational GA."""
+    """Selection, variation and elitism of the generational GA; n_elite < population, tournament ≤ population."""
 
-    population: int = Field(50, ge=2, le=10_000, description="individuals per generation [-], 2..10000")
-    tournament: int = Field(2, ge=1, le=100, description="tournament size of the selection [-], 1..100")
-    cx_prob: float = Field(0.9, ge=0, le=1, description="probability that a pair is crossed (SBX) [-], [0, 1]")
-    mut_prob: float = Field(0.4, ge=0, le=1, description="probability that an offspring is mutated [-], [0, 1]")
-    indpb: float = Field(0.25, ge=0, le=1, description="per-gene mutation probability [-], [0, 1]")
-    eta_cx: float = Field(15.0, ge=0, le=1000, description="SBX distribution index [-], [0, 1000]")
-    eta_mut: float = Field(20.0, ge=0, le=1000, description="polynomial-mutation distribution index [-], [0, 1000]")
-    n_elite: int = Field(2, ge=0, le=1000, description="best individuals copied unchanged [-], 0..1000")
-    hall_of_fame: int = Field(10, ge=1, le=1000, description="best distinct designs remembered [-], 1..1000")
+    population: int = Field(50, ge=2, le=10_000, description="individuals per generation",
+                            json_schema_extra={"unit": "-"})
+    tournament: int = Field(2, ge=1, le=100, description="tournament size of the selection",
+                            json_schema_extra={"unit": "-"})
+    cx_prob: float = Field(0.9, ge=0, le=1, description="probability that a pair is crossed (SBX)",
+                           json_schema_extra={"unit": "-"})
+    mut_prob: float = Field(0.4, ge=0, le=1, description="probability that an offspring is mutated",
+                            json_schema_extra={"unit": "-"})
+    indpb: float = Field(0.25, ge=0, le=1, description="per-gene mutation probability", json_schema_extra={"unit": "-"})
+    eta_cx: float = Field(15.0, ge=0, le=1000, description="SBX distribution index", json_schema_extra={"unit": "-"})
+    eta_mut: float = Field(20.0, ge=0, le=1000, description="polynomial-mutation distribution index",
+                           json_schema_extra={"unit": "-"})
+    n_elite: int = Field(2, ge=0, le=1000, description="best distinct individuals copied unchanged",
+                         json_schema_extra={"unit": "-"})
+    hall_of_fame: int = Field(10, ge=1, le=1000, description="best distinct designs remembered",
+                              json_schema_extra={"unit": "-"})
     init: Literal["lhs", "uniform"] = Field(
         "lhs", description="initial population: Latin hypercube or independent uniform draws"
     )
@@ -135,37 +150,44 @@ class GAConfig(StrictModel):
 
 
 class StoppingConfig(StrictModel):
-    """Stop at whichever rule fires first (SPEC §6)."""
+    """Stop at whichever rule fires first, checked after every generation (docs/physics.md)."""
 
     max_generations: int = Field(
         50, ge=0, le=100_000,
-        description="generations bred after the initial population (generation 0) [-], 0..100000",
+        description="generations bred after the initial population (generation 0)",
+        json_schema_extra={"unit": "generations"},
     )
-    target_fp: float = Field(1e-3, ge=0, le=1e9, description="stop when the best F_p <= this [-], [0, 1e9]")
+    target_fp: float = Field(1e-3, ge=0, le=1e9, description="stop when the best design is feasible and its F_p <= "
+                             "this (units of f1: calibrated strain unless scene.calibration = 1)",
+                             json_schema_extra={"unit": "-"})
     stall_generations: int = Field(
-        20, ge=1, le=100_000, description="window of the stall rule [generations], 1..100000"
+        20, ge=1, le=100_000, description="window N of the stall rule", json_schema_extra={"unit": "generations"}
     )
     stall_tol: float = Field(
         1e-9, ge=0, le=1,
-        description="stop when the mean relative improvement of the best F_p over the window <= this [-], [0, 1]",
+        description="stop when the mean relative improvement of the best F_p over the window <= this",
+        json_schema_extra={"unit": "-"},
     )
 
 
 class ExecutorConfig(StrictModel):
-    """Where evaluations run."""
+    """Where evaluations run; ``scheduler_address`` only with kind ``dask``."""
 
     kind: Literal["serial", "processes", "dask"] = Field("serial", description="evaluation back end")
-    n_workers: int = Field(2, ge=1, le=4096, description="worker processes (processes, dask LocalCluster) [-]")
+    n_workers: int = Field(2, ge=1, le=4096, description="worker processes (processes, dask LocalCluster)",
+                           json_schema_extra={"unit": "-"})
     scheduler_address: str | None = Field(
         None, min_length=1, max_length=500,
-        description="dask scheduler address, e.g. tcp://host:8786; None starts a LocalCluster",
+        description="dask scheduler address, e.g. tcp://host:8786; null starts a LocalCluster",
     )
     dask_processes: bool = Field(True, description="LocalCluster workers are processes (True) or threads (False)")
     threads_per_worker: int = Field(
-        1, ge=1, le=256, description="BLAS/OpenMP threads per worker (OMP/MKL/OPENBLAS_NUM_THREADS) [-]"
+        1, ge=1, le=256, description="BLAS/OpenMP threads per worker (OMP/MKL/OPENBLAS_NUM_THREADS)",
+        json_schema_extra={"unit": "-"},
     )
     timeout_s: float | None = Field(
-        None, gt=0, le=604_800, description="wall-clock limit of one evaluation [s]; None = no limit"
+        None, gt=0, le=604_800, description="wall-clock limit of one evaluation; null = no limit",
+        json_schema_extra={"unit": "s"},
     )
     start_method: Literal["spawn", "forkserver", "fork"] = Field(
         "spawn", description="multiprocessing start method of the 'processes' pool"
@@ -183,32 +205,36 @@ class CacheConfig(StrictModel):
 
     enabled: bool = Field(True, description="reuse outcomes of designs already evaluated")
     decimals: int = Field(
-        6, ge=0, le=15, description="genes are rounded to this many decimals to form the key [-], 0..15"
+        6, ge=0, le=15, description="genes are rounded to this many decimals to form the key",
+        json_schema_extra={"unit": "-"},
     )
     cache_failures: bool = Field(True, description="also reuse failed outcomes (timeouts, errors, ...)")
 
 
 class OptimiserConfig(StrictModel):
-    """The ``optimiser:`` section of a run file (SPEC §6)."""
+    """The ``optimiser:`` section of a run file: genes, penalties, GA, stopping rules, executor and cache."""
 
     SECTION = "optimiser"
     RENAMED = {"delta_max": "trim"}
 
     genes: GenesConfig = GenesConfig()
-    trim: float = Field(5.0, gt=0, le=100, description="trimmed length Δ of the compensated case [mm], (0, 100]")
+    trim: float = Field(5.0, gt=0, le=100, description="length Δ cut off the tip of the compensated (vented) "
+                      "whisker", json_schema_extra={"unit": "mm"})
     penalties: tuple[PenaltyConfig, ...] = Field(
-        _DEFAULT_PENALTIES, max_length=4, description="preference terms C_j κ_j (SPEC §6)"
+        _DEFAULT_PENALTIES, max_length=4, description="preference terms C_j κ_j of the dynamic penalty, one per gene"
     )
     failure_penalty: float = Field(
         1e3, gt=0, le=1e12,
-        description="base F_p of a failed evaluation [-]; a grade by failure kind and violation is added",
+        description="base B of the F_p of a failed evaluation; a grade by failure kind and violation is added",
+        json_schema_extra={"unit": "-"},
     )
     ga: GAConfig = GAConfig()
     stopping: StoppingConfig = StoppingConfig()
     executor: ExecutorConfig = ExecutorConfig()
     cache: CacheConfig = CacheConfig()
     seed: int | None = Field(
-        None, ge=0, le=2**32 - 1, description="GA seed [-]; None = the run file's top-level seed"
+        None, ge=0, le=2**32 - 1, description="GA seed; null = the run file's top-level seed",
+        json_schema_extra={"unit": "-"},
     )
 
     @field_validator("penalties")
