@@ -68,7 +68,7 @@ def classify_exception(exc: BaseException) -> str:
     ``invalid_geometry``, SolveFailed -> ``solve_failed``, meshing -> ``mesh_failed``,
     anything else -> ``error``.
     """
-    from fem.stepping import SolveFailed
+    from fem.newton import SolveFailed
     from geometry.design import InvalidDesignError
     from whisker_opt.experiment.evaluator import _is_mesh_error
 

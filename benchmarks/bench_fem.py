@@ -35,7 +35,8 @@ from fem.material import NeoHookean
 from fem.meshgen import box_mesh
 from fem.problem import Dirichlet, Problem
 from fem.state import State
-from fem.stepping import SolveOptions, solve_path
+from fem.loadpath import solve_path
+from fem.newton import SolveOptions
 
 C10 = 0.14
 D1 = 2.0 / (10 * 2 * C10)

@@ -30,7 +30,7 @@ import numpy as np
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
 from fem.meshgen import box_mesh  # noqa: E402
-from fem.stepping import SolveFailed, SolveOptions  # noqa: E402
+from fem.newton import SolveFailed, SolveOptions  # noqa: E402
 from tests.test_fem_cantilever import cantilever, elastica  # noqa: E402
 from tests.test_fem_cook import G, LAME, U_REF, cook_displacement, d1_for  # noqa: E402
 from tests.test_fem_tube import A, inflate, tube_problem  # noqa: E402

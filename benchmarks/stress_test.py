@@ -202,7 +202,7 @@ def run_case(case: Case, preset: str = "default", timeout_s: float | None = 600.
         Fidelity preset ('coarse' | 'default' | 'fine').
     timeout_s : float or None
         Wall-clock limit (SIGALRM; main thread of the process only).
-    solve_options : fem.stepping.SolveOptions, optional
+    solve_options : fem.newton.SolveOptions, optional
         Replaces the preset's (e.g. to provoke a failure in a test).
 
     Returns
@@ -210,7 +210,7 @@ def run_case(case: Case, preset: str = "default", timeout_s: float | None = 600.
     dict
         The fields of :data:`ROW_FIELDS`.
     """
-    from fem.stepping import SolveFailed
+    from fem.newton import SolveFailed
     from whisker_opt.optimise.executors import _call_with_alarm, _EvalTimeout
     from whisker_opt.experiment.scene import run_scene
 

@@ -313,7 +313,8 @@ def ccx_point() -> dict | None:
     from peers.calculix import CcxCase, ccx_available, run_ccx
     from geometry.mesh import build_mesh
     from whisker_opt.experiment.gauge import GaugeReader
-    from whisker_opt.experiment.scene import locate_gauge, run_scene
+    from whisker_opt.experiment.gauge import locate_gauge
+    from whisker_opt.experiment.scene import run_scene
 
     if not ccx_available():
         print("ccx not on PATH: CalculiX point skipped")

@@ -49,6 +49,29 @@ class InvalidDesignError(ValueError):
         super().__init__("invalid whisker design: " + "; ".join(violations))
 
 
+def parameter(default, unit: str, doc: str, **bounds: float):
+    """A design parameter a user sets: its default, unit, meaning and allowed range, declared once.
+
+    The ``design`` section of a run file (:mod:`whisker_opt.config.model`) is generated from
+    the fields declared with it, and the configuration reference from that section.
+
+    Parameters
+    ----------
+    default : float or int
+    unit : str
+    doc : str
+        One line: what the parameter is.
+    **bounds : float
+        ``gt``, ``ge``, ``lt``, ``le``: the allowed range.
+    """
+    return dataclasses.field(default=default, metadata={"unit": unit, "doc": doc, "bounds": dict(bounds)})
+
+
+def user_parameters() -> tuple:
+    """The :class:`WhiskerDesign` fields declared with :func:`parameter`, in declaration order."""
+    return tuple(f for f in dataclasses.fields(WhiskerDesign) if "unit" in f.metadata)
+
+
 @dataclass(frozen=True)
 class WhiskerDesign:
     """Frozen parameter set of one whisker (mm, degrees, MPa).
@@ -91,21 +114,23 @@ class WhiskerDesign:
         ``length - l >= tip_clearance``: the cut must stay well clear of the chamber.
     """
 
-    D: float = 18.0
-    L: float = 70.0
-    alpha: float = 2.862
-    c: float = 2.0
-    l: float = 15.0  # noqa: E741  (the thesis' symbol)
-    t: float = 3.0
-    x_ss: float = 6.0
-    e: float = 2.0
+    D: float = parameter(18.0, "mm", "base outer diameter at x = 0", gt=0, le=100)
+    L: float = parameter(70.0, "mm", "intact whisker length", gt=0, le=500)
+    alpha: float = parameter(2.862, "deg", "cone half-angle α; outer radius r_o(x) = D/2 − x tan α", ge=0, lt=45)
+    c: float = parameter(2.0, "mm", "cap thickness; the chamber starts at x = c", gt=0, le=50)
+    l: float = parameter(15.0, "mm", "x where the chamber ends", gt=0, le=200)  # noqa: E741  (the thesis' symbol)
+    t: float = parameter(3.0, "mm", "chamber wall thickness (radial)", gt=0, le=50)
+    x_ss: float = parameter(6.0, "mm", "gauge start, measured from the base", ge=0, le=200)
+    e: float = parameter(2.0, "mm", "gauge grid length (axial)", gt=0, le=50)
     trim: float = 0.0
-    fibre_radius_frac: float = 0.5
-    fibre_pitch: float = 3.0
-    fibre_diameter: float = 0.38
-    n_fibres: int = 2
-    fibre_E: float = 31067.0
-    fibre_nu: float = 0.36
+    fibre_radius_frac: float = parameter(0.5, "-", "fibre radius inside the wall: 0 = cavity, 1 = outer surface",
+                                         ge=0, le=1)
+    fibre_pitch: float = parameter(3.0, "mm", "helix pitch", gt=0, le=100)
+    fibre_diameter: float = parameter(0.38, "mm", "fibre diameter", gt=0, le=5)
+    n_fibres: int = parameter(2, "-", "number of helices, evenly rotated", ge=0, le=8)
+    fibre_E: float = parameter(31067.0, "MPa", "fibre Young's modulus", gt=0, le=1e6)
+    fibre_nu: float = parameter(0.36, "-", "fibre Poisson ratio (recorded; a truss has no lateral strain, so the "
+                                "solve does not use it)", ge=0, lt=0.5)
     gauge_half_angle_deg: float = 20.0
     tip_clearance: float = 5.0
 

@@ -14,7 +14,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 
 import stress_test  # noqa: E402
 import time_vs_error  # noqa: E402
-from fem.stepping import SolveOptions  # noqa: E402
+from fem.newton import SolveOptions  # noqa: E402
 
 
 def test_case_list_covers_box_corners_and_edge_midpoints():

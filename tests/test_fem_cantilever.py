@@ -20,13 +20,14 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
+from fem.loadpath import solve_path
 from fem.loads import LoadState
 from fem.material import NeoHookean
 from fem.mesh import boundary_faces
 from fem.meshgen import box_mesh
+from fem.newton import SolveOptions
 from fem.problem import DeadTraction, Dirichlet, Problem
 from fem.state import State
-from fem.stepping import SolveOptions, solve_path
 
 TOL = 0.02  # issue 3
 

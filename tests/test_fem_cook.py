@@ -18,13 +18,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from fem.loadpath import solve_path
 from fem.loads import LoadState
 from fem.material import NeoHookean
 from fem.mesh import TetMesh, boundary_faces
 from fem.meshgen import box_mesh, map_mesh
+from fem.newton import SolveOptions
 from fem.problem import DeadTraction, Dirichlet, Problem
 from fem.state import State
-from fem.stepping import SolveOptions, solve_path
 
 U_REF = 16.4326  # VERIFICATION.md (FinEALE)
 G = 0.375

@@ -19,12 +19,12 @@ import numpy as np
 import pytest
 
 from fem.assembly import Assembler
+from fem.loadpath import solve_path
 from fem.loads import LoadState
 from fem.material import NeoHookean
 from fem.meshgen import box_mesh
 from fem.problem import Dirichlet, EmbeddedTrusses, Problem
 from fem.state import State
-from fem.stepping import solve_path
 from fem.truss import TrussKernel
 from tests.test_fem_tube import A, B, tube_pressure, tube_problem
 

@@ -24,13 +24,13 @@ import pytest
 from scipy.optimize import brentq
 
 from fem.assembly import Assembler
+from fem.loadpath import solve_path
 from fem.loads import LoadState
 from fem.material import NeoHookean
 from fem.mesh import TetMesh
 from fem.meshgen import box_mesh
 from fem.problem import Dirichlet, Problem
 from fem.state import State
-from fem.stepping import solve_path
 
 TOL = 1e-8  # issue 3: patch-test stresses, relative
 C10 = 0.5

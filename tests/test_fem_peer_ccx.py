@@ -17,13 +17,13 @@ import numpy as np
 import pytest
 
 from peers.calculix import CcxCase, ccx_available, element_faces, run_ccx
+from fem.loadpath import solve_path
 from fem.loads import LoadState
 from fem.material import NeoHookean
 from fem.mesh import boundary_faces
 from fem.meshgen import box_mesh
 from fem.problem import Dirichlet, FollowerPressure, Problem
 from fem.state import State
-from fem.stepping import solve_path
 
 needs_ccx = pytest.mark.skipif(not ccx_available(), reason="CalculiX executable 'ccx' not on PATH")
 

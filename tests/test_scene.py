@@ -106,7 +106,7 @@ def test_memo_returns_identical_result(runner):
 def test_contact_band_refuses_an_empty_band():
     """A band between node stations names its position and the nearest node."""
     from geometry.mesh import build_mesh
-    from whisker_opt.experiment.scene import contact_band
+    from whisker_opt.experiment.contact import contact_band
 
     d = WhiskerDesign()
     wm = build_mesh(d, COARSE)
@@ -124,7 +124,7 @@ def test_contact_band_refuses_an_empty_band():
 def test_off_tip_contact_ring_is_placed_at_a_LQ(runner):
     """a = 0.5, Q = 0.1 MPa: the ring at 0.5 L moves to 0.5 L + Δl, 0.9 mm past a·L_Q; the
     scene meshes again with the ring where the pressurised contact is (within CONTACT_TOL)."""
-    from whisker_opt.experiment.scene import CONTACT_TOL
+    from whisker_opt.experiment.contact import CONTACT_TOL
 
     res = runner.run(spec(Q=0.1, contact_ratio=0.5, deflection=1.0, n_deflection_steps=1), keep_states=True)
     print("contact_x", res.contact_x, "a L_Q", 0.5 * res.length_q, res.timings)
@@ -153,7 +153,7 @@ def test_reference_contact_reads_monotonically_more_with_pressure(runner):
     """contact_at='reference' (pusher at x = a·L while the whisker extends), a = 0.5: the
     reading rises on the whole of [0, 0.2] MPa (measured +7.9 %, +10.1 %), as the thesis
     found at every contact position; with the contact at a·L_Q it peaks near 0.1 MPa."""
-    from whisker_opt.experiment.scene import CONTACT_TOL
+    from whisker_opt.experiment.contact import CONTACT_TOL
 
     res = [runner.run(spec(Q=Q, contact_ratio=0.5, contact_at="reference", deflection=1.0, n_deflection_steps=1))
            for Q in (0.0, 0.1, 0.2)]

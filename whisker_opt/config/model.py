@@ -19,12 +19,14 @@ A YAML file has these top-level sections, all optional::
 
 from __future__ import annotations
 
+import typing
 from pathlib import Path
 from typing import Any, Literal
 
 import yaml
-from pydantic import Field, ValidationError, model_validator
+from pydantic import Field, ValidationError, create_model
 
+from geometry.design import WhiskerDesign, user_parameters
 from whisker_opt.config.base import StrictModel
 from whisker_opt.config.optimiser import OptimiserConfig
 from whisker_opt.experiment.fidelity import PRESET_NAMES
@@ -34,35 +36,29 @@ class ConfigError(ValueError):
     """A configuration file that cannot be used; the message names the key and the problem."""
 
 
-class DesignConfig(StrictModel):
-    """Whisker geometry (a truncated cone along +x with a chamber from x = c to x = l) and fibre winding."""
-
+class _DesignSection(StrictModel):
     SECTION = "design"
     RENAMED = {"alpha_deg": "alpha"}
 
-    D: float = Field(18.0, gt=0, le=100, description="base outer diameter at x = 0", json_schema_extra={"unit": "mm"})
-    L: float = Field(70.0, gt=0, le=500, description="intact whisker length", json_schema_extra={"unit": "mm"})
-    alpha: float = Field(2.862, ge=0, lt=45, description="cone half-angle α; outer radius r_o(x) = D/2 − x tan α",
-                         json_schema_extra={"unit": "deg"})
-    c: float = Field(2.0, gt=0, le=50, description="cap thickness; the chamber starts at x = c",
-                     json_schema_extra={"unit": "mm"})
-    l: float = Field(15.0, gt=0, le=200, description="x where the chamber ends", json_schema_extra={"unit": "mm"})
-    t: float = Field(3.0, gt=0, le=50, description="chamber wall thickness (radial)", json_schema_extra={"unit": "mm"})
-    x_ss: float = Field(6.0, ge=0, le=200, description="gauge start, measured from the base",
-                        json_schema_extra={"unit": "mm"})
-    e: float = Field(2.0, gt=0, le=50, description="gauge grid length (axial)", json_schema_extra={"unit": "mm"})
-    fibre_radius_frac: float = Field(
-        0.5, ge=0, le=1, description="fibre radius inside the wall: 0 = cavity, 1 = outer surface",
-        json_schema_extra={"unit": "-"},
-    )
-    fibre_pitch: float = Field(3.0, gt=0, le=100, description="helix pitch", json_schema_extra={"unit": "mm"})
-    fibre_diameter: float = Field(0.38, gt=0, le=5, description="fibre diameter", json_schema_extra={"unit": "mm"})
-    n_fibres: int = Field(2, ge=0, le=8, description="number of helices, evenly rotated",
-                          json_schema_extra={"unit": "-"})
-    fibre_E: float = Field(31067.0, gt=0, le=1e6, description="fibre Young's modulus",
-                           json_schema_extra={"unit": "MPa"})
-    fibre_nu: float = Field(0.36, ge=0, lt=0.5, description="fibre Poisson ratio (recorded; a truss has no lateral "
-                            "strain, so the solve does not use it)", json_schema_extra={"unit": "-"})
+
+def _design_fields() -> dict[str, Any]:
+    """``(type, Field)`` of every user parameter of :class:`geometry.design.WhiskerDesign`."""
+    hints = typing.get_type_hints(WhiskerDesign)
+    out = {}
+    for f in user_parameters():
+        m = f.metadata
+        out[f.name] = (hints[f.name], Field(f.default, description=m["doc"], json_schema_extra={"unit": m["unit"]},
+                                            **m["bounds"]))
+    return out
+
+
+#: The ``design`` section: generated from the parameters that :class:`geometry.design.WhiskerDesign`
+#: declares (defaults, units, ranges and meanings live there alone).
+DesignConfig = create_model(
+    "DesignConfig", __base__=_DesignSection, __module__=__name__,
+    __doc__="Whisker geometry (a truncated cone along +x with a chamber from x = c to x = l) and fibre winding.",
+    **_design_fields(),
+)
 
 
 class MaterialConfig(StrictModel):

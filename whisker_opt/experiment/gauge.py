@@ -1,4 +1,4 @@
-"""The strain gauge: where it sits on the whisker and how it is read (SPEC §5, step 4).
+"""The strain gauge: where it sits on the whisker and in its mesh, and how it is read.
 
 Two readings are offered.
 
@@ -15,6 +15,9 @@ Two readings are offered.
     The axial component of the Eulerian logarithmic strain ``ln V = ½ ln(F Fᵀ)`` at the
     centroid of the element under the gauge centre, relative to onset, times ξ. That is
     what Abaqus reports as LE11 for the element under the gauge.
+
+The gauge's host elements depend on the mesh only: they are located once per mesh
+(:func:`locate_gauge`) and travel with it as a :class:`GaugedMesh`.
 """
 
 from __future__ import annotations
@@ -24,6 +27,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from fem.query import deformation_gradient_at
+from geometry.design import WhiskerDesign
+from geometry.locate import PointLocator
+from geometry.mesh import WhiskerMesh
 
 
 @dataclass(frozen=True)
@@ -70,6 +76,47 @@ def gauge_points(x_ss: float, e: float, r_outer, alpha: float, n: int = 4) -> tu
     ta = np.tan(np.radians(alpha))
     tangent = np.array([1.0, -ta, 0.0]) / np.hypot(1.0, ta)
     return pts, w / w.sum(), tangent
+
+
+def locate_gauge(wm: WhiskerMesh, design: WhiskerDesign, n: int = 16) -> GaugeGeometry:
+    """Host elements and local coordinates of the gauge's Gauss points and its centre.
+
+    ``n`` Gauss–Legendre points along the gauge: the axial strain is piecewise
+    polynomial and discontinuous across the elements the gauge crosses, so few points
+    integrate it poorly. Measured on the default design (Q = 0, δ = 5 mm, swept meshes
+    of 1128–9648 elements): 4 points differ from 64 by up to 0.46 % of the reading,
+    16 points by at most 0.05 %.
+    """
+    pts, w, tangent = gauge_points(design.x_ss, design.e, design.r_outer, design.alpha, n)
+    centre = np.array([[design.x_ss + 0.5 * design.e, design.r_outer(design.x_ss + 0.5 * design.e), 0.0]])
+    # Points on the exact cone lie up to the P2 surface-interpolation error outside the
+    # mesh; a host whose local coordinates are slightly outside (barycentric >= -0.05)
+    # with an exact inverse map is the right host (the field extends smoothly).
+    loc = PointLocator(wm.mesh.points, wm.mesh.cells).locate(np.vstack([pts, centre]), tol=0.05)
+    if not np.all(loc.inside) or np.any(loc.residual > 1e-8 * (1.0 + design.D)):
+        raise ValueError(f"gauge points not located in the mesh (inside {loc.inside}, residuals {loc.residual})")
+    elems, xi = loc.host_elements, loc.local_coords
+    return GaugeGeometry(elems[:n], xi[:n], w, tangent, int(elems[n]))
+
+
+@dataclass(frozen=True, eq=False)
+class GaugedMesh:
+    """A whisker mesh with its gauge located in it: the pair a scene runs on.
+
+    Attributes
+    ----------
+    wm : WhiskerMesh
+    gauge : GaugeGeometry
+        :func:`locate_gauge` of ``wm`` for the design it was built from.
+    """
+
+    wm: WhiskerMesh
+    gauge: GaugeGeometry
+
+    @classmethod
+    def locate(cls, wm: WhiskerMesh, design: WhiskerDesign) -> GaugedMesh:
+        """Pair ``wm`` with the gauge of ``design`` located in it."""
+        return cls(wm, locate_gauge(wm, design))
 
 
 def line_stretch(mesh, u: np.ndarray, gauge: GaugeGeometry) -> np.ndarray:

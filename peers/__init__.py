@@ -1,0 +1,1 @@
+"""Independent codes the solver is checked against."""
