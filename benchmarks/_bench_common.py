@@ -19,7 +19,7 @@ from whisker_opt.experiment.fidelity import PRESETS
 from whisker_opt.config.optimiser import GenesConfig
 from whisker_opt import genes
 from whisker_opt.genes import GENE_NAMES
-from whisker_opt.experiment.scene import SceneSpec
+from whisker_opt.experiment.spec import SceneSpec
 
 #: GA box of the genes (SPEC §6), ``{name: (lo, hi)}`` in :data:`GENE_NAMES` order.
 GENE_BOX: dict[str, tuple[float, float]] = dict(zip(GENE_NAMES, GenesConfig().bounds()))
@@ -41,7 +41,7 @@ def design_from_genes(alpha: float, l: float, t: float, trim: float = 0.0,  # no
 def preset_spec(design: WhiskerDesign, preset: str, **overrides) -> SceneSpec:
     """SceneSpec of a fidelity preset: its mesh sizing, step counts, template/swept mesh ('auto').
 
-    ``overrides`` are any other :class:`whisker_opt.experiment.scene.SceneSpec` fields (Q, d1, ...).
+    ``overrides`` are any other :class:`whisker_opt.experiment.spec.SceneSpec` fields (Q, d1, ...).
     """
     p = PRESETS[preset]
     kw = dict(sizing=p.sizing, n_pressure_steps=p.n_pressure_steps,

@@ -26,7 +26,8 @@ sys.path.insert(0, ".")
 from geometry.design import WhiskerDesign
 from geometry.mesh import MeshSizing, build_mesh
 from whisker_opt.experiment.fidelity import PRESETS
-from whisker_opt.experiment.scene import SceneSpec, run_scene
+from whisker_opt.experiment.scene import run_scene
+from whisker_opt.experiment.spec import SceneSpec
 p = PRESETS["default"]
 def spec(d, Q):
     return SceneSpec(d, Q=Q, sizing=PRESETS["default"].sizing, n_pressure_steps=p.n_pressure_steps,

@@ -25,7 +25,8 @@ import numpy as np
 from geometry.design import WhiskerDesign
 from geometry.mesh import MeshSizing, build_mesh
 from whisker_opt.experiment.fidelity import PRESETS
-from whisker_opt.experiment.scene import SceneSpec, run_scene
+from whisker_opt.experiment.scene import run_scene
+from whisker_opt.experiment.spec import SceneSpec
 
 
 def evaluation(preset: str, design: WhiskerDesign):

@@ -49,27 +49,34 @@ class InvalidDesignError(ValueError):
         super().__init__("invalid whisker design: " + "; ".join(violations))
 
 
-def parameter(default, unit: str, doc: str, **bounds: float):
-    """A design parameter a user sets: its default, unit, meaning and allowed range, declared once.
+def parameter(default, unit: str, doc: str, choices: tuple | None = None, key: str | None = None,
+              **bounds: float):
+    """A dataclass field a user sets: its default, unit, meaning and allowed values, declared once.
 
-    The ``design`` section of a run file (:mod:`whisker_opt.config.model`) is generated from
-    the fields declared with it, and the configuration reference from that section.
+    The sections of a run file (:mod:`whisker_opt.config.model`) are generated from the fields
+    declared with it (:func:`user_parameters`), and the configuration reference from those.
 
     Parameters
     ----------
-    default : float or int
+    default : float, int or str
     unit : str
+        ``"-"`` for a pure number, ``""`` for a word.
     doc : str
         One line: what the parameter is.
+    choices : tuple of str, optional
+        The allowed words of a text parameter.
+    key : str, optional
+        The run-file key, when it differs from the field name.
     **bounds : float
-        ``gt``, ``ge``, ``lt``, ``le``: the allowed range.
+        ``gt``, ``ge``, ``lt``, ``le``: the allowed range of a number.
     """
-    return dataclasses.field(default=default, metadata={"unit": unit, "doc": doc, "bounds": dict(bounds)})
+    meta = {"unit": unit, "doc": doc, "bounds": dict(bounds), "choices": choices, "key": key}
+    return dataclasses.field(default=default, metadata=meta)
 
 
-def user_parameters() -> tuple:
-    """The :class:`WhiskerDesign` fields declared with :func:`parameter`, in declaration order."""
-    return tuple(f for f in dataclasses.fields(WhiskerDesign) if "unit" in f.metadata)
+def user_parameters(cls) -> tuple:
+    """The fields of dataclass ``cls`` declared with :func:`parameter`, in declaration order."""
+    return tuple(f for f in dataclasses.fields(cls) if "unit" in f.metadata)
 
 
 @dataclass(frozen=True)

@@ -11,7 +11,8 @@ from geometry.design import WhiskerDesign
 from geometry.mesh import MeshSizing
 from whisker_opt.experiment.fidelity import PRESETS
 from whisker_opt.analysis.beam import BeamModel, sensitivity
-from whisker_opt.experiment.scene import SceneRunner, SceneSpec, run_scene
+from whisker_opt.experiment.scene import SceneRunner, run_scene
+from whisker_opt.experiment.spec import SceneSpec
 
 pytestmark = pytest.mark.slow
 

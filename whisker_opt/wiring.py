@@ -52,9 +52,9 @@ def design_from_config(cfg: WhiskerConfig, trim: float = 0.0, validate: bool = T
 
 
 def scene_spec(cfg: WhiskerConfig, design, Q: float):
-    """The :class:`whisker_opt.experiment.scene.SceneSpec` of a config for one design and pressure."""
+    """The :class:`whisker_opt.experiment.spec.SceneSpec` of a config for one design and pressure."""
     from whisker_opt.experiment.fidelity import resolve
-    from whisker_opt.experiment.scene import SceneSpec
+    from whisker_opt.experiment.spec import SceneSpec
 
     preset = resolve(cfg.fidelity)
     return SceneSpec(
@@ -105,7 +105,7 @@ def design_scene_specs(cfg: WhiskerConfig, genes: Mapping[str, float], validate:
 
     Returns
     -------
-    dict of str -> whisker_opt.experiment.scene.SceneSpec
+    dict of str -> whisker_opt.experiment.spec.SceneSpec
 
     Raises
     ------

@@ -19,7 +19,6 @@ A YAML file has these top-level sections, all optional::
 
 from __future__ import annotations
 
-import typing
 from pathlib import Path
 from typing import Any, Literal
 
@@ -30,6 +29,7 @@ from geometry.design import WhiskerDesign, user_parameters
 from whisker_opt.config.base import StrictModel
 from whisker_opt.config.optimiser import OptimiserConfig
 from whisker_opt.experiment.fidelity import PRESET_NAMES
+from whisker_opt.experiment.spec import SceneSpec
 
 
 class ConfigError(ValueError):
@@ -41,14 +41,19 @@ class _DesignSection(StrictModel):
     RENAMED = {"alpha_deg": "alpha"}
 
 
-def _design_fields() -> dict[str, Any]:
-    """``(type, Field)`` of every user parameter of :class:`geometry.design.WhiskerDesign`."""
-    hints = typing.get_type_hints(WhiskerDesign)
+def declared_fields(cls, names: tuple[str, ...] | None = None) -> dict[str, Any]:
+    """``{key: (type, Field)}`` of the user parameters a dataclass declares with
+    :func:`geometry.design.parameter` (all of them, or ``names`` in that order), for
+    :func:`pydantic.create_model`."""
+    scalar = {"float": float, "int": int, "str": str, "bool": bool}
+    params = {f.name: f for f in user_parameters(cls)}
     out = {}
-    for f in user_parameters():
+    for name in (tuple(params) if names is None else names):
+        f = params[name]
         m = f.metadata
-        out[f.name] = (hints[f.name], Field(f.default, description=m["doc"], json_schema_extra={"unit": m["unit"]},
-                                            **m["bounds"]))
+        kind = Literal[m["choices"]] if m["choices"] else scalar.get(f.type, f.type)
+        extra = {"json_schema_extra": {"unit": m["unit"]}} if m["unit"] else {}
+        out[m["key"] or f.name] = (kind, Field(f.default, description=m["doc"], **extra, **m["bounds"]))
     return out
 
 
@@ -57,56 +62,51 @@ def _design_fields() -> dict[str, Any]:
 DesignConfig = create_model(
     "DesignConfig", __base__=_DesignSection, __module__=__name__,
     __doc__="Whisker geometry (a truncated cone along +x with a chamber from x = c to x = l) and fibre winding.",
-    **_design_fields(),
+    **declared_fields(WhiskerDesign),
 )
 
 
-class MaterialConfig(StrictModel):
-    """Neo-Hookean rubber, W = C10 (Ī1 − 3) + (1/D1)(J − 1)²; D1 = 0 is fully incompressible."""
+#: The ``material`` section: the rubber constants :class:`whisker_opt.experiment.spec.SceneSpec` declares.
+MaterialConfig = create_model(
+    "MaterialConfig", __base__=StrictModel, __module__=__name__,
+    __doc__="Neo-Hookean rubber, W = C10 (Ī1 − 3) + (1/D1)(J − 1)²; D1 = 0 is fully incompressible.",
+    **declared_fields(SceneSpec, ("c10", "d1")),
+)
 
-    C10: float = Field(0.14, gt=0, le=100, description="neo-Hookean C10 = μ/2", json_schema_extra={"unit": "MPa"})
-    D1: float = Field(0.0, ge=0, le=100, description="compressibility D1 = 2/K; 0 = incompressible",
-                      json_schema_extra={"unit": "1/MPa"})
 
-
-class SceneConfig(StrictModel):
-    """The simulated experiment: pressurise, then deflect, read the gauge (docs/physics.md)."""
-
+class _SceneSection(StrictModel):
     SECTION = "scene"
     RENAMED = {"Q": "Q_i", "delta_max": "deflection"}
 
-    Q_i: float = Field(
+
+_SCENE_OWN: dict[str, Any] = {
+    "Q_i": (float, Field(
         0.0, ge=0, le=1.0,
         description="initial (intact) chamber pressure Q_i of `simulate` and `compensate`; the pressure of the "
         "single scene when `pair` is false (the GA takes Q_i from its genes)",
         json_schema_extra={"unit": "MPa"},
-    )
-    trim: float = Field(0.0, ge=0, le=100, description="length cut off the tip Δ for `simulate` and `mesh` (the GA "
-                        "uses optimiser.trim)", json_schema_extra={"unit": "mm"})
-    contact_ratio: float = Field(1.0, gt=0, le=1, description="contact ratio a: the contact is at x = a·L_Q; "
-                                 "1 = the tip", json_schema_extra={"unit": "-"})
-    contact_at: Literal["pressurised", "reference"] = Field(
-        "pressurised",
-        description="'pressurised': the contact at x = a·L_Q, of the pressurised length; 'reference': at "
-        "x = a·(L − Δ), the pusher staying where it stood before the whisker extended",
-    )
-    deflection: float = Field(5.0, gt=0, le=30, description="largest deflection δ_max of the contact",
-                              json_schema_extra={"unit": "mm"})
-    delta_step: float = Field(0.01, gt=0, le=1, description="deflection sampling Δδ of the curves and of f1",
-                              json_schema_extra={"unit": "mm"})
-    calibration: float = Field(3.9, gt=0, le=100, description="gauge calibration factor ξ: every reading (hence f1 "
-                               "and F_p) is the simulated strain times ξ", json_schema_extra={"unit": "-"})
-    band_width: float = Field(
-        1.0, gt=0, le=10, description="axial width of the contact band of nodes (off-tip contact)",
-        json_schema_extra={"unit": "mm"},
-    )
-    gauge_variant: Literal["line", "centroid"] = Field(
+    )),
+    "trim": (float, Field(0.0, ge=0, le=100, description="length cut off the tip Δ for `simulate` and `mesh` (the GA "
+                          "uses optimiser.trim)", json_schema_extra={"unit": "mm"})),
+    "delta_step": (float, Field(0.01, gt=0, le=1, description="deflection sampling Δδ of the curves and of f1",
+                                json_schema_extra={"unit": "mm"})),
+    "gauge_variant": (Literal["line", "centroid"], Field(
         "line", description="'line': mean log strain along the gauge line; 'centroid': the thesis' axial log "
-        "strain at the centroid of the element under the gauge"
-    )
-    pair: bool = Field(
-        True, description="`simulate` runs the intact (at Q_i) / trimmed (vented) pair instead of one scene"
-    )
+        "strain at the centroid of the element under the gauge")),
+    "pair": (bool, Field(
+        True, description="`simulate` runs the intact (at Q_i) / trimmed (vented) pair instead of one scene")),
+}
+_SCENE_SHARED = declared_fields(SceneSpec, ("contact_ratio", "contact_at", "deflection", "calibration", "band_width"))
+_SCENE_ORDER = ("Q_i", "trim", "contact_ratio", "contact_at", "deflection", "delta_step", "calibration", "band_width",
+                "gauge_variant", "pair")
+
+#: The ``scene`` section: its own keys plus the experiment settings :class:`whisker_opt.experiment.spec.SceneSpec`
+#: declares (contact, deflection, gauge factor, contact band).
+SceneConfig = create_model(
+    "SceneConfig", __base__=_SceneSection, __module__=__name__,
+    __doc__="The simulated experiment: pressurise, then deflect, read the gauge (docs/physics.md).",
+    **{k: {**_SCENE_OWN, **_SCENE_SHARED}[k] for k in _SCENE_ORDER},
+)
 
 
 class FidelityConfig(StrictModel):

@@ -28,7 +28,7 @@ class SceneEvaluator:
 
     Parameters
     ----------
-    base_spec : whisker_opt.experiment.scene.SceneSpec
+    base_spec : whisker_opt.experiment.spec.SceneSpec
         Scene settings (material, contact, fidelity); its design supplies every
         non-gene geometric parameter.
     trim : float

@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.interpolate import CubicSpline
@@ -41,89 +41,15 @@ from scipy.interpolate import CubicSpline
 from fem.loadpath import solve_path
 from fem.loads import LoadState
 from fem.material import NeoHookean
-from fem.newton import SolveOptions
 from fem.problem import Dirichlet, EmbeddedTrusses, FollowerPressure, Problem
 from fem.state import State
 from geometry.design import WhiskerDesign
 from geometry.mesh import MeshSizing, WhiskerMesh, build_mesh
 from whisker_opt.experiment.contact import Contact, contact_band, place_contact_ring
 from whisker_opt.experiment.gauge import GaugedMesh, GaugeReader
+from whisker_opt.experiment.spec import SceneSpec
 
 logger = logging.getLogger(__name__)
-
-
-@dataclass(frozen=True)
-class SceneSpec:
-    """Everything that determines one scene's result (hashable, so it keys the memo).
-
-    Attributes
-    ----------
-    design : WhiskerDesign
-        Geometry, including the trim (the whisker's length is ``design.length``).
-    Q : float
-        Chamber pressure [MPa], >= 0.
-    contact_ratio : float
-        a in (0, 1]; the contact is at x = a·L_Q.
-    contact_at : {'pressurised', 'reference'}
-        'pressurised' (SPEC §5): x = a·L_Q, the contact moves out with the extension
-        (a = 1 is the tip face). 'reference': x = a·L, the pusher stays where it stood
-        before pressurisation (for Q > 0 and a = 1 that is a section short of the tip).
-        The two differ in the pressure trend of off-tip readings; see
-        benchmarks/README.md (default design, a = 0.5: ε(1 mm) at 0.2 MPa +0.1 % of the
-        vented value with 'pressurised', +10 % with 'reference').
-    deflection : float
-        Final deflection [mm].
-    c10, d1 : float
-        Neo-Hookean constants [MPa], [1/MPa].
-    calibration : float
-        Gauge factor ξ [-].
-    band_width : float
-        Axial width of the contact band [mm].
-    n_pressure_steps, n_deflection_steps : int
-        Solved (reported) load levels in each step; the solver may substep between them.
-    sizing : MeshSizing
-    mesh_method : str
-        'auto' | 'fresh' | 'template'.
-    solve_options : SolveOptions
-    formulation : {'mixed', 'displacement'}
-        :class:`fem.problem.Problem` formulation: 'mixed' (P2/P0 u–p, locking-free, the
-        default) or 'displacement' (C3D10-like, needs D1 > 0; for cross-checks with
-        CalculiX; it locks on coarse meshes: +12 % on ε(5 mm) of the default preset mesh
-        at K/μ = 1000, benchmarks/README.md).
-    """
-
-    design: WhiskerDesign
-    Q: float = 0.0
-    contact_ratio: float = 1.0
-    contact_at: str = "pressurised"
-    deflection: float = 5.0
-    c10: float = 0.14
-    d1: float = 0.0
-    calibration: float = 3.9
-    band_width: float = 1.0
-    n_pressure_steps: int = 2
-    n_deflection_steps: int = 5
-    sizing: MeshSizing = field(default_factory=MeshSizing)
-    mesh_method: str = "auto"
-    solve_options: SolveOptions = field(default_factory=lambda: SolveOptions(reuse_tangent=0.3))
-    formulation: str = "mixed"
-
-    def __post_init__(self) -> None:
-        checks = [
-            ("Q", self.Q, self.Q >= 0, ">= 0 MPa"),
-            ("contact_ratio", self.contact_ratio, 0 < self.contact_ratio <= 1, "in (0, 1]"),
-            ("contact_at", self.contact_at, self.contact_at in ("pressurised", "reference"),
-             "'pressurised' or 'reference'"),
-            ("formulation", self.formulation, self.formulation in ("mixed", "displacement"),
-             "'mixed' or 'displacement'"),
-            ("deflection", self.deflection, self.deflection > 0, "> 0 mm"),
-            ("band_width", self.band_width, self.band_width > 0, "> 0 mm"),
-            ("n_pressure_steps", self.n_pressure_steps, self.n_pressure_steps >= 1, ">= 1"),
-            ("n_deflection_steps", self.n_deflection_steps, self.n_deflection_steps >= 1, ">= 1"),
-        ]
-        for name, value, ok, allowed in checks:
-            if not ok:
-                raise ValueError(f"SceneSpec.{name}={value!r}: must be {allowed}")
 
 
 @dataclass(frozen=True)
