@@ -21,7 +21,7 @@ from whisker_opt import genes
 from whisker_opt.genes import GENE_NAMES
 from whisker_opt.experiment.spec import SceneSpec
 
-#: GA box of the genes (SPEC §6), ``{name: (lo, hi)}`` in :data:`GENE_NAMES` order.
+#: GA box of the genes, ``{name: (lo, hi)}`` in :data:`GENE_NAMES` order.
 GENE_BOX: dict[str, tuple[float, float]] = dict(zip(GENE_NAMES, GenesConfig().bounds()))
 
 #: Shear modulus of the default rubber, μ = 2 C10 [MPa].

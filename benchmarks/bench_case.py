@@ -1,4 +1,4 @@
-"""Full reference case benchmark (issue #5): run a case config and print what the run cost.
+"""Full reference case benchmark: run a case config and print what the run cost.
 
 Prints wall time, evaluations, cache hits, failures, generations, the stopping rule that
 fired and the best design with f1 and F_p. Target for ``configs/case1_trim5.yaml`` with the

@@ -1,8 +1,8 @@
-"""Mesh acceptance of issue #2: fresh fTetWild meshes of the box corners, and the fast path.
+"""Mesh acceptance: fresh fTetWild meshes of the box corners, and the fast path.
 
 Part 1 — fresh meshes (``build_mesh(method="fresh")``, the default preset's sizing, which
 the fTetWild path raises to at least 3 wall layers, :func:`geometry.mesh.fresh_sizing`) of
-the default design and the eight corners of the (α, l, t) box of SPEC §6, each at the full
+the default design and the eight corners of the (α, l, t) box of the GA, each at the full
 length L = 70 mm and trimmed to L = 60 mm (18 meshes). Per mesh: elements, time, volume
 error against the closed form (target |e| ≤ 0.5 %), cavity area error (≤ 1 %), smallest
 radius ratio and TET10 Jacobian ratio (no inverted element: > 0; no degenerate one:
@@ -45,7 +45,7 @@ from geometry.design import WhiskerDesign  # noqa: E402
 from geometry.mesh import MeshSizing, build_mesh  # noqa: E402
 from whisker_opt.experiment.fidelity import PRESETS
 
-#: Acceptance limits of issue #2.
+#: Acceptance limits of the meshes.
 MAX_VOLUME_ERROR = 5e-3
 MAX_AREA_ERROR = 1e-2
 MIN_RADIUS_RATIO = 0.01

@@ -1,7 +1,7 @@
 """Scene benchmark: time of one GA evaluation and the gauge error of each fidelity preset.
 
 One evaluation = intact whisker at Q_i = 0.2 MPa + trimmed (Δ = 5 mm) vented, a = 1,
-δ to 5 mm (SPEC §6). For each preset: wall time (median of --repeat runs) with its
+δ to 5 mm. For each preset: wall time (median of --repeat runs) with its
 breakdown, and the gauge reading ε(5 mm) of the intact scene against the Richardson
 extrapolation of the three presets (observed order printed). Also: the curve
 interpolation error (preset's solved increments + cubic spline against 20 solved

@@ -1,8 +1,8 @@
-"""Mesh-convergence tables of the FE solver against exact / published references (issue 3).
+"""Mesh-convergence tables of the FE solver against exact / published references.
 
 Prints three tables (the heavy refinements that the pytest suite leaves out):
 
-1. Thick-walled tube inflation, incompressible, plane strain (shared/VERIFICATION.md): error of the
+1. Thick-walled tube inflation, incompressible, plane strain (exact): error of the
    inner radius stretch λa and of the deformed radius field r(R) = √(R² + a² − A²) at P(λa = 1.5),
    with observed convergence rates (P2/P0: O(h²) expected for displacements).
 2. Cantilever under a dead tip load, D1 = 0, L/h = 10 and 20: Euler–Bernoulli (k = 0.01) and

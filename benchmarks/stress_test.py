@@ -1,9 +1,8 @@
-"""Numerical stability stress test of the whisker scene (issue #7).
+"""Numerical stability stress test of the whisker scene.
 
 Cases (one scene each: mesh, pressurise, deflect, gauge readout)
 -----------------------------------------------------------------
-* **box** — every corner (16) and edge midpoint (32) of the GA box [α, l, t, Q_i]
-  (SPEC §6), each at Δ = 0 and Δ = 10 mm, under two load sets:
+* **box** — every corner (16) and edge midpoint (32) of the GA box [α, l, t, Q_i], each at Δ = 0 and Δ = 10 mm, under two load sets:
 
   - ``thesis``: Q = Q_i, δ to 5 mm, contact at the tip (a = 1), D1 = 0 (incompressible,
     the configured material) — the GA's own scene and the thesis' load range;
@@ -20,7 +19,7 @@ Cases (one scene each: mesh, pressurise, deflect, gauge readout)
   a ∈ {0.5, 0.75, 1}, D1 ∈ {0, 7.14e-3} with equal probability.
 
 A case is *in range* when its genes lie in the GA box, Q ≤ 0.2 MPa, δ_max ≤ 5 mm and
-D1 = 0; *GA scene* when in range and a = 1. The target of issue #7: every in-range
+D1 = 0; *GA scene* when in range and a = 1. The target: every in-range
 case converges at the default preset; no NaN anywhere (every converged case's
 readings are checked finite; a non-finite one is recorded as status ``nan``); every
 failure carries a classified reason (statuses as :mod:`whisker_opt.experiment.evaluator`:
@@ -33,7 +32,7 @@ For a few in-box designs (the default design, then seeded random ones) at Q_i, a
 reading ε(5 mm) recomputed (mesh and all). Reported: the relative change
 (ε₊ − ε₀)/ε₀ (≈ 1e-6 × the gene's elasticity) and the non-smoothness
 |ε₊ − 2ε₀ + ε₋| / |ε₀| — forward minus backward difference, zero for a smooth
-response up to O(1e-12) — against the 1e-4 limit of the issue.
+response up to O(1e-12) — against the 1e-4 limit.
 
 Outputs (``--out``, default ``results/benchmarks/stress/``): ``cases.csv`` (one row
 per case, appended as each finishes, so an interrupted run loses nothing; a rerun with
@@ -316,7 +315,7 @@ def perturbation_designs(n: int, seed: int = 11) -> list[dict]:
 
 # ----------------------------------------------------------------------------- summary
 def summarise(rows: list[dict], pert: list[dict], preset: str, n_cases: int) -> tuple[str, bool]:
-    """Markdown summary and whether the issue's targets hold."""
+    """Markdown summary and whether the targets hold."""
     def truthy(v):
         return str(v) == "True"
 

@@ -1,6 +1,6 @@
-"""Run time against error of the whisker scene (issue #7): what each setting and shortcut buys.
+"""Run time against error of the whisker scene: what each setting and shortcut buys.
 
-One *evaluation* is what the GA pays per design (SPEC §6): the intact whisker at
+One *evaluation* is what the GA pays per design: the intact whisker at
 Q_i = 0.2 MPa and the same design trimmed by 5 mm and vented, contact at the tip, δ to
 5 mm. Its wall time (meshing included) is set against the relative errors of
 

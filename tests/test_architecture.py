@@ -145,3 +145,15 @@ def test_preset_names_are_listed_in_one_place():
     from whisker_opt.experiment.fidelity import PRESET_NAMES, PRESETS
 
     assert PRESET_NAMES == tuple(PRESETS) == ("coarse", "default", "fine")
+
+
+def test_the_project_speaks_of_itself_only():
+    """No pointer to documents outside the repository or to a tracker's numbering."""
+    import subprocess
+
+    files = subprocess.run(["git", "ls-files", "*.py", "*.md", "*.yaml"], cwd=ROOT, capture_output=True, text=True,
+                           check=True).stdout.split()
+    pattern = re.compile("S" + "PEC|" + "shared" + "/|" + "issue" + r" [0-9]")
+    hits = [f"{f}:{i}" for f in files if (ROOT / f).is_file()
+            for i, line in enumerate((ROOT / f).read_text(errors="replace").splitlines(), 1) if pattern.search(line)]
+    assert hits == []

@@ -1,4 +1,4 @@
-"""Smoke tests of the issue-#7 benchmark scripts (benchmarks/stress_test.py, time_vs_error.py).
+"""Smoke tests of the stability and time-vs-error benchmark scripts (benchmarks/stress_test.py, time_vs_error.py).
 
 Fast (< 30 s): the case list, the failure classification of designed-to-fail cases, one
 converged coarse scene, and the Richardson / Pareto helpers on data with known answers.

@@ -4,7 +4,7 @@ The ``ccx``-marked tests run CalculiX on tiny P2 meshes (well under a second eac
 and are skipped when ``ccx`` is not installed. They pin
 
 * the material law and deck (uniaxial stretch against the closed-form compressible
-  neo-Hookean solution, shared/VERIFICATION.md "Homogeneous deformations"),
+  neo-Hookean solution of a homogeneous deformation),
 * the face labels: CalculiX's S1..S4 are ``fem.element.FACES[0..3]`` (pressure on a
   face given under every label yields the resultant ``p * A``),
 * the node numbering round trip (a shuffled mesh returns each node's exact
@@ -71,7 +71,7 @@ def uniaxial_reference(lam, c10, d1):
     ``W = C10 (I1_bar - 3) + (J - 1)^2 / D1`` gives the Cauchy stress
     ``sigma = (2 C10 / J) dev(b_bar) + (2 / D1)(J - 1) I`` with ``b_bar = J^(-2/3) b``.
     For ``F = diag(lam, l, l)`` the lateral stretch ``l`` solves ``sigma_22 = 0``
-    (shared/VERIFICATION.md: "solve the lateral stretch from the zero-traction condition
+    ("solve the lateral stretch from the zero-traction condition
     numerically"); the nominal stress is ``P_11 = J sigma_11 / lam``.
     """
 

@@ -1,6 +1,6 @@
 """Cook's membrane, nearly incompressible, in the small-load (linear) limit: accuracy and no locking.
 
-Reference: shared/VERIFICATION.md, "Cook's membrane" — tapered panel with corners (0,0), (48,44),
+Reference: Cook's membrane (Cook 1974) — tapered panel with corners (0,0), (48,44),
 (48,60), (0,44), left edge clamped, uniform shear on the right edge, plane strain, linear
 elastic G = 0.375, λ = 7500 (ν ≈ 0.49998), total vertical force F = 1: converged vertical
 displacement at (48, 52) = 16.4326 (Richardson-extrapolated, FinEALE). Issue 3: within 1 % on

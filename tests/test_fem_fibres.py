@@ -5,8 +5,8 @@ References
 * Fibre law (fem.truss, Bonet & Wood 2008 §7.2): Green–Lagrange strain E = (λ² − 1)/2 and
   axial force N = E_f A E λ (second Piola stress S = E_f E, pushed forward over the reference
   area A).
-* Incompressible neo-Hookean uniaxial nominal stress μ(λ − 1/λ²) (shared/VERIFICATION.md).
-* Thick-walled tube: P(λa) of shared/VERIFICATION.md (see tests/test_fem_tube.py); issue 3:
+* Incompressible neo-Hookean uniaxial nominal stress μ(λ − 1/λ²) (closed form).
+* Thick-walled tube: P(λa) (see tests/test_fem_tube.py); the requirement:
   "a rubber tube with a stiff embedded hoop winding under internal pressure grows far less
   radially than the bare tube, and an axial fibre carries the force its strain implies".
 """
@@ -115,12 +115,12 @@ def _hoop_fibre(n_r, n_theta, r_f, n_pts):
 def test_hoop_winding_limits_radial_growth():
     """Quarter tube (A = 1, B = 2 mm, μ = 0.3 MPa, plane-strain slab of height = pitch 0.5 mm) at the
     pressure that inflates the bare tube to λa = 1.5; a hoop fibre (E_f = 31067 MPa, d = 0.38 mm,
-    SPEC fibre; E_f/μ ≈ 1e5) at mid-wall r_f = 1.5 mm.
+    thesis fibre; E_f/μ ≈ 1e5) at mid-wall r_f = 1.5 mm.
 
     Expected: the winding carries most of the hoop load. If the rubber inside the winding acted as a
     fluid the fibre force would be N = P r_f h (equilibrium of the quarter), i.e. a fibre strain of
     N/(E_f A_f) ≈ 3e-5; the remaining growth is the rubber bulging between turns. We require the
-    inner radial growth to be at least 5× smaller than the bare tube's ("far less", issue 3) and
+    inner radial growth to be at least 5× smaller than the bare tube's ("far less") and
     the fibre to be in tension carrying between half and all of P r_f h.
     """
     mu, Ef, df, r_f, h = 0.3, 31067.0, 0.38, 1.5, 0.5

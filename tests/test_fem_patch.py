@@ -1,18 +1,18 @@
 """Patch tests: homogeneous deformations of a distorted, curved P2 patch reproduce exact neo-Hookean stresses.
 
-Reference: shared/VERIFICATION.md, "Homogeneous deformations" (μ = 2 C10):
+Reference: closed-form homogeneous deformations (μ = 2 C10):
 
 * incompressible uniaxial stretch λ:   σ11 = μ(λ² − 1/λ),  nominal P11 = μ(λ − 1/λ²);
 * incompressible equibiaxial stretch λ: σ11 = σ22 = μ(λ² − λ⁻⁴);
 * simple shear γ:                       σ12 = μγ,  σ11 − σ22 = μγ²;
-* compressible W = C10(Ī1 − 3) + (J − 1)²/D1 (Abaqus form, SPEC §4): Cauchy stress
+* compressible W = C10(Ī1 − 3) + (J − 1)²/D1 (Abaqus form): Cauchy stress
   σ = (2 C10/J) (B̄ − (Ī1/3) I) + (2/D1)(J − 1) I with B̄ = J^{-2/3} F Fᵀ
   (Holzapfel 2000, eq. 6.105 with the volumetric derivative of (J − 1)²/D1); the
   free lateral stretch follows from the zero-traction condition, solved with scipy.
 
 A homogeneous deformation u = (F − I)X lies in the P2 space of any (curved) isoparametric
 mesh and its constant stress satisfies the weak equilibrium equations exactly, so the
-discrete solution must reproduce it to round-off: issue 3 requires ≤ 1e-8 relative.
+discrete solution must reproduce it to round-off: ≤ 1e-8 relative.
 Stresses are checked both as recovered quadrature-point stresses (P_iso + p J F⁻ᵀ) and
 as reaction forces (the residual at prescribed DOFs).
 """
@@ -32,7 +32,7 @@ from fem.meshgen import box_mesh
 from fem.problem import Dirichlet, Problem
 from fem.state import State
 
-TOL = 1e-8  # issue 3: patch-test stresses, relative
+TOL = 1e-8  # patch-test stresses, relative
 C10 = 0.5
 MU = 2 * C10
 D1 = 0.5  # K = 2/D1 = 4 MPa, ν ≈ 0.38 for the compressible cases

@@ -7,9 +7,8 @@ C3D10 by 11 % / 3 % (K/μ = 10) on those meshes, the two converging to each othe
 under refinement (C3D10 is the stiffer, locking-prone one).
 
 Reference: CalculiX 2.20 (C3D10, *HYPERELASTIC NEO HOOKE, NLGEOM, follower *DLOAD),
-run through :mod:`peers.calculix` with tightened tolerances (shared/VERIFICATION.md,
-"Peer solver"). CalculiX has no hybrid elements, so both codes use the same small
-D1 (K/μ = 1000); the issue asks for agreement within 1 %.
+run through :mod:`peers.calculix` with tightened tolerances. CalculiX has no hybrid
+elements, so both codes use the same small D1 (K/μ = 1000); agreement within 1 % is required.
 Skipped cleanly when ``ccx`` is not installed.
 """
 

@@ -19,7 +19,7 @@ from fem.mesh import TetMesh, boundary_faces
 from fem.meshgen import box_mesh
 from fem.problem import EmbeddedTrusses, FollowerPressure, Problem
 
-TOL = 1e-6  # issue 3: tangent vs central FD, relative
+TOL = 1e-6  # tangent vs central FD, relative
 H = 1e-6
 
 

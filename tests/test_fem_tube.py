@@ -1,6 +1,6 @@
 """Thick-walled tube inflated by a follower pressure, incompressible neo-Hookean, plane strain.
 
-Reference: shared/VERIFICATION.md, "Thick-walled tube under internal pressure" (exact; Rivlin's
+Reference: the thick-walled tube under internal pressure (exact; Rivlin's
 solution, e.g. Ogden, *Non-linear Elastic Deformations* 1984, §5.3.2). With λz = 1
 (plane strain) incompressibility gives r² − R² = a² − A² for every material radius R, so
 λb² − 1 = (A/B)²(λa² − 1), and
@@ -33,7 +33,7 @@ from fem.problem import Dirichlet, FollowerPressure, Problem
 from fem.state import State
 
 A, B, MU = 1.0, 2.0, 1.0
-TOL = 5e-3  # issue 3: 0.5 % on the inner radius stretch
+TOL = 5e-3  # 0.5 % on the inner radius stretch
 
 
 def lambda_b(la, a=A, b=B, lz=1.0):

@@ -1,4 +1,4 @@
-"""The optimiser config: SPEC §6 defaults, and malformed sections give one error naming the key."""
+"""The optimiser config: the thesis' defaults, and malformed sections give one error naming the key."""
 
 from __future__ import annotations
 

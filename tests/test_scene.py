@@ -1,7 +1,7 @@
-"""Physical checks of the whisker scene (issue #4) on the default preset's mesh.
+"""Physical checks of the whisker scene on the default preset's mesh.
 
 Each test states the number it checks; the references are the thesis' qualitative
-findings (SPEC §5) and the closed-form beam model of SPEC §8.
+findings and the closed-form beam model (docs/physics.md).
 """
 
 import numpy as np
@@ -59,10 +59,10 @@ def test_trimmed_whisker_reads_more_strain(runner):
 
 
 def test_small_deflection_against_beam_model(runner):
-    """Unpressurised intact whisker without fibres, δ = 0.5 mm, against the beam model (SPEC §8).
+    """Unpressurised intact whisker without fibres, δ = 0.5 mm, against the beam model.
 
     The beam model has no fibres, so neither has this whisker. Gauge ε/δ within the
-    issue's 15 % (measured 0.905 on the coarse preset) and global stiffness (base reaction
+    15 % allowed (measured 0.905 on the coarse preset) and global stiffness (base reaction
     for the tip deflection) within 5 % of Castigliano's tapered/tube beam (measured 0.968).
     With the fibres in, the stiffer chamber reads 0.80 (coarse) to 0.82 (fine) of the
     fibre-less beam value.
@@ -137,7 +137,7 @@ def test_off_tip_contact_ring_is_placed_at_a_LQ(runner):
 
 
 def test_reading_rises_with_pressure_at_every_contact_ratio(runner):
-    """ε(δ = 1 mm) at Q = 0.1 MPa exceeds that at Q = 0 for a = 0.5, 0.75 and 1 (SPEC §5).
+    """ε(δ = 1 mm) at Q = 0.1 MPa exceeds that at Q = 0 for a = 0.5, 0.75 and 1.
 
     Measured on this mesh (README of benchmarks/): +3.7 %, +5.5 %, +8.4 %. From 0.1 to
     0.2 MPa the neo-Hookean model's reading falls again at a < 1 (−3.5 % at a = 0.5);
