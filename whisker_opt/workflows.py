@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import json
 import logging
+import math
+import shutil
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -19,8 +21,17 @@ import numpy as np
 
 from whisker_opt import wiring
 from whisker_opt.config.model import ConfigError, WhiskerConfig, dump_config
+from whisker_opt.output import storage
 
 logger = logging.getLogger(__name__)
+
+#: The run file of a run directory, defaults filled in.
+CONFIG_YAML = "config.yaml"
+#: Folder of the best design's meshes in a run directory, and the hidden folder it is built in.
+BEST_DIR = "best"
+BEST_PARTIAL = ".best.partial"
+#: Written last into a folder of solved scenes: the folder is complete when it holds this file.
+SCENES_JSON = "scenes.json"
 
 
 def new_run_dir(cfg: WhiskerConfig, config_path: Path | str, kind: str) -> Path:
@@ -33,7 +44,7 @@ def new_run_dir(cfg: WhiskerConfig, config_path: Path | str, kind: str) -> Path:
         k += 1
         run_dir = Path(cfg.output.results_dir) / f"{name}-{kind}-{stamp}-{k}"
     run_dir.mkdir(parents=True)
-    (run_dir / "config.yaml").write_text(dump_config(cfg))
+    storage.atomic_write_text(run_dir / CONFIG_YAML, dump_config(cfg))
     return run_dir
 
 
@@ -154,7 +165,7 @@ def simulate(cfg: WhiskerConfig, out: Path, source: str = "config") -> Simulatio
                 cols["eps_intact"][1:], cols[f"eps_{wiring.UNCOMPENSATED}"][1:])
     header = ",".join(cols)
     np.savetxt(out / "curve.csv", np.column_stack(list(cols.values())), delimiter=",", header=header, comments="")
-    (out / "scenes.json").write_text(json.dumps(summary, indent=2, default=float))
+    storage.atomic_write_text(out / SCENES_JSON, json.dumps(summary, indent=2, default=float))
     return sim
 
 
@@ -171,28 +182,57 @@ def evaluate(cfg: WhiskerConfig, genes: Mapping[str, float], keep_curves: bool =
 
 def write_design_scenes(out: Path, cfg: WhiskerConfig, genes: Mapping[str, Any], specs: dict | None = None) -> dict:
     """Solve the scenes of a genome (:func:`whisker_opt.wiring.design_scene_specs`) and write them
-    into ``out``: one VTU per state and ``scenes.json`` with the gauge readings.
+    into ``out``: one VTU per state and, last, ``scenes.json`` with the gauge readings.
+
+    Every file is written atomically and ``scenes.json`` after all VTU files, so a folder
+    holding ``scenes.json`` is complete.
+
+    Parameters
+    ----------
+    out : Path
+        Created when missing.
+    cfg : WhiskerConfig
+    genes : mapping of str -> float
+        The genome; its genes are stored in every ``scenes.json`` entry.
+    specs : dict of str -> SceneSpec, optional
+        The scenes, when already built.
 
     Returns
     -------
     dict of str -> whisker_opt.experiment.scene.SceneResult
     """
-    from whisker_opt.genes import GENE_NAMES
     from whisker_opt.output.scenes import solve_scenes
 
     specs = wiring.design_scene_specs(cfg, genes) if specs is None else specs
-    clean = {k: float(v) for k, v in genes.items() if k in GENE_NAMES}
-    results, entries = solve_scenes(Path(out), specs, cfg.scene.gauge_variant, genes=clean)
-    (Path(out) / "scenes.json").write_text(json.dumps(entries, indent=2, default=float))
+    results, entries = solve_scenes(Path(out), specs, cfg.scene.gauge_variant, genes=_clean_genes(genes))
+    storage.atomic_write_text(Path(out) / SCENES_JSON, json.dumps(entries, indent=2, default=float))
     return results
 
 
+def _clean_genes(genes: Mapping[str, Any]) -> dict[str, float]:
+    from whisker_opt.genes import GENE_NAMES
+
+    return {k: float(v) for k, v in genes.items() if k in GENE_NAMES}
+
+
 # ----------------------------------------------------------------------------- run / resume
+def _best_genes(summary) -> dict | None:
+    genes = summary.best.get("genes") if isinstance(summary.best, dict) else None
+    return genes or None
+
+
 def finish_best(run_dir: Path, cfg: WhiskerConfig, summary) -> None:
-    """Re-run the best design of a run summary with curves and deformed meshes (VTU) into ``run_dir/best``."""
+    """Re-run the best design of a run summary with curves and deformed meshes (VTU) into ``run_dir/best``.
+
+    The meshes and ``scenes.json`` are written into the hidden ``run_dir/.best.partial``, then
+    ``best_curves.csv/png``, and last the folder is renamed to ``best`` (replacing an older one):
+    ``best/`` exists only complete, and after ``best_curves.*``. A kill on the way leaves no
+    ``best/``, which :func:`resume` rebuilds (:func:`missing_best_outputs`).
+    """
     from whisker_opt.output.plots import write_best_curves
 
-    best_genes = summary.best.get("genes") if isinstance(summary.best, dict) else None
+    run_dir = Path(run_dir)
+    best_genes = _best_genes(summary)
     if not best_genes:
         return
     try:
@@ -200,16 +240,112 @@ def finish_best(run_dir: Path, cfg: WhiskerConfig, summary) -> None:
     except Exception as exc:  # the best of a run where every design failed
         logger.warning("best design cannot be re-run: %s", exc)
         return
-    results = write_design_scenes(Path(run_dir) / "best", cfg, best_genes, specs)
+    partial = run_dir / BEST_PARTIAL
+    shutil.rmtree(partial, ignore_errors=True)
+    results = write_design_scenes(partial, cfg, best_genes, specs)
     delta = wiring.evaluator(cfg).samples()
     curves = {name: results[name].curve(delta, cfg.scene.gauge_variant) for name in (wiring.INTACT, wiring.TRIMMED)}
     write_best_curves(run_dir, np.concatenate([[0.0], delta]), np.concatenate([[0.0], curves[wiring.INTACT]]),
                       np.concatenate([[0.0], curves[wiring.TRIMMED]]),
                       f"best design {', '.join(f'{k}={v:.4g}' for k, v in best_genes.items())}")
+    _move_into_place(partial, run_dir / BEST_DIR)
+
+
+def _move_into_place(partial: Path, final: Path) -> None:
+    """Rename the complete folder ``partial`` to ``final``; an existing ``final`` is removed.
+
+    An old ``final`` is first renamed to a hidden ``*.partial`` name, so that at any instant
+    ``final`` is either absent or a complete folder."""
+    old = None
+    if final.exists():
+        old = final.with_name(f".{final.name}.old.partial")
+        shutil.rmtree(old, ignore_errors=True)
+        final.rename(old)
+    partial.rename(final)
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)
+
+
+def missing_best_outputs(run_dir: Path, summary) -> list[str]:
+    """What of the best design's outputs is missing or incomplete in a run directory.
+
+    ``best/`` is complete when its ``scenes.json`` (written last) reads, describes the run's
+    best genes and each of its scenes has a VTU file; ``best_curves.csv`` and ``.png`` must exist.
+
+    Parameters
+    ----------
+    run_dir : Path
+    summary : whisker_opt.optimise.runner.RunSummary
+        The run's summary (its ``best`` genes).
+
+    Returns
+    -------
+    list of str
+        Names of the missing outputs (empty when complete, or when the run has no best design).
+    """
+    run_dir = Path(run_dir)
+    genes = _best_genes(summary)
+    if not genes:
+        return []
+    best = run_dir / BEST_DIR
+    want = _clean_genes(genes)
+    missing = []
+    try:
+        entries = json.loads((best / SCENES_JSON).read_text())
+    except (OSError, ValueError):
+        entries = None
+    if not isinstance(entries, dict) or not entries:
+        missing.append(f"{BEST_DIR}/")
+    elif not all(isinstance(e, dict) and _same_genes(e.get("genes"), want) for e in entries.values()):
+        missing.append(f"{BEST_DIR}/ (of another design)")
+    elif not all(any(best.glob(f"{name}_*.vtu")) for name in entries):
+        missing.append(f"{BEST_DIR}/*.vtu")
+    for name in (storage.BEST_CURVES_CSV, "best_curves.png"):
+        if not (run_dir / name).is_file():
+            missing.append(name)
+    return missing
+
+
+def _same_genes(got: Any, want: dict[str, float]) -> bool:
+    if not isinstance(got, dict) or set(got) != set(want):
+        return False
+    try:
+        return all(math.isclose(float(got[k]), v, rel_tol=1e-12, abs_tol=0.0) for k, v in want.items())
+    except (TypeError, ValueError):
+        return False
+
+
+def _same_config(path: Path, cfg: WhiskerConfig) -> bool:
+    """True when the run file ``path`` holds ``cfg`` (the same text, or the same validated values)."""
+    from whisker_opt.config.model import load_config
+
+    try:
+        if path.read_text() == dump_config(cfg):
+            return True
+        return load_config(path).model_dump(mode="json") == cfg.model_dump(mode="json")
+    except (OSError, ConfigError, UnicodeDecodeError):
+        return False
+
+
+def check_run_config(run_dir: Path, cfg: WhiskerConfig) -> None:
+    """Refuse a run directory whose ``config.yaml`` is another config than ``cfg``.
+
+    Raises
+    ------
+    FileExistsError
+        One line naming ``whisker-opt resume``.
+    """
+    path = Path(run_dir) / CONFIG_YAML
+    if path.exists() and not _same_config(path, cfg):
+        raise FileExistsError(f"{run_dir} already holds a run of another config ({path} differs): continue it "
+                              f"with `whisker-opt resume {run_dir}` or choose another --out")
 
 
 def run(cfg: WhiskerConfig, run_dir: Path, progress: bool = True):
     """Run the GA of a config into ``run_dir`` and re-run its best design into ``run_dir/best``.
+
+    ``run_dir`` may be new, empty, or a run killed before its first checkpoint with the same
+    config (it starts again).
 
     Returns
     -------
@@ -218,22 +354,25 @@ def run(cfg: WhiskerConfig, run_dir: Path, progress: bool = True):
     Raises
     ------
     FileExistsError
-        ``run_dir`` already holds a run (resume it instead).
+        ``run_dir`` already holds a run (resume it instead), or a ``config.yaml`` of another config.
     whisker_opt.optimise.executors.MachineFailure
         The executor cannot start (an unreachable dask scheduler), or workers were lost during
         the run (it resumes from its last checkpoint).
     """
     from whisker_opt.optimise.executors import preflight
-    from whisker_opt.optimise.runner import check_new_run_dir, run_optimisation
+    from whisker_opt.optimise.runner import check_new_run_dir, remove_run_temporaries, run_optimisation
 
     opt = wiring.optimiser_of(cfg)
     ev = wiring.evaluator(cfg)
     run_dir = Path(run_dir)
-    check_new_run_dir(run_dir)  # before anything is written into the directory
+    check_run_config(run_dir, cfg)  # before anything is written into the directory
+    check_new_run_dir(run_dir)
     preflight(opt.executor)
     run_dir.mkdir(parents=True, exist_ok=True)
-    if not (run_dir / "config.yaml").exists():
-        (run_dir / "config.yaml").write_text(dump_config(cfg))
+    if (run_dir / CONFIG_YAML).exists():  # a run of this config killed before its first checkpoint
+        remove_run_temporaries(run_dir)
+    else:
+        storage.atomic_write_text(run_dir / CONFIG_YAML, dump_config(cfg))
     summary = run_optimisation(opt, run_dir, ev, opt.resolve_seed(cfg.seed), progress=progress)
     finish_best(run_dir, cfg, summary)
     return summary
@@ -254,13 +393,30 @@ def run_config(run_dir: Path) -> WhiskerConfig:
 
 
 def resume(run_dir: Path, progress: bool = True):
-    """Continue a killed run from its last checkpoint (same result as an uninterrupted run)."""
-    from whisker_opt.optimise.runner import resume_optimisation
+    """Continue a killed run from its last checkpoint (same result as an uninterrupted run).
+
+    Whatever a kill left unwritten is written: ``optimiser.json`` and ``environment.json``,
+    the tables and the convergence plot, and ``best/`` with ``best_curves.csv/png`` when any
+    of them is missing or incomplete (:func:`missing_best_outputs`). Temporaries left by the
+    kill are deleted. A complete run is left as it is (its tables and plots rewritten).
+
+    Returns
+    -------
+    whisker_opt.optimise.runner.RunSummary
+    """
+    from whisker_opt.optimise.checkpoint import has_checkpoint
+    from whisker_opt.optimise.runner import remove_run_temporaries, resume_optimisation, write_run_metadata
 
     run_dir = Path(run_dir)
     cfg = run_config(run_dir)
+    remove_run_temporaries(run_dir)
+    if not has_checkpoint(run_dir) and not (run_dir / storage.OPTIMISER_JSON).is_file():
+        opt = wiring.optimiser_of(cfg)  # killed before the run wrote anything but its config
+        write_run_metadata(run_dir, opt, opt.resolve_seed(cfg.seed))
     summary = resume_optimisation(run_dir, wiring.evaluator(cfg), progress=progress)
-    if not (run_dir / "best").is_dir():
+    missing = missing_best_outputs(run_dir, summary)
+    if missing:
+        logger.info("rebuilding the best design's outputs (missing: %s)", ", ".join(missing))
         finish_best(run_dir, cfg, summary)
     return summary
 

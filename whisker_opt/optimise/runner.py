@@ -252,11 +252,56 @@ def run_optimisation(
     run_dir = Path(run_dir)
     check_new_run_dir(run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
-    config = cfg_opt.model_dump(mode="json")
-    storage.write_json(run_dir / storage.OPTIMISER_JSON, {"seed": int(seed), "optimiser": config})
-    storage.write_environment(run_dir, seed)
+    config = write_run_metadata(run_dir, cfg_opt, seed)
     ga = GeneticAlgorithm(cfg_opt, seed)
     return _drive(ga, ga.new_state(), run_dir, evaluator, cfg_opt.executor, config, progress, callbacks)
+
+
+def write_run_metadata(run_dir: Path, cfg_opt: OptimiserConfig, seed: int) -> dict[str, Any]:
+    """Write ``optimiser.json`` (what a resume needs), then ``environment.json``.
+
+    Parameters
+    ----------
+    run_dir : Path
+        An existing run directory.
+    cfg_opt : OptimiserConfig
+    seed : int
+        Master seed of the run.
+
+    Returns
+    -------
+    dict
+        The optimiser config as stored (``cfg_opt.model_dump(mode="json")``).
+    """
+    config = cfg_opt.model_dump(mode="json")
+    storage.write_json(Path(run_dir) / storage.OPTIMISER_JSON, {"seed": int(seed), "optimiser": config})
+    storage.write_environment(run_dir, seed)
+    return config
+
+
+def _complete_metadata(run_dir: Path, config: dict[str, Any], seed: int) -> None:
+    """Write ``optimiser.json`` and ``environment.json`` when a kill came before them."""
+    if not (run_dir / storage.OPTIMISER_JSON).is_file():
+        storage.write_json(run_dir / storage.OPTIMISER_JSON, {"seed": int(seed), "optimiser": config})
+        logger.info("wrote the missing %s", storage.OPTIMISER_JSON)
+    if not (run_dir / storage.ENVIRONMENT_JSON).is_file():
+        storage.write_environment(run_dir, seed)
+        logger.info("wrote the missing %s", storage.ENVIRONMENT_JSON)
+
+
+def remove_run_temporaries(run_dir: Path) -> int:
+    """Delete what a kill during a write left in a run directory; returns how many entries.
+
+    Temporary files of atomic writes (the checkpoint's among them), hidden ``*.partial``
+    folders and temporary VTU files (:func:`whisker_opt.output.storage.remove_temporaries`).
+    """
+    run_dir = Path(run_dir)
+    if not run_dir.is_dir():
+        return 0
+    n = remove_stale_temporaries(run_dir) + len(storage.remove_temporaries(run_dir))
+    if n:
+        logger.info("removed %d temporary file(s) left by the interrupted run in %s", n, run_dir)
+    return n
 
 
 def check_new_run_dir(run_dir: Path) -> None:
@@ -304,6 +349,9 @@ def resume_optimisation(
 ) -> RunSummary:
     """Continue a run from its last checkpoint; the result equals an uninterrupted run.
 
+    Temporaries left by a kill are deleted first, and ``optimiser.json`` or
+    ``environment.json`` are written when a kill came before them.
+
     Parameters
     ----------
     run_dir : Path
@@ -324,17 +372,20 @@ def resume_optimisation(
         A finished run is not run again; its summary is returned (and its files rewritten).
     """
     run_dir = Path(run_dir)
-    n_tmp = remove_stale_temporaries(run_dir)
-    if n_tmp:
-        logger.info("removed %d temporary file(s) left by the interrupted run", n_tmp)
-    state, cfg, config, seed = load_run(run_dir)
+    state, cfg, config, seed = load_run(run_dir)  # first: nothing is deleted in a folder that is no run
+    remove_run_temporaries(run_dir)
+    _complete_metadata(run_dir, config, seed)
     ga = GeneticAlgorithm(cfg, seed)
     if state is None:
         state = ga.new_state()
     else:
         _RunWriter(run_dir, ga, config).write_tables(state)
         logger.info("resuming %s after generation %d", run_dir, state.generation)
-    return _drive(ga, state, run_dir, evaluator, executor or cfg.executor, config, progress, callbacks)
+    summary = _drive(ga, state, run_dir, evaluator, executor or cfg.executor, config, progress, callbacks)
+    # the first checkpoint after a kill inside a checkpoint write can leave a temporary of its
+    # own (a rename onto a hard link of the same file does nothing); nothing writes here now
+    remove_run_temporaries(run_dir)
+    return summary
 
 
 def _fmt(x: Any, spec: str = ".6g") -> str:

@@ -51,7 +51,7 @@ def scene_entry(spec, res, gauge_variant: str = "line", **extra) -> dict:
 
     Parameters
     ----------
-    spec : whisker_opt.experiment.scene.SceneSpec
+    spec : whisker_opt.experiment.spec.SceneSpec
     res : whisker_opt.experiment.scene.SceneResult
     gauge_variant : {'line', 'centroid'}
         Which gauge reading the curves use.
@@ -88,7 +88,7 @@ def solve_scenes(out: Path, specs: dict, gauge_variant: str = "line", **extra) -
     ----------
     out : Path
         Created when missing.
-    specs : dict of str -> whisker_opt.experiment.scene.SceneSpec
+    specs : dict of str -> whisker_opt.experiment.spec.SceneSpec
         Scene name -> spec, solved in order.
     gauge_variant : {'line', 'centroid'}
     **extra

@@ -23,9 +23,12 @@ from __future__ import annotations
 import csv
 import io
 import json
+import logging
 import math
 import os
 import platform
+import re
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -33,6 +36,8 @@ import time
 from importlib import metadata
 from pathlib import Path
 from typing import Any, Iterable, Sequence
+
+logger = logging.getLogger(__name__)
 
 EVALUATIONS_CSV = "evaluations.csv"
 GENERATIONS_CSV = "generations.csv"
@@ -47,6 +52,57 @@ _LIBRARIES = (
 )
 
 
+#: Names of temporaries: atomic-write temp files and hidden folders being filled.
+_TEMPORARY = re.compile(r"^(\..+\.tmp|\.tmp.*|tmp[a-z0-9_]{8}\.vtu|.+\.partial)$")
+
+
+def default_file_mode() -> int:
+    """Mode of a newly created ordinary file under the process umask (``0o644`` under ``022``)."""
+    from fem.io import default_file_mode as mode
+
+    return mode()
+
+
+def is_temporary(name: str) -> bool:
+    """True for the name of a temporary a kill may leave in a run directory.
+
+    ``.<name>.<random>.tmp`` and ``.tmp*`` (atomic writes), ``tmpXXXXXXXX.vtu`` (VTU files of
+    older versions) and ``*.partial`` (folders filled before they are renamed into place).
+    """
+    return bool(_TEMPORARY.match(name))
+
+
+def remove_temporaries(run_dir: Path) -> list[Path]:
+    """Delete the temporaries (:func:`is_temporary`) in ``run_dir`` and its direct sub-folders.
+
+    Call it only while nothing writes into ``run_dir`` (before a resume).
+
+    Returns
+    -------
+    list of Path
+        What was removed.
+    """
+    run_dir = Path(run_dir)
+    if not run_dir.is_dir():
+        return []
+    folders = [run_dir] + sorted(p for p in run_dir.iterdir()
+                                 if p.is_dir() and not p.is_symlink() and not is_temporary(p.name))
+    removed = []
+    for folder in folders:
+        for p in sorted(folder.iterdir()):
+            if not is_temporary(p.name):
+                continue
+            try:
+                if p.is_dir() and not p.is_symlink():
+                    shutil.rmtree(p)
+                else:
+                    p.unlink()
+                removed.append(p)
+            except OSError as exc:  # removed meanwhile, or not ours to remove
+                logger.warning("cannot remove the temporary %s: %s", p, exc)
+    return removed
+
+
 def atomic_write_bytes(path: Path, data: bytes) -> None:
     """Write ``data`` to ``path`` atomically (temp file in the same folder, fsync, os.replace)."""
     path = Path(path)
@@ -56,7 +112,7 @@ def atomic_write_bytes(path: Path, data: bytes) -> None:
             fh.write(data)
             fh.flush()
             os.fsync(fh.fileno())
-        os.chmod(tmp, 0o644)  # mkstemp creates 0600; results are ordinary readable files
+        os.chmod(tmp, default_file_mode())  # mkstemp creates 0600; results are ordinary files
         os.replace(tmp, path)
     except BaseException:
         try:
