@@ -5,6 +5,8 @@ YAML file into an error that names the key, and ``frozen=True`` makes a resolved
 an immutable value that can be hashed, pickled to workers and written next to results.
 A section may list keys it has renamed (``RENAMED``): the old key is still read, with a
 deprecation warning that names the new one, and a file giving both is an error.
+``allow_inf_nan=False``: NaN and infinities are never values of a run file (``.nan`` or
+``.inf`` in YAML is an error that says "not a finite number").
 """
 
 from __future__ import annotations
@@ -27,11 +29,14 @@ class StrictModel(BaseModel):
         Old key -> new key of this section, e.g. ``{"delta_max": "trim"}``.
     SECTION : str
         The section's key in a run file (for messages).
+    SHAPE : str
+        How the section is written, for the message when something else is given.
     """
 
-    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True, allow_inf_nan=False)
     RENAMED: ClassVar[dict[str, str]] = {}
     SECTION: ClassVar[str] = ""
+    SHAPE: ClassVar[str] = "a mapping of keys"
 
     @model_validator(mode="before")
     @classmethod

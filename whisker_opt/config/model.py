@@ -7,7 +7,8 @@ Units: mm, N, MPa, degrees for angles. The defaults describe the thesis' prototy
 (docs/physics.md). ``docs/config.md`` is generated from these models
 (``python3 -m whisker_opt.config.reference``).
 
-A YAML file has these top-level sections, all optional::
+A YAML file has these top-level sections, each optional (an empty file is refused unless
+:func:`load_config` is told ``allow_empty``: the command line's ``--defaults``)::
 
     design:     the whisker geometry and fibres
     material:   rubber law
@@ -23,10 +24,12 @@ from pathlib import Path
 from typing import Any, Literal
 
 import yaml
-from pydantic import Field, ValidationError, create_model
+from pydantic import BaseModel, Field, ValidationError, create_model
 
 from geometry.design import WhiskerDesign, user_parameters
 from whisker_opt.config.base import StrictModel
+from whisker_opt.config.fields import is_model, item_model, strip_optional
+from whisker_opt.config.messages import describe_errors, show
 from whisker_opt.config.optimiser import OptimiserConfig
 from whisker_opt.experiment.fidelity import PRESET_NAMES
 from whisker_opt.experiment.spec import SceneSpec
@@ -156,41 +159,129 @@ class WhiskerConfig(StrictModel):
     seed: int = Field(0, ge=0, le=2**32 - 1, description="master random seed", json_schema_extra={"unit": "-"})
 
 
-def format_validation_error(err: ValidationError, source: str = "config") -> str:
-    """One line per problem: ``source: key.path: message (got value)``."""
-    lines = []
-    for e in err.errors():
-        loc = ".".join(str(p) for p in e["loc"]) or "<root>"
-        got = e.get("input")
-        got_s = "" if isinstance(got, dict) else f" (got {got!r})"
-        msg = e["msg"]
-        if e["type"] == "extra_forbidden":
-            msg = "unknown key"
-        lines.append(f"{source}: {loc}: {msg}{got_s}")
-    return "\n".join(lines)
+def _models(root: type[BaseModel] | None = None) -> dict[str, type[BaseModel]]:
+    """Every model of a run file by class name (the ``title`` of its validation errors)."""
+    root = root or WhiskerConfig
+    out = {root.__name__: root}
+    for info in root.model_fields.values():
+        tp, _ = strip_optional(info.annotation)
+        sub = tp if is_model(tp) else item_model(tp)
+        if sub is not None and sub.__name__ not in out:
+            out.update(_models(sub))
+    return out
 
 
-def load_config(path: str | Path) -> WhiskerConfig:
+def format_validation_error(err: ValidationError, source: str = "config", data: Any = None) -> str:
+    """One line per problem: ``SOURCE: section.key: <what>``.
+
+    ``<what>`` states the value given and what the key allows, read from the model field:
+    the range and unit of a number (``1.5 is outside the allowed range (0, 1] (-)``), ``not a
+    finite number (got nan)``, the allowed words of a choice, the closest key to an unknown
+    one (``unknown key 'alpha_degg'; did you mean 'alpha'?``) or the expected type
+    (:mod:`whisker_opt.config.messages`).
+
+    Parameters
+    ----------
+    err : ValidationError
+        From validating :class:`WhiskerConfig` or one of its sections (found by the error's title).
+    source : str
+        What was read, e.g. the file's path; starts every line.
+    data : Any, optional
+        What was validated: an old name of a renamed key is then named as written
+        (``scene.Q: ... (Q is the old name of Q_i)``).
+
+    Returns
+    -------
+    str
+    """
+    root = _models().get(err.title, WhiskerConfig)
+    return "\n".join(describe_errors(err, source, root, data))
+
+
+#: The end of the message of an empty run file.
+EMPTY_HINT = "write at least one section (see docs/config.md), or pass --defaults to run with every default"
+
+
+def _read_text(path: Path) -> str:
+    """The text of a run file, or a one-line :class:`ConfigError` naming the file."""
+    if not path.exists():
+        raise ConfigError(f"{path}: no such config file")
+    if path.is_dir():
+        raise ConfigError(f"{path}: is a directory, not a config file")
+    if not path.is_file():
+        raise ConfigError(f"{path}: not a regular file (a run file is a YAML text file)")
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot be read ({exc.strerror or exc})") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        column = exc.start - (raw.rfind(b"\n", 0, exc.start) + 1) + 1
+        raise ConfigError(f"{path}: not UTF-8 text (byte 0x{raw[exc.start]:02x} at line {line}, column {column}); "
+                          "a run file is YAML text") from None
+    if "\x00" in text:
+        raise ConfigError(f"{path}: not a text file (it holds NUL bytes at position {text.index(chr(0))}); "
+                          "a run file is YAML text")
+    return text
+
+
+def _parse(path: Path, text: str) -> Any:
+    """The YAML document of a run file, or a one-line :class:`ConfigError` naming the file."""
+    try:
+        return yaml.safe_load(text)
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+        what = ": ".join(str(p) for p in (exc.context, exc.problem) if p) or str(exc)
+        raise ConfigError(f"{path}: YAML syntax error{where}: {what}".replace("\n", " ")) from None
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"{path}: YAML syntax error: {exc}".replace("\n", " ")) from None
+    except RecursionError:
+        raise ConfigError(f"{path}: YAML nested too deeply to read") from None
+    except (ValueError, OverflowError) as exc:  # e.g. an integer of more digits than Python converts
+        what = "an integer of too many digits" if "integer string conversion" in str(exc) else str(exc)
+        raise ConfigError(f"{path}: a YAML value cannot be read: {what}".replace("\n", " ")) from None
+
+
+def load_config(path: str | Path, allow_empty: bool = False) -> WhiskerConfig:
     """Read and validate a YAML run file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The run file.
+    allow_empty : bool
+        Accept an empty file (nothing, only comments, or ``{}``) as "every default"
+        (the command line's ``--defaults``); otherwise it is an error.
+
+    Returns
+    -------
+    WhiskerConfig
 
     Raises
     ------
     ConfigError
-        Missing file, YAML syntax error or a validation problem; the message names the key.
+        Missing file, a directory, unreadable, not UTF-8 text, empty (unless ``allow_empty``),
+        YAML syntax error, a top level or section that is not a mapping, or a validation
+        problem. The message names the file and, one line per problem, the key.
     """
     path = Path(path)
-    if not path.is_file():
-        raise ConfigError(f"{path}: no such config file")
-    try:
-        data = yaml.safe_load(path.read_text()) or {}
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"{path}: YAML syntax error: {exc}".replace("\n", " ")) from None
+    data = _parse(path, _read_text(path))
+    if data is None or data == {}:
+        if not allow_empty:
+            raise ConfigError(f"{path}: the run file is empty: {EMPTY_HINT}")
+        data = {}
     if not isinstance(data, dict):
-        raise ConfigError(f"{path}: top level must be a mapping of sections, got {type(data).__name__}")
+        sections = ", ".join(WhiskerConfig.model_fields)
+        raise ConfigError(f"{path}: the top level must be a mapping of sections ({sections}), got {show(data)}")
     try:
         return WhiskerConfig.model_validate(data)
     except ValidationError as exc:
-        raise ConfigError(format_validation_error(exc, str(path))) from None
+        raise ConfigError(format_validation_error(exc, str(path), data)) from None
+    except RecursionError:
+        raise ConfigError(f"{path}: nested too deeply to read") from None
 
 
 def dump_config(cfg: WhiskerConfig) -> str:

@@ -40,12 +40,14 @@ class _Bounds(StrictModel):
     Written ``{lo: .., hi: ..}`` or as a two-item list ``[lo, hi]``.
     """
 
+    SHAPE = "[lo, hi] or {lo: .., hi: ..}"
+
     @model_validator(mode="before")
     @classmethod
     def _from_pair(cls, data: Any) -> Any:
         if isinstance(data, (list, tuple)):
             if len(data) != 2:
-                raise ValueError(f"bounds must be [lo, hi] or {{lo: .., hi: ..}}, got {list(data)!r}")
+                raise ValueError(f"bounds must be [lo, hi] or {{lo: .., hi: ..}}, got a list of {len(data)} items")
             return {"lo": data[0], "hi": data[1]}
         return data
 

@@ -18,19 +18,19 @@ from __future__ import annotations
 
 import argparse
 import inspect
-import math
 import re
 import sys
-import types
 from pathlib import Path
-from typing import Any, Iterator, Literal, Union, get_args, get_origin
+from typing import Any, Iterator, Literal, get_origin
 
-import annotated_types as at
 import yaml
 from pydantic import BaseModel
 from pydantic.fields import FieldInfo
 
+from whisker_opt.config.fields import field_range, field_unit, is_model, item_model, num, strip_optional
 from whisker_opt.config.model import WhiskerConfig
+
+__all__ = ["DOC_PATH", "EXAMPLE", "field_range", "field_unit", "is_current", "keys", "main", "render", "sections"]
 
 #: Where :func:`main` writes the reference (the repository's ``docs/config.md``).
 DOC_PATH = Path(__file__).resolve().parents[2] / "docs" / "config.md"
@@ -79,26 +79,10 @@ Example:
 
 
 # --------------------------------------------------------------------------- types
-def _strip_optional(annotation: Any) -> tuple[Any, bool]:
-    """``(inner type, True)`` for ``X | None``, else ``(annotation, False)``."""
-    if get_origin(annotation) in (Union, types.UnionType):
-        args = [a for a in get_args(annotation) if a is not type(None)]
-        if len(args) < len(get_args(annotation)) and len(args) == 1:
-            return args[0], True
-    return annotation, False
-
-
-def _is_model(tp: Any) -> bool:
-    return isinstance(tp, type) and issubclass(tp, BaseModel)
-
-
-def _item_model(tp: Any) -> type[BaseModel] | None:
-    """The model of ``tuple[Model, ...]`` (or ``list[Model]``), else None."""
-    if get_origin(tp) in (tuple, list):
-        args = [a for a in get_args(tp) if a is not Ellipsis]
-        if len(args) == 1 and _is_model(args[0]):
-            return args[0]
-    return None
+_strip_optional = strip_optional
+_is_model = is_model
+_item_model = item_model
+_num = num
 
 
 def _type_name(annotation: Any) -> str:
@@ -119,21 +103,6 @@ def _type_name(annotation: Any) -> str:
 
 
 # --------------------------------------------------------------------------- values
-def _num(v: float | int) -> str:
-    """A number as written in a run file: ``5``, ``0.01``, ``1e-9``, ``1e6``."""
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, int):
-        return str(v)
-    v = float(v)
-    if math.isinf(v):
-        return "∞" if v > 0 else "−∞"
-    if v != 0.0 and not 1e-4 <= abs(v) < 1e6:  # 1e6, 1e-9: mantissa and exponent
-        mantissa, exponent = f"{v:.12e}".split("e")
-        return f"{mantissa.rstrip('0').rstrip('.')}e{int(exponent)}"
-    return str(int(v)) if v.is_integer() else f"{v:.12g}"
-
-
 def _value(v: Any) -> str:
     """A default value in YAML flow notation."""
     if v is None:
@@ -147,59 +116,6 @@ def _value(v: Any) -> str:
     if isinstance(v, (tuple, list)):
         return "[" + ", ".join(_value(x) for x in v) + "]"
     return str(v)
-
-
-def _constraints(info: FieldInfo) -> dict[str, Any]:
-    """The field's numeric and length constraints by name (``gt``, ``ge``, ``lt``, ``le``,
-    ``min_length``, ``max_length``)."""
-    out: dict[str, Any] = {}
-    for m in info.metadata:
-        for name, kind in (("gt", at.Gt), ("ge", at.Ge), ("lt", at.Lt), ("le", at.Le),
-                           ("min_length", at.MinLen), ("max_length", at.MaxLen)):
-            if isinstance(m, kind):
-                out[name] = getattr(m, name)
-    return out
-
-
-def field_range(annotation: Any, info: FieldInfo) -> str:
-    """The allowed values of a field, from its type and its ``Field`` constraints.
-
-    Real numbers as an interval, ``(0, 1]``; integers as ``lo..hi``; choices as a list;
-    strings and tuples by their length limits.
-    """
-    tp, _ = _strip_optional(annotation)
-    c = _constraints(info)
-    if get_origin(tp) is Literal:
-        return ", ".join(f"`{a}`" for a in get_args(tp))
-    if tp is bool:
-        return "`true`, `false`"
-    if tp is int:
-        lo = c["ge"] if "ge" in c else (c["gt"] + 1 if "gt" in c else None)
-        hi = c["le"] if "le" in c else (c["lt"] - 1 if "lt" in c else None)
-        if lo is not None and hi is not None:
-            return f"{_num(lo)}..{_num(hi)}"
-        if lo is not None:
-            return f"≥ {_num(lo)}"
-        return f"≤ {_num(hi)}" if hi is not None else ""
-    if tp is float:
-        if not any(k in c for k in ("gt", "ge", "lt", "le")):
-            return ""
-        left = f"({_num(c['gt'])}" if "gt" in c else (f"[{_num(c['ge'])}" if "ge" in c else "(−∞")
-        right = f"{_num(c['lt'])})" if "lt" in c else (f"{_num(c['le'])}]" if "le" in c else "∞)")
-        return f"{left}, {right}"
-    lo, hi = c.get("min_length"), c.get("max_length")
-    what = "items" if _item_model(tp) is not None else "characters"
-    if lo is not None and hi is not None:
-        return f"{lo}..{hi} {what}"
-    if hi is not None:
-        return f"at most {hi} {what}"
-    return f"at least {lo} {what}" if lo is not None else ""
-
-
-def field_unit(info: FieldInfo) -> str:
-    """The unit of a field (``json_schema_extra["unit"]``), or ``""``."""
-    extra = info.json_schema_extra
-    return str(extra.get("unit", "")) if isinstance(extra, dict) else ""
 
 
 # --------------------------------------------------------------------------- walk
