@@ -22,6 +22,8 @@ from fem.io import write_vtu  # noqa: E402
 from fem.mesh import TetMesh, volumes  # noqa: E402
 from fem.meshgen import box_mesh, map_mesh  # noqa: E402
 from whisker_opt.viewer import command, evaluations, fields, guard, overlays, rundir, sceneinfo  # noqa: E402
+from whisker_opt.viewer import colours  # noqa: E402
+from whisker_opt.viewer import labels as vlabels  # noqa: E402
 from whisker_opt.viewer import render as rendering  # noqa: E402
 from whisker_opt.viewer import state as vstate  # noqa: E402
 
@@ -123,7 +125,7 @@ def test_fields_and_errors(box_vtu):
     assert fields.resolve_field(sv.grid, None)[0] == fields.STRAIN_FIELD
     assert fields.resolve_field(sv.grid, "LE11")[0] == fields.STRAIN_FIELD
     assert fields.resolve_field(sv.grid, "|u|")[0] == fields.MAGNITUDE_FIELD
-    assert fields.resolve_field(sv.grid, "displacement:y") == ("displacement", "displacement [y]", 1)
+    assert fields.resolve_field(sv.grid, "displacement:y") == ("displacement", "displacement, y component [mm]", 1)
     assert fields.resolve_field(sv.grid, "none")[0] is None
     with pytest.raises(guard.ViewerError, match=r"no field 'stress'.*available fields"):
         fields.resolve_field(sv.grid, "stress", str(box_vtu))
@@ -131,22 +133,22 @@ def test_fields_and_errors(box_vtu):
         vstate.prepare_state(box_vtu, displacement="w")
     with pytest.raises(guard.ViewerError, match="scale"):
         vstate.prepare_state(box_vtu, scale=-1.0)
-    lo, hi = rendering.shared_clim([sv], (fields.STRAIN_FIELD, "", None))
+    lo, hi = colours.shared_clim([sv], (fields.STRAIN_FIELD, "", None))
     assert (lo, hi) == pytest.approx(sv.field_range(fields.STRAIN_FIELD))  # one sign: the data range
     sv.outer.point_data[fields.STRAIN_FIELD][0] = 0.002
     # both signs: symmetric
-    assert rendering.shared_clim([sv], (fields.STRAIN_FIELD, "", None)) == pytest.approx((lo, -lo))
+    assert colours.shared_clim([sv], (fields.STRAIN_FIELD, "", None)) == pytest.approx((lo, -lo))
     # percentile range: one outlier node (a cavity corner) no longer sets the colours
     n = sv.outer.n_points
     vals = np.linspace(-0.01, 0.02, n)
     vals[n // 2] = 5.0
     sv.outer.point_data[fields.STRAIN_FIELD] = vals
     f = (fields.STRAIN_FIELD, "", None)
-    assert rendering.shared_clim([sv], f, percentile=0.0) == pytest.approx((-5.0, 5.0))
-    lo1, hi1 = rendering.shared_clim([sv], f, percentile=1.0)
+    assert colours.shared_clim([sv], f, percentile=0.0) == pytest.approx((-5.0, 5.0))
+    lo1, hi1 = colours.shared_clim([sv], f, percentile=1.0)
     assert n >= 100 and 0.019 < hi1 < 0.021 and lo1 == pytest.approx(-hi1)
     with pytest.raises(guard.ViewerError, match="percentile"):
-        rendering.shared_clim([sv], f, percentile=60.0)
+        colours.shared_clim([sv], f, percentile=60.0)
 
 
 # ------------------------------------------------------------------ discovery and metadata
@@ -262,7 +264,7 @@ def test_side_by_side_compare_with_markers(tmp_path, box):
     assert overlays.gauge_patch(views[0]) is not None and overlays.contact_point(views[0]) is not None
     assert overlays.gauge_patch(views[1]) is None
     f = fields.resolve_field(views[0].grid, None)
-    lo, hi = rendering.shared_clim(views, f, percentile=0.0)
+    lo, hi = colours.shared_clim(views, f, percentile=0.0)
     for v in views:
         r = v.field_range(f[0])
         assert lo <= r[0] and r[1] <= hi
@@ -443,10 +445,10 @@ def test_three_panel_intact_uncompensated_vented(tmp_path, box):
                                         "trimmed, vented · deflected"]
     texts = [overlays.text_lines(v) for v in views]
     assert [t[1].splitlines()[0] for t in texts] == [
-        "gauge eps = 0.03 at delta = 3 mm", "gauge eps = 0.042 at delta = 3 mm", "gauge eps = 0.031 at delta = 3 mm"]
+        "gauge ε = 0.03 at δ = 3 mm", "gauge ε = 0.042 at δ = 3 mm", "gauge ε = 0.031 at δ = 3 mm"]
     assert "Q=0.03 MPa" in texts[1][0] and "trim=2 mm" in texts[1][0] and "Q=0 MPa" in texts[2][0]
     f = fields.resolve_field(views[0].grid, None)
-    lo, hi = rendering.shared_clim(views, f, percentile=0.0)
+    lo, hi = colours.shared_clim(views, f, percentile=0.0)
     assert all(lo <= v.field_range(f[0])[0] and v.field_range(f[0])[1] <= hi for v in views)
     out = tmp_path / "three.png"
     assert command.VIEW_COMMAND[2](_args(run, "--screenshot", out, "--window-size", 300, 540)) == 0
@@ -479,7 +481,7 @@ def test_delta_states_select_step_and_screenshot(tmp_path, box, capsys):
     assert [f.state for f in steps[1][1]] == ["delta_1.00"] * 3
     views = vstate.load_views(c, ".", files=steps[2][1])
     assert views[0].title == "intact · delta = 2 mm"
-    assert overlays.text_lines(views[0])[1].startswith("gauge eps = 0.02 at delta = 2 mm")
+    assert overlays.text_lines(views[0])[1].startswith("gauge ε = 0.02 at δ = 2 mm")
     assert [v.title for v in vstate.load_views(c, ".", files=steps[0][1])] == [
         "intact · pressurised", "trimmed, uncompensated · pressurised", "trimmed, vented · not pressurised (Q = 0)"]
     # screenshots at two deflections differ; same size, not blank
@@ -584,3 +586,144 @@ def test_design_scene_specs_three_scenes():
     assert [(s.Q, s.design.trim) for s in specs.values()] == [(0.15, 0.0), (0.15, 4.0), (0.0, 4.0)]
     assert specs[UNCOMPENSATED].design == specs["trimmed"].design
     assert list(design_scene_specs(cfg, dict(genes, Q_i=0.0))) == ["intact", "trimmed"]
+
+
+# ------------------------------------------------------------------ colour ranges per panel, legend, notes
+def _outer_ranges(p, n):
+    """The colour range each panel's whisker surface is actually drawn with."""
+    return [tuple(p.renderers[i].actors[f"{i}:outer"].mapper.scalar_range) for i in range(n)]
+
+
+def test_each_panel_has_its_own_colour_range_by_default(tmp_path, box):
+    run = tmp_path / "sim"
+    _write_triple(run, box)
+    c = rundir.discover(run)
+    views = vstate.load_views(c, ".")  # intact, trimmed uncompensated, trimmed vented, all deflected
+    f = fields.resolve_field(views[0].grid, None)
+    panels = [[v] for v in views]
+    own = colours.panel_clims(panels, f, 1.0)
+    shared = colours.panel_clims(panels, f, 1.0, "shared")
+    assert shared == [colours.shared_clim(views, f, 1.0)] * 3
+    assert own == [colours.shared_clim([v], f, 1.0) for v in views]
+    assert colours.panel_scopes(panels, f, 1.0) == ["panel"] * 3
+    vented = own[2]
+    assert vented != own[0] and vented != own[1] and vented[1] - vented[0] > 1e-3  # its own, not degenerate
+
+    def width(r):
+        return r[1] - r[0]
+
+    data = views[2].field_range(f[0], None, 1.0)
+    assert width(data) / width(shared[2]) < 0.6  # a shared range leaves the vented panel part of the colours
+    assert width(data) / width(vented) == pytest.approx(1.0)  # its own range spans all of them
+    # what VTK draws: pyvista merges same-titled bars' ranges unless each panel has a bar of its own
+    for mode, expected, n_bars in (("panel", own, 3), ("shared", shared, 1)):
+        p = rendering.make_plotter(views, off_screen=True, window_size=(300, 540))
+        rendering.draw(p, views, f, expected, clim_mode=mode)
+        np.testing.assert_allclose(_outer_ranges(p, 3), expected)
+        assert len(p.scalar_bars) == n_bars
+        titles = [bar.GetTitle() for bar in p.scalar_bars.values()]
+        assert all("[-]" in t and ("range of this panel" if mode == "panel" else "same for all panels") in t
+                   for t in titles)
+        p.close()
+    # unloaded (vented at delta = 0: no strain at all): that panel takes the range of all panels
+    at_rest = vstate.load_views(c, ".", files=c.delta_steps(".")[0][1])
+    rest = [[v] for v in at_rest]
+    assert colours.panel_scopes(rest, f, 1.0) == ["panel", "panel", "uniform"]
+    clims = colours.panel_clims(rest, f, 1.0)
+    assert clims[2] == colours.shared_clim(at_rest, f, 1.0) and clims[2][1] > clims[2][0]
+    assert "uniform here" in vlabels.bar_title(f[1], "uniform")
+    # in a window each panel's range spans all its steps: the vented one is not degenerate though δ = 0 is
+    series = [vstate.load_views(c, ".", files=files) for _, files in c.delta_steps(".")]
+    by_panel = [[step[i] for step in series] for i in range(3)]
+    assert colours.panel_scopes(by_panel, f, 1.0) == ["panel"] * 3
+    steps = colours.panel_clims(by_panel, f, 1.0)
+    assert steps[2] == colours.shared_clim(by_panel[2], f, 1.0) and steps[2] != steps[0]
+    for mode in colours.CLIM_MODES:
+        p, set_step = rendering.interactive_plotter(series, None, off_screen=True, window_size=(300, 540),
+                                                    clim_mode=mode, start=0)
+        set_step(3)
+        expected = steps if mode == "panel" else [colours.shared_clim(by_panel[0] + by_panel[1] + by_panel[2],
+                                                                        f, 1.0)] * 3
+        np.testing.assert_allclose([tuple(p.renderers[i].actors[f"s:{i}:outer"].mapper.scalar_range)
+                                    for i in range(3)], expected)
+        p.close()
+    with pytest.raises(guard.ViewerError, match="clim mode='both'"):
+        colours.panel_clims(panels, f, 1.0, "both")
+
+
+def test_cli_clim_option(tmp_path, box, monkeypatch):
+    run = tmp_path / "sim"
+    _write_triple(run, box)
+    assert _args(run).clim_mode == "panel"
+    assert _args(run, "--clim", "shared").clim_mode == "shared"
+    with pytest.raises(SystemExit):
+        _args(run, "--clim", "both")
+    seen = []
+    real = command.render
+    monkeypatch.setattr(command, "render", lambda *a, **k: seen.append(k["clim_mode"]) or real(*a, **k))
+    shots = {}
+    for mode in ("panel", "shared"):
+        out = tmp_path / f"{mode}.png"
+        assert command.VIEW_COMMAND[2](_args(run, "--clim", mode, "--screenshot", out, "--window-size", 300, 540)) == 0
+        shots[mode] = _image(out)[..., :3]
+    assert seen == ["panel", "shared"]
+    # the vented panel (bottom third) is coloured differently by its own range than by the shared one
+    assert np.abs(shots["panel"][360:] - shots["shared"][360:]).mean() > 1e-3
+
+
+def test_picture_states_units_ranges_zero_points_and_markers(tmp_path, box, monkeypatch):
+    # units on every scalar bar title; no '|' (VTK's text renderer drops it and garbles the line)
+    assert all(lbl.endswith("]") and "|" not in lbl for lbl in fields.FIELD_LABELS.values())
+    assert fields.FIELD_LABELS[fields.STRAIN_FIELD].endswith("[-]")
+    assert fields.FIELD_LABELS[fields.MISES_FIELD] == "von Mises stress [MPa]"
+    assert fields.field_label("pressure") == "pressure [MPa]" and fields.field_label("foo") == "foo [unit unknown]"
+    sv = vstate.prepare_state(write_vtu(tmp_path / "s.vtu", box, point_data={"displacement": _bend(box.points, 0.01)}))
+    assert fields.resolve_field(sv.grid, "displacement")[1] == "displacement magnitude [mm]"
+    assert fields.resolve_field(sv.grid, "|u|")[1] == "displacement magnitude [mm]"
+    # the colour range in words, not as a strain-like per cent
+    assert [vlabels.ordinal(x) for x in (1, 2, 3, 11, 12, 22, 99, 2.5)] == [
+        "1st", "2nd", "3rd", "11th", "12th", "22nd", "99th", "2.5th"]
+    f = (fields.STRAIN_FIELD, fields.FIELD_LABELS[fields.STRAIN_FIELD], None)
+    note = vlabels.colour_note(f, "panel", 1.0)
+    assert "colour range: each panel its own, 1st–99th percentile" in note and "%" not in note
+    assert "total axial log strain from the unloaded state" in note and "contact onset" in note
+    assert "one for all panels" in vlabels.colour_note(f, "shared", 0.0)
+    assert "full range" in vlabels.colour_note(f, "shared", 0.0)
+    assert vlabels.colour_note((None, "", None)) == ""
+    assert vlabels.bar_title("von Mises stress [MPa]", "panel").split("\n") == [
+        "von Mises stress", "[MPa]", "range of this panel"]
+    line = "Trimmed, uncompensated: tip cut off by Δ = 5 mm, chamber pressure still Q = 0.166 MPa"
+    assert vlabels.wrap(line, 90) == line
+    wrapped = vlabels.wrap(line, 40).split("\n")
+    assert max(map(len, wrapped)) <= 40 and "chamber pressure still Q = 0.166 MPa" in wrapped
+    # panel headings in words; the gauge reading says where it is counted from
+    _write_triple(tmp_path / "sim", box)
+    c = rundir.discover(tmp_path / "sim")
+    views = vstate.load_views(c, ".")
+    heads = [overlays.panel_heading(v).split("\n") for v in views]
+    assert heads[0] == ["Intact: full length, not trimmed, chamber pressure Q = 0.03 MPa",
+                        "deflected: contact pushed sideways by δ = 3 mm"]
+    assert heads[1][0] == "Trimmed, uncompensated: tip cut off by Δ = 2 mm, chamber pressure still Q = 0.03 MPa"
+    assert heads[2][0] == "Trimmed, vented: tip cut off by Δ = 2 mm, chamber vented (Q = 0 MPa)"
+    rest = vstate.load_views(c, ".", files=c.delta_steps(".")[0][1])
+    assert [overlays.panel_heading(v).split("\n")[1] for v in rest] == [
+        "pressurised, not yet pushed (δ = 0)", "pressurised, not yet pushed (δ = 0)",
+        "at rest: not pressurised, not pushed (δ = 0)"]
+    assert all(overlays.text_lines(v)[1].split("\n")[1] == overlays.GAUGE_ZERO_NOTE for v in views)
+    # the legend names the markers that are drawn
+    pair = vstate.load_views(rundir.discover(_pair_dir(tmp_path, box)), ".")
+    labels = [lbl for lbl, _ in vlabels.legend_entries(pair)]
+    assert labels == ["strain gauge (where ε is read)", "contact point, push direction",
+                      "undeformed outline (section z = 0)"]
+    assert [lbl for lbl, _ in vlabels.legend_entries(pair, show_gauge=False, show_outline=False)] == [
+        "contact point, push direction"]
+    p = rendering.make_plotter(pair, off_screen=True, window_size=(320, 360))
+    rendering.draw(p, pair, f, colours.panel_clims([[v] for v in pair], f, 1.0), clim_mode="panel")
+    rendering.annotate(p, pair, f, "panel", 1.0)
+    assert "legend" in p.renderers[0].actors and "colour_note" in p.renderers[1].actors
+    assert p.renderers[0].actors["legend"].GetNumberOfEntries() == 3
+    p.close()
+    # text is drawn in a font with '[' and Greek letters; without it, they are spelt out
+    assert vlabels.text_font() is not None
+    monkeypatch.setattr(vlabels, "text_font", lambda: None)
+    assert vlabels.shown_text("gauge ε at δ = 2 mm") == "gauge eps at delta = 2 mm"

@@ -5,7 +5,9 @@ A *source* is a results directory or a single ``.vtu`` file; each VTU is one *st
 ``eval_12/``). A view shows the whisker warped by the displacement, coloured by a field
 (the axial log strain by default), with the undeformed outline, the cavity, the fibres,
 the gauge footprint, the contact point and the gauge reading; scenes side by side share
-the camera and the colour range.
+the camera, and each has its own colour range and scalar bar unless one shared range is asked
+for (``--clim shared``). The picture says what the colours are, whose range each bar shows,
+where the gauge reading is counted from, and names the markers in a legend.
 
 Modules, each importing only those listed before it:
 
@@ -24,9 +26,13 @@ Modules, each importing only those listed before it:
 :mod:`~whisker_opt.viewer.state`
     A loaded state: warped smooth surfaces, curved edges, outline, titles.
 :mod:`~whisker_opt.viewer.overlays`
-    Gauge patch, contact point, fibre lines, panel text.
+    Gauge patch, contact point, fibre lines, panel text and headings.
+:mod:`~whisker_opt.viewer.labels`
+    Words on the picture: fonts, wrapped titles, scalar-bar titles, colour-range note, legend.
+:mod:`~whisker_opt.viewer.colours`
+    Colour ranges: each panel its own, or one shared.
 :mod:`~whisker_opt.viewer.render`
-    Plotter, layout, camera, colour range, screenshots, the interactive slider.
+    Plotter, layout, camera, drawing a state, screenshots, the interactive slider.
 :mod:`~whisker_opt.viewer.plots`
     Convergence and response-curve images beside the screenshots.
 :mod:`~whisker_opt.viewer.command`

@@ -35,7 +35,23 @@ FIELD_ALIASES = {
     "stress": MISES_FIELD,
     "von_mises_stress": MISES_FIELD,
 }
-FIELD_LABELS = {STRAIN_FIELD: "LE_xx [-]", MAGNITUDE_FIELD: "displacement [mm]", MISES_FIELD: "von Mises [MPa]"}
+FIELD_LABELS = {
+    STRAIN_FIELD: "axial log strain LE_xx [-]",
+    MAGNITUDE_FIELD: "displacement magnitude [mm]",
+    MISES_FIELD: "von Mises stress [MPa]",
+}
+"""Scalar-bar titles of the derived fields, each with its unit (no ``|``: VTK's text renderer
+drops it and garbles the line)."""
+FIELD_UNITS = {
+    STRAIN_FIELD: "-",
+    MAGNITUDE_FIELD: "mm",
+    MISES_FIELD: "MPa",
+    "X_ref": "mm",
+    "pressure": "MPa",  # the hydrostatic pressure of the mixed u-p elements
+    **{name: "mm" for name in DISPLACEMENT_NAMES},
+    **{name: "-" for name in STORED_STRAIN_NAMES},
+}
+"""Units of the derived and the known stored arrays (the FE works in mm, N, MPa)."""
 
 
 def load_grid(path: str | Path):
@@ -172,7 +188,7 @@ def resolve_field(grid, requested: str | None, where: str = "grid") -> tuple[str
         if not available:
             return None, "", None
         name = available[0]
-        return name, FIELD_LABELS.get(name, name), None
+        return name, field_label(name, None, _array(grid, name)), None
     if requested.lower() in ("none", "solid", ""):
         return None, "", None
     comp = None
@@ -186,12 +202,43 @@ def resolve_field(grid, requested: str | None, where: str = "grid") -> tuple[str
         raise ViewerError(
             f"{where}: no field {requested!r}; available fields: {available} (or aliases {sorted(FIELD_ALIASES)})"
         )
-    arr = grid.point_data.get(base)
-    if arr is None:
-        arr = grid.cell_data.get(base)
+    arr = _array(grid, base)
     if comp is not None and (np.ndim(arr) != 2 or comp >= np.shape(arr)[1]):
         raise ViewerError(f"{where}: field {base!r} has no component {comp} (shape {np.shape(arr)})")
-    label = FIELD_LABELS.get(base, base) + (f" [{'xyz'[comp]}]" if comp is not None and comp < 3 else "")
-    if comp is None and np.ndim(arr) == 2 and np.shape(arr)[1] > 1:
-        label = f"|{base}|"
-    return base, label, comp
+    return base, field_label(base, comp, arr), comp
+
+
+def _array(grid, name: str):
+    arr = grid.point_data.get(name)
+    return grid.cell_data.get(name) if arr is None else arr
+
+
+def field_unit(name: str) -> str:
+    """Unit of an array (:data:`FIELD_UNITS`), ``"unit unknown"`` for other stored arrays."""
+    return FIELD_UNITS.get(name) or FIELD_UNITS.get(name.lower()) or "unit unknown"
+
+
+def field_label(name: str, comp: int | None = None, arr=None) -> str:
+    """Scalar-bar title of an array, always with its unit in brackets.
+
+    Parameters
+    ----------
+    name : str
+        Array name.
+    comp : int, optional
+        Component shown (``displacement, y component [mm]``).
+    arr : array-like, optional
+        The array; a vector shown whole is labelled as its magnitude (``displacement magnitude [mm]``).
+
+    Returns
+    -------
+    str
+    """
+    if name in FIELD_LABELS and comp is None:
+        return FIELD_LABELS[name]
+    unit = f" [{field_unit(name)}]"
+    if comp is not None:
+        return f"{name}, {'xyz'[comp] + ' component' if comp < 3 else f'component {comp}'}{unit}"
+    if arr is not None and np.ndim(arr) == 2 and np.shape(arr)[1] > 1:
+        return f"{name} magnitude{unit}"
+    return name + unit

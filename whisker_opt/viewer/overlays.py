@@ -7,6 +7,11 @@ helices and the panel text.
 * The fibre helices (:mod:`geometry.fibres`) mapped by the interpolated displacement
   (:func:`fibre_lines`).
 * The design parameters, the scene (Q, trim) and the gauge reading as text (:func:`text_lines`).
+* The panel heading in words: the scene, its pressure and trim, the state (:func:`panel_heading`).
+
+The gauge reading ε is counted from contact onset (δ = 0, the pressurised state), as the
+optimiser reads it; the colour fields are totals from the unloaded, unpressurised mesh. The
+gauge text says so.
 """
 
 from __future__ import annotations
@@ -16,8 +21,9 @@ import logging
 import numpy as np
 
 from whisker_opt.viewer.guard import require_pyvista
-from whisker_opt.viewer.sceneinfo import finite_float
-from whisker_opt.viewer.state import StateView, displaced
+from whisker_opt.viewer.sceneinfo import SceneInfo, finite_float
+from whisker_opt.viewer.state import SCENE_TITLES, StateView, displaced, scene_title
+from whisker_opt.wiring import INTACT, UNCOMPENSATED
 
 logger = logging.getLogger(__name__)
 
@@ -105,8 +111,9 @@ def text_lines(sv: StateView) -> tuple[str, str]:
     """(design text, gauge text) of a panel.
 
     The design text lists α, l, t, L, the trim, Q, the scene's notes (f1, F_p, ...) and the
-    displacement magnification; the gauge text the reading at the state's δ and the axial
-    extension by the pressure.
+    displacement magnification; the gauge text the reading at the state's δ, that it is
+    counted from contact onset (:data:`GAUGE_ZERO_NOTE`), and the axial extension by the
+    pressure.
     """
     info = sv.info
     parts = []
@@ -128,9 +135,90 @@ def text_lines(sv: StateView) -> tuple[str, str]:
     if sv.scale != 1.0 and sv.displacement:
         parts.append(f"displacement x{sv.scale:g}")
     reading = info.reading(sv.state) if sv.state else None
-    gtxt = ""
+    lines = []
     if reading is not None:
-        gtxt = f"gauge eps = {reading[1]:.5g} at delta = {reading[0]:.3g} mm"
+        lines += [f"gauge ε = {reading[1]:.5g} at δ = {reading[0]:.3g} mm", GAUGE_ZERO_NOTE]
     if info.delta_l is not None and sv.state.lower() not in ("reference", "undeformed"):
-        gtxt += ("\n" if gtxt else "") + f"dl(Q) = {info.delta_l:.4g} mm"
-    return ", ".join(parts), gtxt
+        lines.append(f"extension by the pressure: {info.delta_l:.4g} mm")
+    return ", ".join(parts), "\n".join(lines)
+
+
+GAUGE_ZERO_NOTE = "ε counted from contact onset (δ = 0)"
+"""Under a gauge reading: ε is the change since contact onset, unlike the colour field."""
+
+_PRESSURISED = ("pressurised", "pressurized", "inflated")
+
+
+def scene_heading(info: SceneInfo) -> str:
+    """The scene in words: its role, how much was trimmed off and its chamber pressure.
+
+    E.g. ``Trimmed, uncompensated: tip cut off by Δ = 5 mm, chamber pressure still Q = 0.166 MPa``
+    or ``Intact: full length, chamber pressure Q = 0.166 MPa``; unknown facts are left out.
+
+    Parameters
+    ----------
+    info : SceneInfo
+
+    Returns
+    -------
+    str
+    """
+    role = scene_title(info)
+    parts = []
+    if info.trim is not None:
+        parts.append("full length, not trimmed" if info.trim == 0 else f"tip cut off by Δ = {info.trim:.3g} mm")
+    elif info.name == INTACT:
+        parts.append("full length, not trimmed")
+    if info.Q is not None:
+        if info.Q == 0:
+            parts.append("chamber vented (Q = 0 MPa)")
+        else:
+            still = " still" if role == SCENE_TITLES[UNCOMPENSATED] else ""
+            parts.append(f"chamber pressure{still} Q = {info.Q:.3g} MPa")
+    role = role[:1].upper() + role[1:]
+    return f"{role}: {', '.join(parts)}" if parts else role
+
+
+def state_heading(info: SceneInfo, state: str) -> str:
+    """A state in words, with its deflection δ [mm] when known.
+
+    ``pressurised, not yet pushed (δ = 0)``, ``at rest: not pressurised, not pushed (δ = 0)``
+    for the pressurised state of a scene at Q = 0, ``deflected: contact pushed sideways by
+    δ = 2 mm``; other names unchanged.
+
+    Parameters
+    ----------
+    info : SceneInfo
+    state : str
+
+    Returns
+    -------
+    str
+    """
+    s = state.lower()
+    if s in ("reference", "undeformed"):
+        return "undeformed mesh (no load)"
+    if s in _PRESSURISED:
+        if info.Q == 0:
+            return "at rest: not pressurised, not pushed (δ = 0)"
+        return "pressurised, not yet pushed (δ = 0)"
+    d = info.delta_of(state)
+    if d is not None:
+        return f"deflected: contact pushed sideways by δ = {d:.3g} mm"
+    if s in ("deflected", "final"):
+        return "deflected: contact pushed sideways (last step)"
+    return state
+
+
+def panel_heading(sv: StateView) -> str:
+    """Heading of a panel: :func:`scene_heading` and, below it, :func:`state_heading`.
+
+    Parameters
+    ----------
+    sv : StateView
+
+    Returns
+    -------
+    str
+    """
+    return scene_heading(sv.info) + (f"\n{state_heading(sv.info, sv.state)}" if sv.state else "")

@@ -1,10 +1,20 @@
 """Drawing states: the plotter, its panels, camera, colour range, and on-screen or PNG output.
 
-Side-by-side views (:func:`render`) put one scene per panel with linked cameras and a
-shared colour range: intact at Q_i, trimmed uncompensated (``trimmed_uncompensated``: the
-trimmed whisker still at Q_i) and trimmed vented (``trimmed`` at Q = 0, the GA's compensated
-state), each with its gauge reading. :func:`interactive_plotter` steps through states (e.g.
-the solved deflections) with a slider and the ``n`` / ``b`` keys.
+Side-by-side views (:func:`render`) put one scene per panel with linked cameras: intact at
+Q_i, trimmed uncompensated (``trimmed_uncompensated``: the trimmed whisker still at Q_i) and
+trimmed vented (``trimmed`` at Q = 0, the GA's compensated state), each with its gauge
+reading. :func:`interactive_plotter` steps through states (e.g. the solved deflections) with
+a slider and the ``n`` / ``b`` keys.
+
+Colour ranges (:func:`panel_clims`): by default each panel has its own range and scalar
+bar (``clim_mode="panel"``), since the pressurised panels strain an order of magnitude more
+than a vented one, which one shared range paints in a single colour; ``clim_mode="shared"``
+gives all panels one range (one bar) to compare magnitudes. The bar titles carry the unit
+and the mode; a footnote (:func:`colour_note`) says what the colours are and which
+percentiles span the range, and a legend (:func:`add_legend`) names the markers.
+
+All text is drawn in DejaVu Sans, shipped with matplotlib (:func:`text_font`): VTK's own
+font draws ``[`` as ``(`` and has no Greek letters.
 
 The chamber cavity is either revealed by a cut at ``z = 0`` (``cavity="clip"``) or seen
 through a translucent outer surface (``cavity="translucent"``).
@@ -12,21 +22,45 @@ through a translucent outer surface (``cavity="translucent"``).
 
 from __future__ import annotations
 
+import functools
+import inspect
 import logging
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from whisker_opt.viewer.fields import STRAIN_FIELD, field_names, resolve_field
+from whisker_opt.viewer.colours import CLIM_MODES, _per_panel, panel_clims, panel_scopes  # noqa: F401  (CLIM_MODES: the command's choices)
+from whisker_opt.viewer.fields import field_names, resolve_field
 from whisker_opt.viewer.guard import ViewerError, is_headless, require_pyvista
-from whisker_opt.viewer.overlays import contact_point, fibre_lines, gauge_patch, text_lines
+from whisker_opt.viewer.labels import (
+    CAVITY_COLOUR,
+    CONTACT_COLOUR,
+    FIBRE_COLOURS,
+    GAUGE_COLOUR,
+    OUTLINE_COLOUR,
+    _add_text,
+    add_legend,
+    bar_title,
+    colour_note,
+    legend_entries,
+    panel_pixels,
+    shown_text,
+    use_font,
+    wrap,
+)
+from whisker_opt.viewer.overlays import contact_point, fibre_lines, gauge_patch, panel_heading, text_lines
 from whisker_opt.viewer.state import StateView
 
 logger = logging.getLogger(__name__)
 
 CAVITY_MODES = ("clip", "translucent", "hidden")
-FIBRE_COLOURS = ("darkorange", "saddlebrown")  # alternate, so the interleaved helices of a double helix stand apart
+@functools.lru_cache(maxsize=1)
+def _has_unique_bar() -> bool:
+    """Whether pyvista's ``add_scalar_bar`` takes ``unique_bar`` (a bar per renderer)."""
+    from pyvista.plotting.scalar_bars import ScalarBars
+
+    return "unique_bar" in inspect.signature(ScalarBars.add_scalar_bar).parameters
 
 
 def _clip(poly, on: bool, z: float = 0.0):
@@ -49,6 +83,9 @@ def add_state(
     show_contact: bool = True,
     show_text: bool = True,
     prefix: str = "",
+    show_scalar_bar: bool = True,
+    bar_title: str | None = None,
+    own_bar: bool = False,
 ) -> None:
     """Draw one state into the plotter's current renderer (actors named ``prefix + part``).
 
@@ -59,21 +96,37 @@ def add_state(
     field : tuple
         ``(array, label, component)`` from :func:`resolve_field`.
     clim : (float, float), optional
-        Colour range (shared between panels).
+        Colour range (this panel's, or shared between panels: :func:`panel_clims`).
     cavity : {'clip', 'translucent', 'hidden'}
         ``clip`` removes the half z > 0 (the cut shows the wall section and the cavity),
         ``translucent`` shows the outer surface at 35 % opacity over the cavity.
+    show_scalar_bar : bool
+        Draw the scalar bar in this panel.
+    bar_title : str, optional
+        Scalar-bar title (default: the field's label, :func:`bar_title`).
+    own_bar : bool
+        The bar and its range belong to this panel only; otherwise pyvista merges the bars of
+        the same title (and their ranges) across panels.
     """
     if cavity not in CAVITY_MODES:
         raise ViewerError(f"cavity={cavity!r}: must be one of {CAVITY_MODES}")
     name, label, comp = field
     clip = cavity == "clip"
-    mesh_kw: dict[str, Any] = dict(smooth_shading=True, show_scalar_bar=name is not None)
+    mesh_kw: dict[str, Any] = dict(smooth_shading=True, show_scalar_bar=name is not None and show_scalar_bar)
     if name is not None:
-        mesh_kw.update(scalars=name, component=comp, cmap=cmap, clim=clim,
-                       scalar_bar_args=dict(title=label, n_labels=5, fmt="%.3g", vertical=True, position_x=0.88,
-                                            position_y=0.12, width=0.05, height=0.62, title_font_size=12,
-                                            label_font_size=11))
+        title = bar_title or label
+        w_px = panel_pixels(plotter)[0]
+        half_title = 4.0 * max(len(ln) for ln in title.split("\n"))  # ~ half its width at 12 pt [px]
+        bar_kw: dict[str, Any] = dict(title=title, n_labels=5, fmt="%.3g", vertical=True,
+                                      position_x=min(0.88, 1.0 - 0.025 - (half_title + 6.0) / w_px),
+                                      position_y=0.2, width=0.05, height=0.56, title_font_size=12,
+                                      label_font_size=11)
+        if own_bar:
+            if _has_unique_bar():
+                bar_kw["unique_bar"] = True
+            else:  # older pyvista: a title of its own (trailing spaces do not show)
+                bar_kw["title"] = title + " " * (plotter.renderers.active_index + 1)
+        mesh_kw.update(scalars=name, component=comp, cmap=cmap, clim=clim, scalar_bar_args=bar_kw)
     else:
         mesh_kw.update(color="lightsteelblue")
     outer = _clip(sv.outer, clip, sv.cut_z)
@@ -87,14 +140,14 @@ def add_state(
     if sv.cavity is not None and cavity != "hidden":
         cav = _clip(sv.cavity, clip, sv.cut_z)
         if cav is not None and cav.n_points:
-            plotter.add_mesh(cav, color="lightskyblue", opacity=0.6 if clip else 1.0, smooth_shading=True,
+            plotter.add_mesh(cav, color=CAVITY_COLOUR, opacity=0.6 if clip else 1.0, smooth_shading=True,
                              name=prefix + "cavity")
     if show_edges and sv.edges is not None:
         ed = _clip(sv.edges, clip, sv.cut_z)
         if ed is not None and ed.n_points:
             plotter.add_mesh(ed, color="black", opacity=0.2, line_width=1, name=prefix + "edges")
     if show_outline and sv.outline is not None and sv.outline.n_points:
-        plotter.add_mesh(sv.outline, color="dimgrey", line_width=2, name=prefix + "outline")
+        plotter.add_mesh(sv.outline, color=OUTLINE_COLOUR, line_width=2, name=prefix + "outline")
     if show_fibres:
         r_tube = 0.5 * float((sv.info.design or {}).get("fibre_diameter", 0.38) or 0.38)
         for k, line in enumerate(fibre_lines(sv)):
@@ -105,7 +158,7 @@ def add_state(
     if show_gauge:
         patch = gauge_patch(sv)  # drawn whole even when the body is cut: it is a marker
         if patch is not None and patch.n_points:
-            plotter.add_mesh(patch, color="gold", name=prefix + "gauge")
+            plotter.add_mesh(patch, color=GAUGE_COLOUR, name=prefix + "gauge")
             plotter.add_mesh(patch.extract_feature_edges(boundary_edges=True, feature_edges=False,
                                                          manifold_edges=False, non_manifold_edges=False),
                              color="black", line_width=3, name=prefix + "gauge_outline")
@@ -114,48 +167,22 @@ def add_state(
         if cp is not None:
             size = 0.04 * sv.grid.length
             pv = require_pyvista()
-            plotter.add_mesh(pv.Sphere(radius=0.3 * size, center=cp), color="red", name=prefix + "contact")
+            plotter.add_mesh(pv.Sphere(radius=0.3 * size, center=cp), color=CONTACT_COLOUR, name=prefix + "contact")
             plotter.add_mesh(pv.Arrow(start=cp + np.array([0.0, 2.5 * size, 0.0]), direction=(0.0, -1.0, 0.0),
-                                      scale=2.2 * size), color="red", name=prefix + "contact_arrow")
+                                      scale=2.2 * size), color=CONTACT_COLOUR, name=prefix + "contact_arrow")
     if show_text:
         dtxt, gtxt = text_lines(sv)
-        plotter.add_text(sv.title, position="upper_left", font_size=11, name=prefix + "title")
+        # wide enough to leave the gauge text beside it (~9 px a character at 11 pt)
+        _add_text(plotter, wrap(panel_heading(sv), max(24, int(0.56 * panel_pixels(plotter)[0] / 9))),
+                  "upper_left", 11, prefix + "title")
         if dtxt:
-            plotter.add_text(dtxt, position="lower_left", font_size=8, name=prefix + "design")
+            _add_text(plotter, dtxt, "lower_left", 8, prefix + "design")
         if gtxt:
-            plotter.add_text(gtxt, position="upper_right", font_size=9, name=prefix + "gauge_text")
-
-
-def shared_clim(views: Sequence[StateView], field: tuple[str | None, str, int | None],
-                percentile: float = 0.0) -> tuple[float, float] | None:
-    """One colour range over all views; symmetric about 0 for a strain that changes sign.
-
-    ``percentile`` = p > 0 spans each view's (p, 100 − p) percentiles instead of its
-    extremes: the whisker's strain range is set by a few nodes at the cavity's corners
-    (LE_xx ≈ ±0.7 at Q = 0.2 MPa) while the gauge region bends to ~0.05, which a full
-    range paints in one colour. Values beyond the range saturate.
-    """
-    if not (0.0 <= percentile < 50.0):
-        raise ViewerError(f"clim percentile={percentile!r} outside the allowed range [0, 50)")
-    name, _, comp = field
-    rngs = [r for r in (v.field_range(name, comp, percentile) for v in views) if r is not None]
-    if not rngs:
-        return None
-    lo, hi = min(r[0] for r in rngs), max(r[1] for r in rngs)
-    if name == STRAIN_FIELD and lo < 0 < hi:
-        m = max(-lo, hi)
-        lo, hi = -m, m
-    if hi <= lo:
-        hi = lo + (abs(lo) * 1e-6 or 1e-12)
-    return lo, hi
-
-
-def _clipped_label(field: tuple[str | None, str, int | None], percentile: float):
-    """The field tuple with its scalar-bar label marked when the colour range is clipped."""
-    name, label, comp = field
-    if name is None or percentile <= 0.0:
-        return field
-    return name, f"{label} ({percentile:g}-{100 - percentile:g} %)", comp
+            _add_text(plotter, gtxt, "upper_right", 9, prefix + "gauge_text")
+    if mesh_kw["show_scalar_bar"]:
+        for bar in plotter.scalar_bars.values():
+            use_font(bar.GetTitleTextProperty())
+            use_font(bar.GetLabelTextProperty())
 
 
 def _layout(views: Sequence[StateView], layout: str) -> tuple[int, int]:
@@ -237,21 +264,83 @@ def make_plotter(views: Sequence[StateView], off_screen: bool, window_size: tupl
     return p
 
 
-def draw(plotter, views: Sequence[StateView], field, clim, camera: str = "iso", prefix: str = "", **kw) -> None:
-    """Draw the views into the plotter's panels (row-major), sharing ``clim`` and the camera."""
+def draw(plotter, views: Sequence[StateView], field, clim, camera: str = "iso", prefix: str = "",
+         clim_mode: str = "shared", scopes: Sequence[str] | None = None, **kw) -> None:
+    """Draw the views into the plotter's panels (row-major), sharing the camera.
+
+    Parameters
+    ----------
+    plotter : pyvista.Plotter
+    views : sequence of StateView
+    field : tuple
+        ``(array, label, component)``.
+    clim : (float, float) or sequence of them or None
+        One colour range for every panel, or one per panel (:func:`panel_clims`).
+    camera : {'iso', 'xy'}
+    prefix : str
+        Actor-name prefix; given, this prefix's actors are removed first (a redraw).
+    clim_mode : {'shared', 'panel'}
+        ``panel``: a scalar bar (and range) of its own in every panel; ``shared``: one bar,
+        in the first panel. The bar title says which (:func:`bar_title`).
+    scopes : sequence of str, optional
+        Per panel, from :func:`panel_scopes` (default: ``clim_mode`` for every panel).
+    **kw
+        Passed to :func:`add_state`.
+    """
     rows, cols = plotter.shape
     if prefix:  # redraw: drop this prefix's actors (a part may be absent in the new state)
         for ren in plotter.renderers:
             for name in [n for n in ren.actors if str(n).startswith(prefix)]:
                 ren.remove_actor(name, render=False)
+    clims = _per_panel(clim, len(views))
+    own = clim_mode == "panel"
+    scopes = list(scopes) if scopes is not None else [clim_mode] * len(views)
     for i, sv in enumerate(views):
         plotter.subplot(i // cols, i % cols)
-        add_state(plotter, sv, field, clim=clim, prefix=f"{prefix}{i}:", **kw)
+        title = bar_title(field[1], scopes[i]) if field[0] is not None else None
+        add_state(plotter, sv, field, clim=clims[i], prefix=f"{prefix}{i}:", show_scalar_bar=own or i == 0,
+                  bar_title=title, own_bar=own, **kw)
     if not prefix:
         plotter.subplot(0, 0)
         _set_camera(plotter, camera)
         if len(views) > 1:
             plotter.link_views()
+
+
+def annotate(plotter, views: Sequence[StateView], field, clim_mode: str, percentile: float,
+             uniform: bool = False, **kw) -> None:
+    """The figure's legend (first panel, lower right) and colour footnote (last panel, lower right).
+
+    Parameters
+    ----------
+    plotter : pyvista.Plotter
+    views : sequence of StateView
+        Every state shown (for which markers exist).
+    field : tuple
+    clim_mode : {'panel', 'shared'}
+    percentile : float
+    uniform : bool
+        Some panel's field is uniform (:func:`colour_note`).
+    **kw
+        The :func:`add_state` switches (``show_gauge``, ``cavity``, ...); a marker that is
+        not drawn is not listed.
+    """
+    rows, cols = plotter.shape
+    keys = ("show_outline", "show_fibres", "show_gauge", "show_contact", "cavity")
+    entries = legend_entries(views, **{k: kw[k] for k in keys if k in kw})
+    w_px, h_px = panel_pixels(plotter)
+    # under half the panel (~6.5 px a character at 8 pt), beside the design text; one line up, above it
+    note = wrap(colour_note(field, clim_mode, percentile, uniform), max(30, int(0.5 * w_px / 6.5)))
+    last = min(len(views), rows * cols) - 1
+    plotter.subplot(0, 0)
+    # 290 px wide, 21 px a line, left of the scalar bar, above the design text (and the note)
+    n_under = 1 + (note.count("\n") + 2 if note and last == 0 else 0)
+    size = (min(0.6, 290.0 / w_px), min(0.5, 21.0 * len(entries) / h_px))
+    add_legend(plotter, entries, position=(max(0.01, 0.84 - size[0]), (6.0 + 14.0 * n_under) / h_px), size=size)
+    if note:
+        plotter.subplot(last // cols, last % cols)
+        _add_text(plotter, note + "\n ", "lower_right", 8, "colour_note")
+    plotter.subplot(0, 0)
 
 
 def render(
@@ -264,9 +353,10 @@ def render(
     camera: str = "iso",
     cmap: str = "coolwarm",
     clim_percentile: float = 1.0,
+    clim_mode: str = "panel",
     **kw,
 ):
-    """Render views side by side (same camera and colour range) on screen or to a PNG.
+    """Render views side by side (same camera) on screen or to a PNG.
 
     Parameters
     ----------
@@ -283,6 +373,9 @@ def render(
     clim_percentile : float
         Colour range over the (p, 100 − p) percentiles of the field (0 = full range);
         see :func:`shared_clim`.
+    clim_mode : {'panel', 'shared'}
+        Each panel its own colour range and bar (default), or one for all
+        (:func:`panel_clims`).
     **kw
         Passed to :func:`add_state` (``cavity``, ``show_edges``, ...).
 
@@ -297,10 +390,12 @@ def render(
     for v in views[1:]:  # every panel must hold the field
         if f[0] is not None and f[0] not in field_names(v.grid):
             raise ViewerError(f"{v.path or v.title}: no field {f[0]!r}; available fields: {field_names(v.grid)}")
-    clim = shared_clim(views, f, clim_percentile)
-    f = _clipped_label(f, clim_percentile)
+    panels = [[v] for v in views]
+    clims = panel_clims(panels, f, clim_percentile, clim_mode)
+    scopes = panel_scopes(panels, f, clim_percentile, clim_mode)
     p = make_plotter(views, off_screen, window_size, layout)
-    draw(p, views, f, clim, camera=camera, cmap=cmap, **kw)
+    draw(p, views, f, clims, camera=camera, cmap=cmap, clim_mode=clim_mode, scopes=scopes, **kw)
+    annotate(p, views, f, clim_mode, clim_percentile, uniform="uniform" in scopes, **kw)
     if screenshot is not None:
         out = Path(screenshot)
         out.parent.mkdir(parents=True, exist_ok=True)
@@ -322,6 +417,7 @@ def interactive_plotter(
     start: int | None = None,
     step_values: Sequence[float] | None = None,
     clim_percentile: float = 1.0,
+    clim_mode: str = "panel",
     **kw,
 ) -> tuple[Any, Callable[[int], None]]:
     """A plotter that steps through states with a slider and the keys ``n`` / ``b``.
@@ -336,6 +432,9 @@ def interactive_plotter(
     step_values : sequence of float, optional
         The deflection δ [mm] of each step: the slider then runs over δ and snaps to the
         nearest step (default: over the step index).
+    clim_mode : {'panel', 'shared'}
+        Each panel its own colour range over all its steps (default), or one range for all
+        panels and steps (:func:`panel_clims`).
 
     Returns
     -------
@@ -344,35 +443,47 @@ def interactive_plotter(
     """
     if not series or not series[0]:
         raise ViewerError("nothing to draw: no states selected")
+    if any(len(step) != len(series[0]) for step in series):
+        raise ViewerError(f"every step must show {len(series[0])} panels, got {[len(step) for step in series]}")
     all_views = [v for step in series for v in step]
     f = resolve_field(series[-1][0].grid, field, str(series[-1][0].path or series[-1][0].title))
-    clim = shared_clim(all_views, f, clim_percentile)
-    f = _clipped_label(f, clim_percentile)
+    panels = [[step[i] for step in series] for i in range(len(series[0]))]
+    clims = panel_clims(panels, f, clim_percentile, clim_mode)
+    scopes = panel_scopes(panels, f, clim_percentile, clim_mode)
     p = make_plotter(series[0], off_screen, window_size, layout)
     current = {"k": len(series) - 1 if start is None else int(start)}
 
     def set_step(k: float) -> None:
         k = int(round(k)) % len(series)
         current["k"] = k
-        draw(p, series[k], f, clim, camera=camera, prefix="s:", **kw)
+        draw(p, series[k], f, clims, camera=camera, prefix="s:", clim_mode=clim_mode, scopes=scopes, **kw)
         p.render()
 
-    draw(p, series[current["k"]], f, clim, camera=camera, prefix="s:", **kw)
+    draw(p, series[current["k"]], f, clims, camera=camera, prefix="s:", clim_mode=clim_mode, scopes=scopes, **kw)
+    annotate(p, all_views, f, clim_mode, clim_percentile, uniform="uniform" in scopes, **kw)
     p.subplot(0, 0)
     _set_camera(p, camera)
     if len(series[0]) > 1:
         p.link_views()
     if len(series) > 1:
+        # in the first panel, clear of the heading (upper left) and the gauge text (upper right):
+        # between them in a wide panel, below them in a narrow one
+        wide = panel_pixels(p)[0] >= 1000
+        ends = dict(pointa=(0.42, 0.93), pointb=(0.72, 0.93)) if wide else dict(pointa=(0.1, 0.76),
+                                                                                 pointb=(0.7, 0.76))
         if step_values is not None:
             if len(step_values) != len(series):
                 raise ViewerError(f"step_values: {len(step_values)} values for {len(series)} steps")
             vals = np.asarray(step_values, dtype=float)
-            p.add_slider_widget(lambda v: set_step(int(np.argmin(np.abs(vals - v)))), [vals[0], vals[-1]],
-                                value=vals[current["k"]], title="delta [mm] (n / b keys)", pointa=(0.55, 0.92),
-                                pointb=(0.95, 0.92), fmt="%.2f", style="modern")
+            w = p.add_slider_widget(lambda v: set_step(int(np.argmin(np.abs(vals - v)))), [vals[0], vals[-1]],
+                                    value=vals[current["k"]], title=shown_text("push δ [mm] (n / b keys)"),
+                                    fmt="%.2f", style="modern", **ends)
         else:
-            p.add_slider_widget(set_step, [0, len(series) - 1], value=current["k"], title="state (n / b keys)",
-                                pointa=(0.55, 0.92), pointb=(0.95, 0.92), fmt="%.0f", style="modern")
+            w = p.add_slider_widget(set_step, [0, len(series) - 1], value=current["k"], title="state (n / b keys)",
+                                    fmt="%.0f", style="modern", **ends)
+        rep = w.GetRepresentation()
+        use_font(rep.GetTitleProperty())
+        use_font(rep.GetLabelProperty())
         p.add_key_event("n", lambda: set_step(current["k"] + 1))
         p.add_key_event("b", lambda: set_step(current["k"] - 1))
     return p, set_step
