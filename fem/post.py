@@ -1,12 +1,15 @@
 """Nodal post-processing of a TET10 displacement field: deformation gradient, logarithmic
-strain and the von Mises stress of the neo-Hookean law.
+strain, and the Cauchy and von Mises stresses of the neo-Hookean law of the mixed u–p form.
 
 Each element evaluates ``F = I + ∂u/∂X`` at its own 10 nodes with the quadratic shape
 functions of :mod:`fem.element`; a node takes the average over the elements sharing it.
 A displacement that is linear in X (a homogeneous deformation) is reproduced exactly by
 the P2 interpolation, so every node then carries that deformation's F, curved elements
 included. The point queries of :mod:`fem.query` evaluate the same quantities at chosen
-points inside elements instead.
+points inside elements instead. The element pressure of the mixed formulation (constant
+per element) goes to the nodes by the same unweighted mean (:func:`element_to_nodes`).
+Symmetric tensors are stored with 6 components in VTK's order XX, YY, ZZ, XY, YZ, XZ
+(:func:`symmetric_components`).
 
 All functions are vectorised over elements and nodes; they use numpy only.
 """
@@ -155,3 +158,162 @@ def von_mises_neo_hookean(F: np.ndarray, c10: float) -> np.ndarray:
     dev = B - np.einsum("kii->k", B)[:, None, None] / 3.0 * np.eye(3)  # (k, 3, 3)
     sdev = 2.0 * c10 * np.abs(J)[:, None, None] ** (-5.0 / 3.0) * dev  # (k, 3, 3)
     return np.sqrt(1.5 * np.einsum("kij,kij->k", sdev, sdev))  # (k,)
+
+
+#: Component order of a symmetric tensor stored with 6 components, VTK's and ParaView's:
+#: XX, YY, ZZ, XY, YZ, XZ (:func:`symmetric_components`).
+SYMMETRIC_COMPONENTS: tuple[str, ...] = ("XX", "YY", "ZZ", "XY", "YZ", "XZ")
+_SYM_ROW = np.array([0, 1, 2, 0, 1, 0])
+_SYM_COL = np.array([0, 1, 2, 1, 2, 2])
+
+
+def symmetric_components(T: np.ndarray) -> np.ndarray:
+    """The 6 independent components of symmetric tensors in VTK's order XX, YY, ZZ, XY, YZ, XZ.
+
+    ``out[:, k] = T[:, i_k, j_k]`` with ``(i_k, j_k)`` = (0,0), (1,1), (2,2), (0,1), (1,2),
+    (0,2) (:data:`SYMMETRIC_COMPONENTS`); the tensors are taken as symmetric, the lower
+    triangle is not read.
+
+    Parameters
+    ----------
+    T : ndarray, shape (k, 3, 3)
+
+    Returns
+    -------
+    ndarray, shape (k, 6)
+    """
+    T = np.asarray(T, dtype=float)
+    return T[:, _SYM_ROW, _SYM_COL]
+
+
+def element_to_nodes(cells: np.ndarray, values: np.ndarray, n_nodes: int, fill: float = np.nan) -> np.ndarray:
+    """Nodal mean of element-constant values over the elements sharing each node.
+
+    ``v_n = (1 / |E_n|) Σ_{e ∈ E_n} v_e`` with ``E_n`` the elements holding node n; the
+    same unweighted mean as :func:`nodal_deformation_gradient`, so that a field that is
+    the same in every element is reproduced exactly.
+
+    Parameters
+    ----------
+    cells : ndarray, shape (n_el, 10)
+    values : ndarray, shape (n_el,)
+        One value per element (e.g. the P0 pressure of the mixed u–p formulation).
+    n_nodes : int
+    fill : float
+        Value at nodes used by no cell.
+
+    Returns
+    -------
+    ndarray, shape (n_nodes,)
+    """
+    cells = np.asarray(cells, dtype=np.int64)
+    values = np.asarray(values, dtype=float)
+    per_node = np.repeat(values, cells.shape[1])  # (n_el * 10,) the value of each cell's node slot
+    total = np.bincount(cells.ravel(), per_node, minlength=n_nodes)  # (n_nodes,)
+    cnt = np.bincount(cells.ravel(), minlength=n_nodes)  # (n_nodes,)
+    out = np.full(n_nodes, float(fill))
+    used = cnt > 0
+    out[used] = total[used] / cnt[used]
+    return out
+
+
+def cauchy_stress_neo_hookean(F: np.ndarray, c10: float, p: np.ndarray) -> np.ndarray:
+    """Cauchy stress of the mixed-form neo-Hookean law of :mod:`fem.assembly`.
+
+    The element energy density is ``W = C10 (Ī₁ − 3) + p (J − 1) − (D1/4) p²`` with
+    ``Ī₁ = J^(-2/3) tr(FᵀF)`` and p the element pressure unknown; its first Piola stress
+    (:meth:`fem.material.IsochoricI1Material.stress_tangent` plus the volumetric term of
+    :mod:`fem.assembly`) is::
+
+        P = ∂W/∂F = 2 C10 J^(-2/3) (F − (I₁/3) F⁻ᵀ) + p J F⁻ᵀ
+
+    and the Cauchy stress ``σ = J⁻¹ P Fᵀ``::
+
+        σ = 2 C10 J^(-5/3) (B − (tr B / 3) I) + p I,     B = F Fᵀ
+
+    The deviatoric part does not depend on p, the mean stress is ``tr σ / 3 = p``: p is
+    positive in tension (:class:`fem.state.State`). With the displacement formulation
+    ('displacement', D1 > 0) pass ``p = 2 (J − 1) / D1``. Incompressible uniaxial tension
+    λ along x, laterally free (``σ_yy = σ_zz = 0``), gives ``σ_xx = 2 C10 (λ² − 1/λ)``.
+
+    Parameters
+    ----------
+    F : ndarray, shape (k, 3, 3)
+        Deformation gradients (det F > 0).
+    c10 : float
+        [MPa].
+    p : ndarray, shape (k,) or float
+        Pressure [MPa], > 0 in tension.
+
+    Returns
+    -------
+    ndarray, shape (k, 3, 3)
+        [MPa], symmetric.
+    """
+    F = np.asarray(F, dtype=float)
+    p = np.broadcast_to(np.asarray(p, dtype=float), F.shape[:1])  # (k,)
+    J = np.linalg.det(F)  # (k,)
+    B = np.einsum("kij,klj->kil", F, F)  # (k, 3, 3) F Fᵀ
+    dev = B - np.einsum("kii->k", B)[:, None, None] / 3.0 * np.eye(3)  # (k, 3, 3)
+    return 2.0 * c10 * (J ** (-5.0 / 3.0))[:, None, None] * dev + p[:, None, None] * np.eye(3)  # (k, 3, 3)
+
+
+def von_mises_stress(sigma: np.ndarray) -> np.ndarray:
+    """Von Mises equivalent stress ``σ_vM = sqrt(3/2 s:s)``, ``s = σ − (tr σ / 3) I``.
+
+    Parameters
+    ----------
+    sigma : ndarray, shape (k, 3, 3)
+        Cauchy stresses [MPa].
+
+    Returns
+    -------
+    ndarray, shape (k,)
+        [MPa], >= 0; equals :func:`von_mises_neo_hookean` for the stress of
+        :func:`cauchy_stress_neo_hookean`, whatever the pressure.
+    """
+    sigma = np.asarray(sigma, dtype=float)
+    s = sigma - np.einsum("kii->k", sigma)[:, None, None] / 3.0 * np.eye(3)  # (k, 3, 3)
+    return np.sqrt(1.5 * np.einsum("kij,kij->k", s, s))  # (k,)
+
+
+def nodal_strain_stress(points: np.ndarray, cells: np.ndarray, u: np.ndarray, p: np.ndarray | None, c10: float,
+                        d1: float = 0.0, formulation: str = "mixed") -> tuple[np.ndarray, np.ndarray]:
+    """Nodal Eulerian log strain and neo-Hookean Cauchy stress of a solved u–p state.
+
+    F at the nodes from :func:`nodal_deformation_gradient`; ``ln V`` from
+    :func:`eulerian_log_strain`; σ from :func:`cauchy_stress_neo_hookean` with the nodal
+    pressure: the mean of the element pressures around the node (:func:`element_to_nodes`)
+    for the 'mixed' formulation, ``2 (J − 1) / D1`` of the nodal F for 'displacement'.
+
+    Parameters
+    ----------
+    points : ndarray, shape (n_nodes, 3)
+    cells : ndarray, shape (n_el, 10)
+    u : ndarray, shape (n_nodes, 3)
+        [mm].
+    p : ndarray, shape (n_el,) or None
+        Element pressures [MPa] (mixed formulation; > 0 in tension).
+    c10, d1 : float
+        [MPa], [1/MPa].
+    formulation : {'mixed', 'displacement'}
+
+    Returns
+    -------
+    log_strain : ndarray, shape (n_nodes, 3, 3)
+    sigma : ndarray, shape (n_nodes, 3, 3)
+        [MPa]. Both NaN at nodes used by no cell.
+    """
+    F, used = nodal_deformation_gradient(points, cells, u)
+    if formulation == "mixed":
+        if p is None:
+            raise ValueError("nodal_strain_stress: the mixed formulation needs the element pressures p")
+        pn = element_to_nodes(cells, p, len(used))[used]  # (k,)
+    elif formulation == "displacement":
+        if not d1 > 0:
+            raise ValueError(f"nodal_strain_stress: the displacement formulation needs D1 > 0, got {d1!r}")
+        pn = 2.0 * (np.linalg.det(F) - 1.0) / d1  # (k,)
+    else:
+        raise ValueError(f"nodal_strain_stress: formulation={formulation!r}, allowed 'mixed', 'displacement'")
+    return (spread_to_nodes(eulerian_log_strain(F), used),
+            spread_to_nodes(cauchy_stress_neo_hookean(F, c10, pn), used))

@@ -136,3 +136,77 @@ def test_von_mises_of_a_sheared_mesh():
     u = m.points @ (_shear(g) - np.eye(3)).T  # u = (γ y, 0, 0)
     F, used = post.nodal_deformation_gradient(m.points, m.cells, u)
     np.testing.assert_allclose(post.von_mises_neo_hookean(F, c10), 2 * c10 * g * math.sqrt(3 + g * g), rtol=1e-12)
+
+
+# ------------------------------------------------------------------ Cauchy stress of the mixed u–p neo-Hookean law
+def _uniaxial_pressure(lam: float, c10: float) -> float:
+    """p making the lateral stress of an incompressible uniaxial stretch λ zero: 2 C10 (I1/3 - 1/λ)."""
+    return 2 * c10 * ((lam**2 + 2 / lam) / 3 - 1 / lam)
+
+
+def test_cauchy_stress_uniaxial_closed_form():
+    """Incompressible uniaxial tension, laterally free: σ_xx = 2 C10 (λ² − 1/λ), all else 0."""
+    c10 = 0.14
+    for lam in (0.7, 1.0, 1.4, 2.5):
+        p = _uniaxial_pressure(lam, c10)
+        sigma = post.cauchy_stress_neo_hookean(_uniaxial(lam)[None], c10, np.array([p]))[0]
+        np.testing.assert_allclose(sigma, np.diag([2 * c10 * (lam**2 - 1 / lam), 0.0, 0.0]), atol=1e-14)
+        assert np.trace(sigma) / 3 == pytest.approx(p, abs=1e-14)  # p is the mean stress, > 0 in tension
+        assert post.von_mises_stress(sigma[None])[0] == pytest.approx(abs(2 * c10 * (lam**2 - 1 / lam)), abs=1e-14)
+    # a rotation superposed on it rotates σ: R σ Rᵀ
+    lam, R = 1.4, _rot_x(0.7) @ _rot_z(0.3)
+    sigma = post.cauchy_stress_neo_hookean((R @ _uniaxial(lam))[None], c10, _uniaxial_pressure(lam, c10))[0]
+    np.testing.assert_allclose(sigma, R @ np.diag([2 * c10 * (lam**2 - 1 / lam), 0, 0]) @ R.T, atol=1e-14)
+    # a rigid rotation leaves the pressure alone
+    np.testing.assert_allclose(post.cauchy_stress_neo_hookean(R[None], c10, -0.3)[0], -0.3 * np.eye(3), atol=1e-14)
+
+
+@pytest.mark.parametrize("f_name", [*HOMOGENEOUS, "dilated"])
+def test_cauchy_stress_equals_the_material_stress(f_name):
+    """σ = J⁻¹ (P_iso + p J F⁻ᵀ) Fᵀ with P_iso of fem.material.NeoHookean, the stress the solver
+    assembles at its quadrature points (fem.assembly); on a curved mesh the nodal σ of a
+    homogeneous deformation with one pressure in every element is that σ at every node."""
+    from fem.material import NeoHookean
+
+    c10, p = 0.17, -0.042
+    F = 1.07 * _uniaxial(1.2) if f_name == "dilated" else HOMOGENEOUS[f_name]
+    J, G = np.linalg.det(F), np.linalg.inv(F)
+    P_iso, _ = NeoHookean(c10).stress_tangent(F[None], G[None], np.array([J]), need_tangent=False)
+    P = P_iso[0] + p * J * G.T
+    expected = P @ F.T / J
+    np.testing.assert_allclose(post.cauchy_stress_neo_hookean(F[None], c10, p)[0], expected, atol=1e-14)
+    m = MESHES["curved"]
+    u = m.points @ (F - np.eye(3)).T
+    le, sigma = post.nodal_strain_stress(m.points, m.cells, u, np.full(m.n_elements, p), c10)
+    np.testing.assert_allclose(sigma, np.broadcast_to(expected, sigma.shape), atol=1e-12)
+    np.testing.assert_allclose(le, np.broadcast_to(post.eulerian_log_strain(F[None])[0], le.shape), atol=1e-12)
+    # von Mises does not see the pressure
+    np.testing.assert_allclose(post.von_mises_stress(sigma), post.von_mises_neo_hookean(np.broadcast_to(F, sigma.shape),
+                                                                                       c10), rtol=1e-12, atol=1e-14)
+
+
+def test_displacement_formulation_pressure():
+    """With the displacement formulation the pressure is 2 (J − 1) / D1 (fem.assembly)."""
+    m, c10, d1 = MESHES["box"], 0.14, 0.5
+    s = 1.05
+    u = m.points * (s - 1.0)  # pure dilation: σ = 2 (J − 1)/D1 I
+    _, sigma = post.nodal_strain_stress(m.points, m.cells, u, None, c10, d1, formulation="displacement")
+    np.testing.assert_allclose(sigma, np.broadcast_to(2 * (s**3 - 1) / d1 * np.eye(3), sigma.shape), atol=1e-12)
+    with pytest.raises(ValueError, match="D1 > 0"):
+        post.nodal_strain_stress(m.points, m.cells, u, None, c10, 0.0, formulation="displacement")
+    with pytest.raises(ValueError, match="element pressures"):
+        post.nodal_strain_stress(m.points, m.cells, u, None, c10)
+
+
+def test_element_to_nodes_and_symmetric_components():
+    m = MESHES["distorted"]
+    np.testing.assert_allclose(post.element_to_nodes(m.cells, np.full(m.n_elements, 0.3), m.n_nodes), 0.3, atol=1e-15)
+    # a node's value is the mean over its elements
+    vals = np.arange(m.n_elements, dtype=float)
+    node = int(m.cells[0, 0])
+    holders = np.nonzero((m.cells == node).any(axis=1))[0]
+    assert post.element_to_nodes(m.cells, vals, m.n_nodes)[node] == pytest.approx(vals[holders].mean())
+    assert np.isnan(post.element_to_nodes(m.cells, vals, m.n_nodes + 1)[-1])  # a node no cell uses
+    T = np.array([[[11, 12, 13], [12, 22, 23], [13, 23, 33]]], dtype=float)
+    np.testing.assert_array_equal(post.symmetric_components(T)[0], [11, 22, 33, 12, 23, 13])
+    assert post.SYMMETRIC_COMPONENTS == ("XX", "YY", "ZZ", "XY", "YZ", "XZ")

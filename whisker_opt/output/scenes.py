@@ -1,24 +1,377 @@
-"""Solved scenes on disk: one VTU per kept state and the ``scenes.json`` entry of each scene.
+"""Solved scenes on disk: VTU files per kept state, their fibres, a ``.pvd`` collection per
+scene, and the ``scenes.json`` entry of each scene.
 
-The viewer (:mod:`whisker_opt.viewer`) reads what this module writes.
+Files of scene ``<scene>`` (:func:`write_scene_files`):
+
+``<scene>_<state>.vtu``
+    The TET10 mesh in its reference configuration with the state's fields
+    (:func:`state_fields`); states ``pressurised`` (δ = 0), ``delta_<δ>`` (every solved
+    deflection increment but the last) and ``deflected`` (the last increment).
+``<scene>_<state>_fibres.vtu``
+    The fibre helices as 2-node line cells (the truss segments of the solve) at their
+    reference positions with their displacement (:func:`fibre_fields`); none when the
+    design has no fibres.
+``<scene>.pvd``, ``<scene>_fibres.pvd``
+    ParaView collections of those files in deflection order, time step = δ [mm].
+
+Points are reference coordinates; ParaView's *Warp By Vector* with ``displacement`` shows
+the deformed whisker. Every VTU carries its metadata as field data
+(:func:`scene_metadata`). The viewer (:mod:`whisker_opt.viewer`) reads what this module
+writes.
 """
 
 from __future__ import annotations
 
 import logging
+import re
 import time
+from dataclasses import dataclass
 from pathlib import Path
+
+import numpy as np
+
+from fem import post
 
 logger = logging.getLogger(__name__)
 
+#: Stem suffix of the fibre files: ``<scene>_<state>_fibres.vtu`` beside ``<scene>_<state>.vtu``.
+FIBRE_SUFFIX = "_fibres"
+
+#: Cell tags of the ``region`` array, by the element centroid's reference x.
+REGION_CAP, REGION_CHAMBER, REGION_BODY = 1, 2, 3
+
+#: Bits of the ``gauge_element`` cell array.
+GAUGE_LINE_HOST, GAUGE_CENTROID_ELEMENT = 1, 2
+
+#: Units of the point and cell arrays of a state's VTU (``-`` for pure numbers and tags).
+STATE_UNITS = {
+    "displacement": "mm", "displacement_magnitude": "mm", "log_strain": "-", "log_strain_axial": "-",
+    "cauchy_stress": "MPa", "von_mises": "MPa", "on_cavity": "-", "on_base": "-", "on_outer": "-",
+    "in_contact_band": "-", "in_gauge": "-", "mixed_pressure": "MPa", "region": "-", "gauge_element": "-",
+}
+#: Units of the arrays of a fibre VTU.
+FIBRE_UNITS = {"displacement": "mm", "displacement_magnitude": "mm", "fibre": "-", "fibre_log_strain": "-"}
+#: Node sets of :class:`geometry.mesh.WhiskerMesh` written as 0/1 point arrays.
+NODE_SET_TAGS = {"on_cavity": "cavity", "on_base": "base", "on_outer": "outer"}
+
+
+@dataclass(frozen=True)
+class SceneFiles:
+    """The files :func:`write_scene_files` wrote for one scene.
+
+    Attributes
+    ----------
+    states : list of Path
+        ``<scene>_<state>.vtu``, in deflection order.
+    fibres : list of Path
+        ``<scene>_<state>_fibres.vtu``, same order (empty without fibres).
+    pvd : Path
+        ``<scene>.pvd``.
+    fibres_pvd : Path or None
+        ``<scene>_fibres.pvd``.
+    deltas : list of float
+        δ [mm] of each state.
+    """
+
+    states: list
+    fibres: list
+    pvd: Path
+    fibres_pvd: Path | None
+    deltas: list
+
+
+def ordered_states(res) -> list[tuple[str, float, object]]:
+    """``(state name, δ [mm], State)`` of a result's kept states in deflection order.
+
+    ``pressurised`` at δ = 0, ``delta_<δ>`` at its δ, ``deflected`` at the last solved δ
+    (``res.delta[-1]``, else the largest ``delta_<δ>``); a ``delta_<δ>`` that is the
+    ``deflected`` state itself is left out (written once, as ``deflected``). δ read from a
+    name (two decimals) is replaced by the nearest solved δ of ``res.delta`` when within 0.005 mm.
+
+    Raises
+    ------
+    ValueError
+        No states kept, or a state name of another kind.
+    """
+    if not res.states:
+        raise ValueError("no states kept; solve the scene with run_scene(..., keep_states=True)")
+    solved = np.asarray(getattr(res, "delta", ()), dtype=float)
+    last = res.states.get("deflected")
+    out, named = [], []
+    for name, st in res.states.items():
+        if name == "pressurised":
+            out.append((name, 0.0, st))
+            continue
+        if name == "deflected":
+            continue
+        m = re.fullmatch(r"delta_([-+]?\d+(?:\.\d*)?)", name)
+        if m is None:
+            raise ValueError(f"state {name!r}: not 'pressurised', 'deflected' or 'delta_<mm>'")
+        d = float(m.group(1))
+        if solved.size and np.min(np.abs(solved - d)) <= 0.005:
+            d = float(solved[np.argmin(np.abs(solved - d))])
+        named.append(d)
+        if st is not last:
+            out.append((name, d, st))
+    if last is not None:
+        out.append(("deflected", float(solved[-1]) if solved.size else max(named, default=0.0), last))
+    return sorted(out, key=lambda t: (t[1], t[0] == "deflected"))
+
+
+# ------------------------------------------------------------------------------ tags
+def element_centroids(mesh) -> np.ndarray:
+    """Reference centroids ``X(ξ = ¼, ¼, ¼)`` of TET10 elements, shape (n_el, 3)."""
+    from fem import element
+
+    N = element.shape_functions(np.full((1, 3), 0.25))[0]  # (10,)
+    return np.einsum("a,eai->ei", N, mesh.points[mesh.cells])  # (n_el, 3)
+
+
+def region_tags(mesh, design) -> np.ndarray:
+    """``region`` of each element: cap (x < c), chamber wall (c <= x < l), body/tip (x >= l).
+
+    By the reference x of the element centroid (:func:`element_centroids`) against the
+    design's c and l; values :data:`REGION_CAP`, :data:`REGION_CHAMBER`, :data:`REGION_BODY`.
+
+    Returns
+    -------
+    ndarray of int32, shape (n_el,)
+    """
+    x = element_centroids(mesh)[:, 0]  # (n_el,)
+    return np.where(x < design.c, REGION_CAP, np.where(x < design.l, REGION_CHAMBER, REGION_BODY)).astype(np.int32)
+
+
+def _flag(n: int, index) -> np.ndarray:
+    out = np.zeros(n, dtype=np.int32)
+    out[np.asarray(index, dtype=np.int64)] = 1
+    return out
+
+
+def scene_tags(res) -> tuple[dict, dict]:
+    """Point and cell tags of a scene (the same in every state).
+
+    Point arrays (0/1): ``on_cavity``, ``on_base``, ``on_outer`` (the mesh's node sets),
+    ``in_contact_band`` (the nodes pushed in the deflection step,
+    :func:`whisker_opt.experiment.contact.contact_band` of the pressurised state),
+    ``in_gauge`` (the nodes of the ``gauge_element`` cells). Cell arrays: ``region``
+    (:func:`region_tags`), ``gauge_element`` (bit 1: hosts a point of the line gauge, bit 2:
+    the element of the centroid reading; :func:`whisker_opt.experiment.gauge.locate_gauge`).
+    Tags whose source a result lacks are left out.
+
+    Returns
+    -------
+    point_tags, cell_tags : dict of name -> ndarray of int32
+    """
+    wm, spec = res.mesh, getattr(res, "spec", None)
+    mesh = wm.mesh
+    n, n_el = mesh.n_nodes, mesh.n_elements
+    sets = getattr(wm, "node_sets", None) or {}
+    points = {tag: _flag(n, sets[key]) for tag, key in NODE_SET_TAGS.items() if key in sets}
+    cells = {}
+    design = spec.design if spec is not None else getattr(wm, "design", None)
+    if design is not None:
+        cells["region"] = region_tags(mesh, design)
+    if spec is not None and sets:
+        from whisker_opt.experiment.contact import contact_band
+        from whisker_opt.experiment.gauge import locate_gauge
+        from whisker_opt.experiment.scene import scene_contact
+
+        u1 = res.states["pressurised"].u
+        contact = scene_contact(spec)
+        points["in_contact_band"] = _flag(n, contact_band(wm, u1, contact.x(wm, u1), spec.band_width,
+                                                          contact.at_tip))
+        gauge = locate_gauge(wm, design)
+        ge = np.zeros(n_el, dtype=np.int32)
+        ge[gauge.host_elements] |= GAUGE_LINE_HOST
+        ge[gauge.centroid_element] |= GAUGE_CENTROID_ELEMENT
+        cells["gauge_element"] = ge
+        points["in_gauge"] = _flag(n, np.unique(mesh.cells[ge > 0]))
+    return points, cells
+
+
+# ------------------------------------------------------------------------------ fields
+def state_fields(mesh, state, spec=None) -> tuple[dict, dict]:
+    """Point and cell arrays of one solved state.
+
+    Point arrays: ``displacement`` u [mm] (n, 3); ``displacement_magnitude`` |u| [mm];
+    ``log_strain``, the Eulerian log strain ln V = ½ ln(F Fᵀ) (n, 6) in VTK's order XX, YY,
+    ZZ, XY, YZ, XZ; ``log_strain_axial`` its XX [-]; ``cauchy_stress`` σ [MPa] (n, 6), same
+    order, of the neo-Hookean law with the mixed pressure
+    (:func:`fem.post.cauchy_stress_neo_hookean`); ``von_mises`` [MPa]. Nodal values: F
+    averaged over the elements sharing a node, the element pressures likewise
+    (:func:`fem.post.nodal_strain_stress`). Cell array ``mixed_pressure`` [MPa]: the element
+    pressure unknown p of the u–p formulation, the mean stress tr σ / 3, positive in tension
+    (left out for the 'displacement' formulation, whose pressure is no unknown).
+
+    Parameters
+    ----------
+    mesh : fem.mesh.TetMesh
+    state : fem.state.State
+        ``u`` (n_nodes, 3) and ``p`` (n_el,).
+    spec : whisker_opt.experiment.spec.SceneSpec, optional
+        C10, D1 and the formulation; without it the stress arrays are left out.
+
+    Returns
+    -------
+    point_data, cell_data : dict of name -> ndarray
+    """
+    u = np.asarray(state.u, dtype=float)
+    formulation = getattr(spec, "formulation", "mixed")
+    pdata = {"displacement": u, "displacement_magnitude": np.linalg.norm(u, axis=1)}
+    cdata = {}
+    if formulation == "mixed":
+        cdata["mixed_pressure"] = np.asarray(state.p, dtype=float)
+    if spec is not None:
+        le, sigma = post.nodal_strain_stress(mesh.points, mesh.cells, u, state.p, spec.c10, spec.d1, formulation)
+        pdata["log_strain"] = post.symmetric_components(le)
+        pdata["log_strain_axial"] = le[:, 0, 0]
+        pdata["cauchy_stress"] = post.symmetric_components(sigma)
+        pdata["von_mises"] = post.von_mises_stress(sigma)
+    else:
+        F, used = post.nodal_deformation_gradient(mesh.points, mesh.cells, u)
+        le = post.spread_to_nodes(post.eulerian_log_strain(F), used)
+        pdata["log_strain"] = post.symmetric_components(le)
+        pdata["log_strain_axial"] = le[:, 0, 0]
+    return pdata, cdata
+
+
+def fibre_fields(wm, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict, dict] | None:
+    """The fibres of a mesh as line segments with their displacement.
+
+    Points: the reference fibre polylines of ``wm.fibres``, one after another. Point
+    arrays ``displacement`` (interpolated in the host elements, :func:`fem.query.displacement_at`)
+    [mm], ``displacement_magnitude`` [mm], ``fibre`` (index of the helix); cell arrays
+    ``fibre`` and ``fibre_log_strain`` = ln(ℓ/L) of each segment, ℓ and L its current and
+    reference lengths [-].
+
+    Returns
+    -------
+    (points (n, 3), segments (m, 2), point_data, cell_data), or None without fibres.
+    """
+    from fem.query import displacement_at
+
+    fibres = tuple(getattr(wm, "fibres", ()) or ())
+    if not fibres:
+        return None
+    offsets = np.cumsum([0] + [len(f.points_ref) for f in fibres])
+    X = np.vstack([f.points_ref for f in fibres])  # (n, 3)
+    disp = np.vstack([displacement_at(wm.mesh, u, f.host_elements, f.local_coords) for f in fibres])  # (n, 3)
+    seg = np.vstack([f.segments + o for f, o in zip(fibres, offsets[:-1])])  # (m, 2)
+    fid_pt = np.repeat(np.arange(len(fibres), dtype=np.int32), np.diff(offsets))  # (n,)
+    x = X + disp
+    L0 = np.linalg.norm(X[seg[:, 1]] - X[seg[:, 0]], axis=1)  # (m,)
+    ell = np.linalg.norm(x[seg[:, 1]] - x[seg[:, 0]], axis=1)  # (m,)
+    pdata = {"displacement": disp, "displacement_magnitude": np.linalg.norm(disp, axis=1), "fibre": fid_pt}
+    cdata = {"fibre": fid_pt[seg[:, 0]], "fibre_log_strain": np.log(ell / L0)}
+    return X, seg, pdata, cdata
+
+
+def scene_metadata(name: str, state: str, delta: float, spec=None) -> dict:
+    """Field data of a state's VTU files: what was solved, with the units in the names.
+
+    ``scene``, ``state`` (text); ``TimeValue`` and ``delta_mm``: δ of the state [mm]
+    (ParaView takes ``TimeValue`` as the time of a lone file); with a spec also ``Q_MPa``,
+    ``trim_mm``, ``contact_ratio``, ``contact_at``, ``C10_MPa``, ``D1_per_MPa``,
+    ``calibration_xi``, ``formulation``, ``fidelity_preset`` (the mesh sizing's name when it
+    is a preset's) and ``design_<name>`` for every design parameter. Text is stored as
+    bytes (:func:`fem.io.decode_text`).
+    """
+    meta: dict = {"scene": name, "state": state, "TimeValue": float(delta), "delta_mm": float(delta)}
+    if spec is None:
+        return meta
+    from whisker_opt.experiment.fidelity import PRESET_NAMES
+
+    meta.update({"Q_MPa": float(spec.Q), "trim_mm": float(spec.design.trim), "contact_ratio": float(spec.contact_ratio),
+                 "contact_at": spec.contact_at, "C10_MPa": float(spec.c10), "D1_per_MPa": float(spec.d1),
+                 "calibration_xi": float(spec.calibration), "formulation": spec.formulation})
+    preset = getattr(spec.sizing, "name", None)
+    if preset in PRESET_NAMES:
+        meta["fidelity_preset"] = preset
+    meta.update({f"design_{k}": v for k, v in spec.design.as_dict().items() if isinstance(v, (int, float))})
+    return meta
+
+
+#: Units of the design fields that are not user parameters (:func:`geometry.design.parameter`).
+_PLAIN_DESIGN_UNITS = {"trim": "mm", "gauge_half_angle_deg": "deg", "tip_clearance": "mm"}
+
+
+def design_units(design) -> dict:
+    """Units of the ``design_<name>`` field data, from the parameters' declarations."""
+    from geometry.design import user_parameters
+
+    units = {f"design_{k}": u for k, u in _PLAIN_DESIGN_UNITS.items()}
+    units.update({f"design_{f.name}": f.metadata["unit"] for f in user_parameters(type(design))})
+    return units
+
+
+def units_text(arrays, meta: dict, spec=None, table: dict | None = None) -> list[str]:
+    """The ``units`` field data: ``"<array>=<unit>"`` for every point, cell and numeric field array."""
+    table = {**STATE_UNITS, **(table or {}), "TimeValue": "mm", "delta_mm": "mm", "Q_MPa": "MPa", "trim_mm": "mm",
+             "contact_ratio": "-", "C10_MPa": "MPa", "D1_per_MPa": "1/MPa", "calibration_xi": "-"}
+    if spec is not None:
+        table.update(design_units(spec.design))
+    names = [*arrays, *(k for k, v in meta.items() if not isinstance(v, str))]
+    return [f"{k}={table.get(k, 'unknown')}" for k in names]
+
+
+# ------------------------------------------------------------------------------ writing
+def write_scene_files(out: Path, name: str, res) -> SceneFiles:
+    """Write a scene result's states, fibres and ``.pvd`` collections into ``out`` (see the module).
+
+    Parameters
+    ----------
+    out : Path
+    name : str
+        Scene name (file prefix).
+    res : whisker_opt.experiment.scene.SceneResult
+        Solved with ``keep_states=True``.
+
+    Returns
+    -------
+    SceneFiles
+    """
+    from fem.io import write_lines_vtu, write_pvd, write_vtu
+
+    try:
+        states = ordered_states(res)
+    except ValueError as exc:
+        raise ValueError(f"scene {name!r}: {exc}") from None
+    out = Path(out)
+    spec = getattr(res, "spec", None)
+    mesh = res.mesh.mesh
+    point_tags, cell_tags = scene_tags(res)
+    comps = {"log_strain": post.SYMMETRIC_COMPONENTS, "cauchy_stress": post.SYMMETRIC_COMPONENTS}
+    vtus, fibre_paths = [], []
+    for state_name, delta, st in states:
+        pdata, cdata = state_fields(mesh, st, spec)
+        pdata.update(point_tags)
+        cdata.update(cell_tags)
+        meta = scene_metadata(name, state_name, delta, spec)
+        meta["units"] = units_text([*pdata, *cdata], meta, spec)
+        vtus.append(write_vtu(out / f"{name}_{state_name}.vtu", mesh, point_data=pdata, cell_data=cdata,
+                              field_data=meta, component_names=comps))
+        fib = fibre_fields(res.mesh, st.u)
+        if fib is not None:
+            X, seg, fp, fc = fib
+            fmeta = scene_metadata(name, state_name, delta, spec)
+            fmeta["units"] = units_text([*fp, *fc], fmeta, spec, FIBRE_UNITS)
+            fibre_paths.append(write_lines_vtu(out / f"{name}_{state_name}{FIBRE_SUFFIX}.vtu", X, seg, fp, fc, fmeta))
+    deltas = [d for _, d, _ in states]
+    pvd = write_pvd(out / f"{name}.pvd", [(d, p.name) for d, p in zip(deltas, vtus)])
+    fpvd = (write_pvd(out / f"{name}{FIBRE_SUFFIX}.pvd", [(d, p.name) for d, p in zip(deltas, fibre_paths)])
+            if fibre_paths else None)
+    logger.debug("scene %s: %d state VTU(s), %d fibre VTU(s), %s", name, len(vtus), len(fibre_paths), pvd)
+    return SceneFiles(vtus, fibre_paths, pvd, fpvd, deltas)
+
 
 def write_scene_vtus(out: Path, name: str, res) -> list[Path]:
-    """Write the kept states of a scene result as ``<out>/<name>_<state>.vtu``.
+    """Write the kept states of a scene result (:func:`write_scene_files`); return the state VTUs.
 
-    One file per state of :attr:`whisker_opt.experiment.scene.SceneResult.states`: ``pressurised``,
-    ``delta_<δ>`` for every solved deflection increment but the last, and ``deflected``
-    (the last increment, written once). Point array ``displacement`` [mm], cell array
-    ``pressure`` (the element pressure unknown) [MPa].
+    One ``<out>/<name>_<state>.vtu`` per state of
+    :attr:`whisker_opt.experiment.scene.SceneResult.states`, in deflection order:
+    ``pressurised``, ``delta_<δ>`` for every solved deflection increment but the last, and
+    ``deflected`` (the last increment, written once); besides them the fibre VTUs and the
+    ``.pvd`` collections.
 
     Parameters
     ----------
@@ -31,19 +384,9 @@ def write_scene_vtus(out: Path, name: str, res) -> list[Path]:
     Returns
     -------
     list of Path
+        The state VTUs.
     """
-    from fem.io import write_vtu
-
-    if not res.states:
-        raise ValueError(f"scene {name!r}: no states kept; solve it with run_scene(..., keep_states=True)")
-    last = res.states.get("deflected")
-    paths = []
-    for state_name, st in res.states.items():
-        if state_name.startswith("delta_") and st is last:
-            continue  # the same state as 'deflected'
-        paths.append(write_vtu(out / f"{name}_{state_name}.vtu", res.mesh.mesh, point_data={"displacement": st.u},
-                               cell_data={"pressure": st.p}))
-    return paths
+    return write_scene_files(out, name, res).states
 
 
 def scene_entry(spec, res, gauge_variant: str = "line", **extra) -> dict:
@@ -82,7 +425,7 @@ def scene_entry(spec, res, gauge_variant: str = "line", **extra) -> dict:
 
 
 def solve_scenes(out: Path, specs: dict, gauge_variant: str = "line", **extra) -> tuple[dict, dict]:
-    """Solve scenes keeping their states; write their VTUs into ``out``.
+    """Solve scenes keeping their states; write their files into ``out`` (:func:`write_scene_files`).
 
     Parameters
     ----------
@@ -108,7 +451,7 @@ def solve_scenes(out: Path, specs: dict, gauge_variant: str = "line", **extra) -
         t0 = time.perf_counter()
         res = run_scene(spec, keep_states=True)
         wall = time.perf_counter() - t0
-        write_scene_vtus(out, name, res)
+        write_scene_files(out, name, res)
         results[name] = res
         entries[name] = scene_entry(spec, res, gauge_variant, wall_s=round(wall, 3), **extra)
         logger.info("scene %s: Q=%.4g MPa, trim=%.4g mm, eps(deflection)=%.6g, %.2f s", name, spec.Q,

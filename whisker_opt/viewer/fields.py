@@ -21,7 +21,7 @@ DISPLACEMENT_NAMES = ("displacement", "u", "U", "disp", "Displacement", "DISP")
 STRAIN_FIELD = "axial_log_strain"
 MAGNITUDE_FIELD = "displacement_magnitude"
 MISES_FIELD = "von_mises"
-STORED_STRAIN_NAMES = ("axial_log_strain", "le11", "le_xx", "log_strain_xx", "lexx")
+STORED_STRAIN_NAMES = ("axial_log_strain", "log_strain_axial", "le11", "le_xx", "log_strain_xx", "lexx")
 FIELD_ALIASES = {
     "strain": STRAIN_FIELD,
     "axial_strain": STRAIN_FIELD,
@@ -47,7 +47,10 @@ FIELD_UNITS = {
     MAGNITUDE_FIELD: "mm",
     MISES_FIELD: "MPa",
     "X_ref": "mm",
-    "pressure": "MPa",  # the hydrostatic pressure of the mixed u-p elements
+    "pressure": "MPa",  # the hydrostatic pressure of the mixed u-p elements (older result files)
+    "mixed_pressure": "MPa",  # the same, as written now (mean stress, positive in tension)
+    "cauchy_stress": "MPa",
+    "log_strain": "-",
     **{name: "mm" for name in DISPLACEMENT_NAMES},
     **{name: "-" for name in STORED_STRAIN_NAMES},
 }

@@ -3,7 +3,9 @@
 A *source* is a results directory (``simulate``, ``run`` or ``mesh`` run, or any folder
 holding ``*.vtu`` files at any depth) or a single ``.vtu`` file. Each VTU is one *state*
 of one *scene*: ``intact_deflected.vtu`` is scene ``intact``, state ``deflected``; a file
-without a known state suffix (``mesh.vtu``) is the state ``reference``. VTU files in a
+without a known state suffix (``mesh.vtu``) is the state ``reference``. The fibre lines
+written beside a state (``intact_deflected_fibres.vtu`` next to ``intact_deflected.vtu``,
+:func:`is_fibre_file`) are no state. VTU files in a
 sub-folder (``best/``, ``eval_12/``) form a *group*. Optional metadata is read, when
 present, from ``scenes.json`` (in the VTU's folder or a parent), ``best.json``,
 ``config.yaml`` and ``best_curves.csv``; every piece is optional.
@@ -22,6 +24,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
+from whisker_opt.output.scenes import FIBRE_SUFFIX
 from whisker_opt.wiring import INTACT, TRIMMED, UNCOMPENSATED
 from whisker_opt.viewer.genome import genome_scenes
 from whisker_opt.viewer.guard import ViewerError
@@ -110,6 +113,15 @@ def scene_sort_key(scene: str) -> tuple:
     """Order of scenes: intact, uncompensated, trimmed, vented, others by name."""
     s = scene.lower()
     return (SCENE_ORDER.index(s) if s in SCENE_ORDER else len(SCENE_ORDER), s)
+
+
+def is_fibre_file(path: Path) -> bool:
+    """A state's fibre lines: ``<stem>_fibres.vtu`` beside ``<stem>.vtu``
+    (:data:`whisker_opt.output.scenes.FIBRE_SUFFIX`)."""
+    path = Path(path)
+    stem = path.stem
+    return (stem.endswith(FIBRE_SUFFIX) and len(stem) > len(FIBRE_SUFFIX)
+            and path.with_name(stem[: -len(FIBRE_SUFFIX)] + path.suffix).is_file())
 
 
 def split_stem(stem: str, known_scenes: Sequence[str] = ()) -> tuple[str, str]:
@@ -336,9 +348,11 @@ def discover(source: str | Path, allow_empty: bool = False) -> RunContents:
         root, vtus, single = source.parent, [source], True
     else:
         root = source
-        # hidden files and folders (e.g. a re-run in progress, .eval_12.partial/) are not results
+        # hidden files and folders (e.g. a re-run in progress, .eval_12.partial/) are not results,
+        # nor are the fibre lines beside a state
         vtus = sorted(p for p in source.rglob("*.vtu")
-                      if p.is_file() and not any(part.startswith(".") for part in p.relative_to(source).parts))
+                      if p.is_file() and not any(part.startswith(".") for part in p.relative_to(source).parts)
+                      and not is_fibre_file(p))
         single = False
         if not vtus and not allow_empty:
             present = sorted(p.name for p in source.iterdir())[:20]
