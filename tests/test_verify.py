@@ -10,6 +10,7 @@ A tiny GA run on the coarse preset (serial, 3 individuals, 1 generation), then:
 
 from __future__ import annotations
 
+import logging
 import math
 from pathlib import Path
 
@@ -17,7 +18,7 @@ import pytest
 
 from whisker_opt.cli import main as cli
 from whisker_opt.output import storage
-from whisker_opt.analysis.verify import verify_run
+from whisker_opt.analysis.verify import format_rows, verify_run
 
 CONFIG = """\
 fidelity:
@@ -57,10 +58,27 @@ def test_same_preset_reproduces_the_run(run_dir):
     assert [r["rank_verify"] for r in rows] == [1, 2]
 
 
+def test_same_preset_is_warned(run_dir, caplog):
+    with caplog.at_level(logging.INFO, logger="whisker_opt"):
+        rows = verify_run(run_dir, "coarse", top=1, progress=False)
+    warned = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
+    assert any("coarse is the run's own preset" in m for m in warned), warned
+    assert any(r.getMessage().startswith("verify: design 1/1 done") for r in caplog.records)  # a line per design
+    text = format_rows(rows, "coarse")
+    assert "WARNING: preset coarse is the run's own preset" in text and "--preset fine" in text
+    assert "f1 resolution ~2e-3 at preset coarse" in text
+
+
+def test_the_run_wrote_its_log(run_dir):
+    text = (run_dir / "run.log").read_text()
+    assert "at preset coarse (f1 resolution 0.002)" in text and "generation 0, evaluation 1/" in text
+
+
 def test_finer_preset_writes_the_table(run_dir, capsys):
     assert cli.main(["verify", str(run_dir), "--preset", "default", "--top", "1"]) == 0
     out = capsys.readouterr().out
     assert "the run's order holds at preset default" in out
+    assert "run's own preset" not in out and "~2e-3 at the run's preset coarse" in out
     rows = storage.read_csv(run_dir / "verify_default.csv")
     assert len(rows) == 1 and rows[0]["status"] == "ok"
     change = float(rows[0]["f1_change"])

@@ -8,6 +8,7 @@ directory it is given or creates (:func:`new_run_dir`).
 
 from __future__ import annotations
 
+import contextlib
 import json
 import logging
 import math
@@ -15,7 +16,7 @@ import shutil
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Iterator, Mapping
 
 import numpy as np
 
@@ -32,6 +33,10 @@ BEST_DIR = "best"
 BEST_PARTIAL = ".best.partial"
 #: Written last into a folder of solved scenes: the folder is complete when it holds this file.
 SCENES_JSON = "scenes.json"
+#: The log file of a run directory (:func:`run_log`).
+RUN_LOG = "run.log"
+#: Logger whose records :func:`run_log` writes.
+PACKAGE_LOGGER = "whisker_opt"
 
 
 def new_run_dir(cfg: WhiskerConfig, config_path: Path | str, kind: str) -> Path:
@@ -216,6 +221,73 @@ def _clean_genes(genes: Mapping[str, Any]) -> dict[str, float]:
 
 
 # ----------------------------------------------------------------------------- run / resume
+class _Forward(logging.Handler):
+    """Passes on to the parent logger's handlers the records its logger passed on before
+    :func:`run_log` lowered its level (so a console shows what it showed before)."""
+
+    def __init__(self, parent: logging.Logger, threshold: int) -> None:
+        super().__init__(logging.NOTSET)
+        self.parent, self.threshold = parent, threshold
+
+    def emit(self, record: logging.LogRecord) -> None:
+        if record.levelno >= self.threshold:
+            self.parent.handle(record)
+
+
+@contextlib.contextmanager
+def run_log(run_dir: Path, level: int = logging.INFO) -> Iterator[Path]:
+    """Write the ``whisker_opt`` logger's records at ``level`` and above to ``run_dir/run.log`` (appended).
+
+    The logger's level is lowered to ``level`` for the duration if needed; what it passed on
+    to its parent's handlers (e.g. the console) before stays the same. On exit the file's
+    handler is removed and closed and the logger is restored.
+
+    Parameters
+    ----------
+    run_dir : Path
+        An existing run directory.
+    level : int
+        Lowest level written to the file.
+
+    Yields
+    ------
+    Path
+        The log file.
+    """
+    path = Path(run_dir) / RUN_LOG
+    log = logging.getLogger(PACKAGE_LOGGER)
+    old_level, old_propagate = log.level, log.propagate
+    threshold = log.getEffectiveLevel()
+    handler = logging.FileHandler(path, mode="a", encoding="utf-8")
+    handler.setLevel(level)
+    handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s"))
+    forward = _Forward(log.parent, threshold) if old_propagate and log.parent is not None else None
+    log.addHandler(handler)
+    if threshold > level:
+        log.setLevel(level)
+        if forward is not None:
+            log.propagate = False
+            log.addHandler(forward)
+    log.info("---- log of %s", Path(run_dir))
+    try:
+        yield path
+    finally:
+        for h in (handler, forward):
+            if h is not None:
+                log.removeHandler(h)
+        handler.close()
+        log.setLevel(old_level)
+        log.propagate = old_propagate
+
+
+def fidelity_of(cfg: WhiskerConfig) -> dict:
+    """``{"preset", "f1_resolution"}`` of a config (:func:`whisker_opt.experiment.fidelity.describe`),
+    the resolution in the config's calibrated strain."""
+    from whisker_opt.experiment.fidelity import describe
+
+    return describe(cfg.fidelity, cfg.scene.calibration)
+
+
 def _best_genes(summary) -> dict | None:
     genes = summary.best.get("genes") if isinstance(summary.best, dict) else None
     return genes or None
@@ -228,8 +300,12 @@ def finish_best(run_dir: Path, cfg: WhiskerConfig, summary) -> None:
     ``best_curves.csv/png``, and last the folder is renamed to ``best`` (replacing an older one):
     ``best/`` exists only complete, and after ``best_curves.*``. A kill on the way leaves no
     ``best/``, which :func:`resume` rebuilds (:func:`missing_best_outputs`).
+
+    ``best_curves.*`` hold the intact and the trimmed, vented curves and, when the design has
+    it (Q_i > 0), the trimmed whisker still at Q_i (``eps_u``); the plot's title names the
+    genes, the trim and the fidelity preset with its f1 resolution.
     """
-    from whisker_opt.output.plots import write_best_curves
+    from whisker_opt.output.plots import design_label, write_best_curves
 
     run_dir = Path(run_dir)
     best_genes = _best_genes(summary)
@@ -244,10 +320,11 @@ def finish_best(run_dir: Path, cfg: WhiskerConfig, summary) -> None:
     shutil.rmtree(partial, ignore_errors=True)
     results = write_design_scenes(partial, cfg, best_genes, specs)
     delta = wiring.evaluator(cfg).samples()
-    curves = {name: results[name].curve(delta, cfg.scene.gauge_variant) for name in (wiring.INTACT, wiring.TRIMMED)}
-    write_best_curves(run_dir, np.concatenate([[0.0], delta]), np.concatenate([[0.0], curves[wiring.INTACT]]),
-                      np.concatenate([[0.0], curves[wiring.TRIMMED]]),
-                      f"best design {', '.join(f'{k}={v:.4g}' for k, v in best_genes.items())}")
+    names = [n for n in (wiring.INTACT, wiring.TRIMMED, wiring.UNCOMPENSATED) if n in results]
+    curves = {n: np.concatenate([[0.0], results[n].curve(delta, cfg.scene.gauge_variant)]) for n in names}
+    title = f"best design: {design_label(_clean_genes(best_genes), wiring.optimiser_of(cfg).trim)}"
+    write_best_curves(run_dir, np.concatenate([[0.0], delta]), curves[wiring.INTACT], curves[wiring.TRIMMED], title,
+                      curves.get(wiring.UNCOMPENSATED), fidelity_of(cfg))
     _move_into_place(partial, run_dir / BEST_DIR)
 
 
@@ -345,7 +422,8 @@ def run(cfg: WhiskerConfig, run_dir: Path, progress: bool = True):
     """Run the GA of a config into ``run_dir`` and re-run its best design into ``run_dir/best``.
 
     ``run_dir`` may be new, empty, or a run killed before its first checkpoint with the same
-    config (it starts again).
+    config (it starts again). The run's log (INFO and above) is appended to ``run_dir/run.log``
+    (:func:`run_log`); the run records its fidelity preset and f1 resolution (:func:`fidelity_of`).
 
     Returns
     -------
@@ -373,8 +451,13 @@ def run(cfg: WhiskerConfig, run_dir: Path, progress: bool = True):
         remove_run_temporaries(run_dir)
     else:
         storage.atomic_write_text(run_dir / CONFIG_YAML, dump_config(cfg))
-    summary = run_optimisation(opt, run_dir, ev, opt.resolve_seed(cfg.seed), progress=progress)
-    finish_best(run_dir, cfg, summary)
+    fidelity = fidelity_of(cfg)
+    with run_log(run_dir):
+        logger.info("run of %s at preset %s (f1 resolution %.3g)", run_dir, fidelity["preset"],
+                    fidelity["f1_resolution"])
+        summary = run_optimisation(opt, run_dir, ev, opt.resolve_seed(cfg.seed), progress=progress,
+                                   fidelity=fidelity)
+        finish_best(run_dir, cfg, summary)
     return summary
 
 
@@ -398,14 +481,15 @@ def resume(run_dir: Path, progress: bool = True):
     Whatever a kill left unwritten is written: ``optimiser.json`` and ``environment.json``,
     the tables and the convergence plot, and ``best/`` with ``best_curves.csv/png`` when any
     of them is missing or incomplete (:func:`missing_best_outputs`). Temporaries left by the
-    kill are deleted. A complete run is left as it is (its tables and plots rewritten).
+    kill are deleted. A complete run is left as it is (its tables and plots rewritten). The
+    log is appended to ``run_dir/run.log`` (:func:`run_log`).
 
     Returns
     -------
     whisker_opt.optimise.runner.RunSummary
     """
     from whisker_opt.optimise.checkpoint import has_checkpoint
-    from whisker_opt.optimise.runner import remove_run_temporaries, resume_optimisation, write_run_metadata
+    from whisker_opt.optimise.runner import load_run, remove_run_temporaries, resume_optimisation, write_run_metadata
 
     run_dir = Path(run_dir)
     cfg = run_config(run_dir)
@@ -413,11 +497,14 @@ def resume(run_dir: Path, progress: bool = True):
     if not has_checkpoint(run_dir) and not (run_dir / storage.OPTIMISER_JSON).is_file():
         opt = wiring.optimiser_of(cfg)  # killed before the run wrote anything but its config
         write_run_metadata(run_dir, opt, opt.resolve_seed(cfg.seed))
-    summary = resume_optimisation(run_dir, wiring.evaluator(cfg), progress=progress)
-    missing = missing_best_outputs(run_dir, summary)
-    if missing:
-        logger.info("rebuilding the best design's outputs (missing: %s)", ", ".join(missing))
-        finish_best(run_dir, cfg, summary)
+    load_run(run_dir)  # a damaged run directory is refused before run.log is written into it
+    with run_log(run_dir):
+        logger.info("resume of %s", run_dir)
+        summary = resume_optimisation(run_dir, wiring.evaluator(cfg), progress=progress, fidelity=fidelity_of(cfg))
+        missing = missing_best_outputs(run_dir, summary)
+        if missing:
+            logger.info("rebuilding the best design's outputs (missing: %s)", ", ".join(missing))
+            finish_best(run_dir, cfg, summary)
     return summary
 
 
@@ -463,15 +550,57 @@ class Compensation:
     extra: dict = field(default_factory=dict)
 
 
+class _TableProgress:
+    """Progress of a compensation table, seen through its response function: a row per trim.
+
+    The table solves the intact response first, then each trim's responses in increasing
+    trim order (the Δ = 0 row needs none); a call at a new trim means the rows before it are done.
+    """
+
+    def __init__(self, response, trims: list[float], enabled: bool) -> None:
+        from whisker_opt.optimise.runner import progress_bar
+
+        self.response, self.trims = response, trims
+        self.current: float | None = None
+        self.done = 0
+        self.bar = progress_bar(len(trims), "compensate: table", "trim", enabled)
+
+    def _advance(self, done: int) -> None:
+        self.bar.update(max(done - self.done, 0))
+        self.done = max(done, self.done)
+
+    def __call__(self, d, Q, deltas):
+        tr = float(d.trim)
+        if tr > 0.0 and tr != self.current:
+            self.current = tr
+            self._advance(sum(1 for t in self.trims if t < tr - 1e-9))
+            logger.info("compensate: row %d/%d, trim Δ = %g mm", self.done + 1, len(self.trims), tr)
+        return self.response(d, Q, deltas)
+
+    def close(self, finished: bool) -> None:
+        if finished:
+            self._advance(len(self.trims))
+        self.bar.close()
+
+
+def _table_trims(trim_max: float, step: float) -> list[float]:
+    """The trims of :func:`whisker_opt.analysis.compensation.compensation_table`: 0, step, …, trim_max."""
+    n = int(math.floor(trim_max / step + 1e-9))
+    trims = [i * step for i in range(n + 1)]
+    return trims + [trim_max] if trim_max - trims[-1] > 1e-9 else trims
+
+
 def compensate(cfg: WhiskerConfig, out: Path, step: float = 1.0, delta_ref: float = 1.0,
                compare_a=(0.5, 0.75, 1.0), compare_Q=(0.0, 0.1, 0.2), compare: bool = True,
-               source: str = "config") -> Compensation:
+               source: str = "config", progress: bool = True) -> Compensation:
     """FE compensation table Δ → vent pressure Q (with the beam model's Q beside it) and the
     beam-vs-FE sensitivity comparison.
 
     Writes ``compensation_table.{csv,json,png}`` and, when ``compare``,
     ``sensitivity_comparison.{csv,png}``. The FE deflection samples are δ_max/10 … δ_max
-    (10 points), with ``delta_ref`` added if missing.
+    (10 points), with ``delta_ref`` added if missing. Plot titles name the fidelity preset.
+    A tqdm bar per phase (rows of the table, cells of the comparison) shows on a terminal
+    unless ``progress`` is False; a log line per row and per cell is written either way.
 
     Raises
     ------
@@ -501,16 +630,48 @@ def compensate(cfg: WhiskerConfig, out: Path, step: float = 1.0, delta_ref: floa
     if not np.any(np.abs(deltas - dref) <= 1e-9):
         deltas = np.sort(np.append(deltas, dref))
     out = Path(out)
+    fidelity = fidelity_of(cfg)
     t0 = time.perf_counter()
-    table = compensation_table(design, cfg.scene.Q_i, opt.trim, scene_response(cfg, runner), step=step,
-                               deltas=deltas, method="root", analytic_model=model)
-    paths = write_table(out, table, delta_ref=dref)
+    rows = _TableProgress(scene_response(cfg, runner), _table_trims(float(opt.trim), float(step)), progress)
+    finished = False
+    try:
+        table = compensation_table(design, cfg.scene.Q_i, opt.trim, rows, step=step, deltas=deltas, method="root",
+                                   analytic_model=model)
+        finished = True
+    finally:
+        rows.close(finished)
+    for r in table.rows:
+        logger.info("compensate: trim Δ = %g mm: Q = %.6g MPa%s, recovery %.4g %%, analytic Q = %.6g MPa", r.trim,
+                    r.Q, f" (at its bound, {'0' if r.at_bound == 'lower' else 'Q_i'})" if r.at_bound and r.trim > 0
+                    else "", r.recovery_rate, r.Q_analytic)
+    paths = write_table(out, table, delta_ref=dref, fidelity=fidelity)
     result = Compensation(design, table, paths, time.perf_counter() - t0)
     if compare:
         t0 = time.perf_counter()
-        result.comparison = compare_sensitivity(design, scene_sensitivity(cfg, runner, dref), a_values=compare_a,
-                                                Q_values=compare_Q, model=model)
-        cpaths = write_comparison(out, result.comparison)
+        cells = _CellProgress(scene_sensitivity(cfg, runner, dref), len(compare_a) * len(compare_Q), progress)
+        try:
+            result.comparison = compare_sensitivity(design, cells, a_values=compare_a, Q_values=compare_Q, model=model)
+        finally:
+            cells.bar.close()
+        cpaths = write_comparison(out, result.comparison, fidelity=fidelity, delta_ref=dref)
         paths.update({f"comparison_{k}": v for k, v in cpaths.items()})
         result.comparison_seconds = time.perf_counter() - t0
     return result
+
+
+class _CellProgress:
+    """``sensitivity`` with a tqdm bar over the ``n_cells`` cells (a × Q) and a log line per cell."""
+
+    def __init__(self, sensitivity, n_cells: int, enabled: bool) -> None:
+        from whisker_opt.optimise.runner import progress_bar
+
+        self.sensitivity, self.n_cells, self.done = sensitivity, n_cells, 0
+        self.bar = progress_bar(n_cells, "compensate: beam vs FE", "cell", enabled)
+
+    def __call__(self, d, a, Q):
+        value = self.sensitivity(d, a, Q)
+        self.done += 1
+        self.bar.update(1)
+        logger.info("compensate: sensitivity cell %d/%d, a = %g, Q = %g MPa: FE ε/δ = %.6g 1/mm", self.done,
+                    self.n_cells, a, Q, value)
+        return value

@@ -9,6 +9,11 @@ re-runs the hall of fame's first ``top`` feasible designs through the same evalu
 verification preset, recomputes F_p with the run's own penalty terms
 (:func:`whisker_opt.optimise.penalty.dynamic_penalty`: F_p = f1 + Σ_j C_j κ_j, κ_j = f1 · distance_j)
 and writes ``verify_<preset>.csv`` into the run directory (atomically).
+
+Each design takes one evaluation at the verification preset (about 2 minutes at ``fine``):
+a tqdm bar shows on a terminal (``progress=False`` hides it) and a log line per design is
+written either way. Verifying at the run's own preset reproduces the run's f1 and verifies
+nothing: that is logged as a warning and said in the printed table.
 """
 
 from __future__ import annotations
@@ -19,6 +24,7 @@ from typing import Any
 
 from whisker_opt.genes import GENE_NAMES
 from whisker_opt.output import storage
+from whisker_opt.output.plots import short_float
 
 logger = logging.getLogger(__name__)
 
@@ -40,7 +46,7 @@ def check_args(preset: str, top: int) -> None:
         raise VerifyError(f"verify: top={top!r} outside the allowed range 1..1000")
 
 
-def verify_run(run_dir: Path, preset: str = "fine", top: int = 3) -> list[dict[str, Any]]:
+def verify_run(run_dir: Path, preset: str = "fine", top: int = 3, progress: bool = True) -> list[dict[str, Any]]:
     """Re-evaluate the best ``top`` feasible designs of ``run_dir`` at fidelity ``preset``.
 
     Parameters
@@ -51,12 +57,16 @@ def verify_run(run_dir: Path, preset: str = "fine", top: int = 3) -> list[dict[s
         Verification preset (:data:`whisker_opt.experiment.fidelity.PRESET_NAMES`) (the run's other fidelity overrides are dropped).
     top : int
         Number of designs, 1 … the hall of fame's size.
+    progress : bool
+        Show a tqdm bar over the designs (stderr, on a terminal only).
 
     Returns
     -------
     list of dict
         One row per design (columns :data:`COLUMNS`), in the run's order; also written to
-        ``run_dir / f"verify_{preset}.csv"``.
+        ``run_dir / f"verify_{preset}.csv"``. Each row also holds ``run_preset`` (the run's
+        own preset) and ``f1_resolution`` / ``run_f1_resolution`` (of the verification and
+        the run's preset, in the run's calibrated strain), which :func:`format_rows` reports.
 
     Raises
     ------
@@ -67,9 +77,10 @@ def verify_run(run_dir: Path, preset: str = "fine", top: int = 3) -> list[dict[s
     """
     from whisker_opt import wiring
     from whisker_opt.config.model import load_config
+    from whisker_opt.experiment.fidelity import f1_resolution
     from whisker_opt.genes import genes_dict
     from whisker_opt.optimise.penalty import dynamic_penalty, penalty_terms
-    from whisker_opt.optimise.runner import load_run, run_config_path
+    from whisker_opt.optimise.runner import load_run, progress_bar, run_config_path
 
     run_dir = Path(run_dir)
     check_args(preset, top)
@@ -81,22 +92,37 @@ def verify_run(run_dir: Path, preset: str = "fine", top: int = 3) -> list[dict[s
     if not feasible:
         raise VerifyError(f"verify: {run_dir} has no feasible design in its hall of fame")
     chosen = feasible[: int(top)]
+    run_preset = cfg.fidelity.preset
+    if preset == run_preset:
+        logger.warning("verify: preset %s is the run's own preset: the re-evaluation reproduces the run's f1 and "
+                       "verifies nothing; choose a finer preset", preset)
+    resolution = {"run_preset": run_preset, "f1_resolution": f1_resolution(preset, cfg.scene.calibration),
+                  "run_f1_resolution": f1_resolution(run_preset, cfg.scene.calibration)}
     evaluate = wiring.evaluator(wiring.with_preset(cfg, preset))
     terms = penalty_terms(opt)
     rows = []
-    for rank, ind in enumerate(chosen, start=1):
-        genes = genes_dict(ind)
-        f1_run = float(ind.info["f1"])
-        logger.info("verify: design %d/%d %s at preset %s", rank, len(chosen), genes, preset)
-        out = evaluate(genes)
-        row = {"rank_run": rank, **genes, "f1_run": f1_run, "F_p_run": float(ind.fitness.values[1]),
-               "status": out.status, "reason": out.reason, "time_s": float(out.timings.get("total", float("nan")))}
-        if out.ok:
-            _, fp = dynamic_penalty(out.f1, genes, terms)
-            row.update(f1_verify=out.f1, F_p_verify=fp, f1_change=out.f1 / f1_run - 1.0 if f1_run else float("nan"))
-        else:
-            row.update(f1_verify=float("nan"), F_p_verify=float("nan"), f1_change=float("nan"))
-        rows.append(row)
+    bar = progress_bar(len(chosen), f"verify at {preset}", "design", progress)
+    try:
+        for rank, ind in enumerate(chosen, start=1):
+            genes = genes_dict(ind)
+            f1_run = float(ind.info["f1"])
+            logger.info("verify: design %d/%d %s at preset %s", rank, len(chosen), genes, preset)
+            out = evaluate(genes)
+            row = {"rank_run": rank, **genes, "f1_run": f1_run, "F_p_run": float(ind.fitness.values[1]),
+                   "status": out.status, "reason": out.reason,
+                   "time_s": float(out.timings.get("total", float("nan"))), **resolution}
+            if out.ok:
+                _, fp = dynamic_penalty(out.f1, genes, terms)
+                row.update(f1_verify=out.f1, F_p_verify=fp,
+                           f1_change=out.f1 / f1_run - 1.0 if f1_run else float("nan"))
+            else:
+                row.update(f1_verify=float("nan"), F_p_verify=float("nan"), f1_change=float("nan"))
+            rows.append(row)
+            bar.update(1)
+            logger.info("verify: design %d/%d done: %s, f1 %.6g at %s against %.6g at %s (%.0f s)", rank, len(chosen),
+                        out.status, row["f1_verify"], preset, f1_run, run_preset, row["time_s"])
+    finally:
+        bar.close()
     ok = sorted((r for r in rows if r["status"] == "ok"), key=lambda r: r["F_p_verify"])
     for i, r in enumerate(ok, start=1):
         r["rank_verify"] = i
@@ -118,4 +144,16 @@ def format_rows(rows: list[dict[str, Any]], preset: str) -> str:
     order = [r["rank_verify"] for r in rows if r["status"] == "ok"]
     same = order == sorted(order)
     lines.append(f"the run's order {'holds' if same else 'changes'} at preset {preset}")
+    first = rows[0] if rows else {}
+    if first.get("f1_resolution") is not None:
+        lines.append(f"f1 resolution ~{short_float(first['f1_resolution'])} at preset {preset}"
+                     + (f", ~{short_float(first['run_f1_resolution'])} at the run's preset {first['run_preset']}"
+                        if first.get("run_preset") != preset else "") + ": smaller f1 values are not resolved")
+    if first.get("run_preset") == preset:
+        from whisker_opt.experiment.fidelity import PRESET_NAMES
+
+        finer = PRESET_NAMES[PRESET_NAMES.index(preset) + 1:] if preset in PRESET_NAMES else ()
+        lines.append(f"WARNING: preset {preset} is the run's own preset: these f1 values reproduce the run's and "
+                     + (f"verify nothing; re-run with a finer preset (--preset {finer[-1]})" if finer
+                        else "verify nothing; no finer preset exists"))
     return "\n".join(lines)

@@ -21,7 +21,9 @@ order, whatever happens inside the evaluator:
 - before each call, Python's ``random`` and NumPy's global RNG are seeded with the
   design's seed (:func:`whisker_opt.optimise.evalcache.evaluation_seed`), so the evaluator's
   randomness, if any, does not depend on the executor, the worker or the order;
-- the wall time of the call is added as ``timings["eval_s"]``.
+- the wall time of the call is added as ``timings["eval_s"]``;
+- ``map(..., on_result=f)`` calls ``f(index, outcome)`` here as each design's final outcome is
+  known (completion order, once per design): it observes only, and an exception in it is logged.
 
 Timeouts
     ``serial``: SIGALRM in the main thread (interrupts Python code; a C extension is
@@ -61,9 +63,9 @@ from whisker_opt.experiment.outcome import EvalOutcome
 logger = logging.getLogger(__name__)
 
 Evaluator = Callable[[dict[str, float]], EvalOutcome]
+OnResult = Callable[[int, EvalOutcome], None]
 
 _THREAD_ENV_VARS = ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")
-
 
 #: Re-runs of a design whose worker died or was lost, before the failure is final.
 MAX_RETRIES = 2
@@ -205,6 +207,16 @@ def _check_picklable(evaluator: Evaluator) -> None:
         ) from None
 
 
+def _notify(on_result: OnResult | None, index: int, outcome: EvalOutcome) -> EvalOutcome:
+    """Call ``on_result(index, outcome)`` (a failure of the observer never reaches the run); returns ``outcome``."""
+    if on_result is not None:
+        try:
+            on_result(index, outcome)
+        except Exception:  # noqa: BLE001 - a progress display must not stop evaluations
+            logger.warning("per-result callback failed for design %d (ignored)", index, exc_info=True)
+    return outcome
+
+
 class _BaseExecutor:
     """Context-manager plumbing shared by the executors."""
 
@@ -219,7 +231,8 @@ class _BaseExecutor:
     def close(self) -> None:
         """Release workers (idempotent)."""
 
-    def map(self, genes_list: Sequence[dict[str, float]], seeds: Sequence[int]) -> list[EvalOutcome]:
+    def map(self, genes_list: Sequence[dict[str, float]], seeds: Sequence[int],
+            on_result: OnResult | None = None) -> list[EvalOutcome]:
         raise NotImplementedError
 
 
@@ -239,11 +252,13 @@ class SerialExecutor(_BaseExecutor):
         self.evaluator = evaluator
         self.timeout_s = timeout_s
 
-    def map(self, genes_list: Sequence[dict[str, float]], seeds: Sequence[int]) -> list[EvalOutcome]:
+    def map(self, genes_list: Sequence[dict[str, float]], seeds: Sequence[int],
+            on_result: OnResult | None = None) -> list[EvalOutcome]:
         """Evaluate each design in order; see the module docstring."""
         main = threading.current_thread() is threading.main_thread() and hasattr(signal, "setitimer")
         mode = "alarm" if main else "thread"
-        return [guarded_call(self.evaluator, g, s, self.timeout_s, mode) for g, s in zip(genes_list, seeds)]
+        return [_notify(on_result, i, guarded_call(self.evaluator, g, s, self.timeout_s, mode))
+                for i, (g, s) in enumerate(zip(genes_list, seeds))]
 
 
 def _die_with_parent(parent_pid: int) -> None:
@@ -405,7 +420,8 @@ class ProcessExecutor(_BaseExecutor):
         self._retire(w, kill)
         self._grow(1)
 
-    def map(self, genes_list: Sequence[dict[str, float]], seeds: Sequence[int]) -> list[EvalOutcome]:
+    def map(self, genes_list: Sequence[dict[str, float]], seeds: Sequence[int],
+            on_result: OnResult | None = None) -> list[EvalOutcome]:
         """Evaluate the designs on the pool; results in input order."""
         n = len(genes_list)
         results: list[EvalOutcome | None] = [None] * n
@@ -443,9 +459,9 @@ class ProcessExecutor(_BaseExecutor):
                 try:
                     if w.conn.poll():
                         idx, out = w.conn.recv()
-                        results[idx] = out
                         w.task = None
                         got = True
+                        results[idx] = _notify(on_result, idx, out)
                 except (EOFError, OSError):
                     pass
                 if got:
@@ -465,9 +481,9 @@ class ProcessExecutor(_BaseExecutor):
                             f"{deaths[i]} times (out of memory, or stopped by the system); the run stops here "
                             "and resumes from its last checkpoint")
                     else:
-                        results[i] = EvalOutcome.failure(
+                        results[i] = _notify(on_result, i, EvalOutcome.failure(
                             "error", f"worker process died (exit code {code}) in {deaths[i]} attempts",
-                            timings={"eval_s": 0.0})
+                            timings={"eval_s": 0.0}))
                 elif now >= deadline:
                     logger.warning("design %d exceeded %.3g s: killing worker %s", i, self.timeout_s, w.proc.name)
                     results[i] = EvalOutcome.failure(
@@ -475,6 +491,7 @@ class ProcessExecutor(_BaseExecutor):
                         timings={"eval_s": float(self.timeout_s)},  # type: ignore[arg-type]
                     )
                     self._replace(w, kill=True)
+                    _notify(on_result, i, results[i])
         return results  # type: ignore[return-value]
 
     def close(self) -> None:
@@ -570,7 +587,8 @@ class DaskExecutor(_BaseExecutor):
         except Exception:  # noqa: BLE001 - the scheduler itself is gone: reported by the caller
             return 0
 
-    def map(self, genes_list: Sequence[dict[str, float]], seeds: Sequence[int]) -> list[EvalOutcome]:
+    def map(self, genes_list: Sequence[dict[str, float]], seeds: Sequence[int],
+            on_result: OnResult | None = None) -> list[EvalOutcome]:
         """Submit every design and gather in input order.
 
         A task that does not finish (its worker was lost, or dask gave up on it) is
@@ -613,7 +631,7 @@ class DaskExecutor(_BaseExecutor):
                         reason = f"error: {f.exception()}"
                 f.release()
                 if out is not None:
-                    results[i] = out
+                    results[i] = _notify(on_result, i, out)
                     continue
                 if attempts[i] > self.max_retries:
                     raise MachineFailure(

@@ -15,6 +15,12 @@ Loop (one generation)::
     update the hall of fame, record statistics, call the callbacks (progress, checkpoint),
     stop when a rule fires.
 
+Progress
+    An optional :class:`EvaluationProgress` hears of each generation's batch before it is
+    evaluated and of each evaluation as it finishes (through the executor's per-result
+    callback, in completion order). It only observes: outcomes, their order and every
+    random stream are the same with and without it.
+
 Fitness
     DEAP fitness values are the pair (infeasible, F_p) with weights (−1, −1), compared
     lexicographically: every failed design ranks below every feasible one, and feasible
@@ -56,7 +62,7 @@ from whisker_opt.optimise.evalcache import EvalCache, evaluation_seed
 from whisker_opt.config.optimiser import OptimiserConfig
 from whisker_opt.genes import GENE_NAMES, genes_dict
 from whisker_opt.experiment.outcome import EvalOutcome
-from whisker_opt.optimise.penalty import PenaltyTerm, fitness_values, penalise, penalty_terms
+from whisker_opt.optimise.penalty import PenaltyTerm, dynamic_penalty, fitness_values, penalise, penalty_terms
 
 logger = logging.getLogger(__name__)
 
@@ -120,6 +126,21 @@ class GAState:
 
 
 Callback = Callable[[GAState, dict], None]
+
+
+class EvaluationProgress:
+    """Observer of the evaluations of a run (progress bars, logs); the base class does nothing.
+
+    Its methods are called in the GA's process; they must not change the state.
+    """
+
+    def start_generation(self, state: GAState, generation: int, n_to_run: int, n_cached: int) -> None:
+        """Generation ``generation`` sends ``n_to_run`` designs to the executor; ``n_cached``
+        individuals take their outcome from the cache (or from a twin in the same batch)."""
+
+    def result(self, state: GAState, generation: int, genes: dict[str, float], outcome: EvalOutcome,
+               fp: float | None) -> None:
+        """One design of the batch finished (completion order); ``fp`` is its F_p when feasible, else None."""
 
 
 @contextlib.contextmanager
@@ -253,11 +274,14 @@ class GeneticAlgorithm:
         return elites + offspring
 
     # ------------------------------------------------------------------ evaluation
-    def evaluate(self, state: GAState, individuals: list, executor, generation: int) -> dict[str, int]:
+    def evaluate(self, state: GAState, individuals: list, executor, generation: int,
+                 progress: EvaluationProgress | None = None) -> dict[str, int]:
         """Give every individual with an invalid fitness its fitness, recording each one.
 
         Designs found in the cache, or repeated within the batch, are not sent to the
-        executor (flagged ``cache_hit``). Returns counts for the statistics.
+        executor (flagged ``cache_hit``). Returns counts for the statistics. ``progress``
+        observes the batch (:class:`EvaluationProgress`); the executor must then accept
+        ``map(genes, seeds, on_result=...)``.
         """
         cache = state.cache
         invalid = [ind for ind in individuals if not ind.fitness.valid]
@@ -270,7 +294,17 @@ class GeneticAlgorithm:
                 to_run[key] = self.genes_of(ind)
         run_keys = list(to_run)
         seeds = [evaluation_seed(self.seed, cache.key(to_run[k].values())) for k in run_keys]
-        outcomes: list[EvalOutcome] = executor.map([to_run[k] for k in run_keys], seeds) if run_keys else []
+        batch = [to_run[k] for k in run_keys]
+        if progress is None:
+            outcomes: list[EvalOutcome] = executor.map(batch, seeds) if run_keys else []
+        else:
+            progress.start_generation(state, generation, len(run_keys), len(invalid) - len(run_keys))
+
+            def on_result(i: int, out: EvalOutcome) -> None:
+                fp = dynamic_penalty(float(out.f1), batch[i], self.terms)[1] if out.ok else None
+                progress.result(state, generation, batch[i], out, fp)
+
+            outcomes = executor.map(batch, seeds, on_result=on_result) if run_keys else []
         fresh = dict(zip(run_keys, outcomes))
         for k, out in fresh.items():
             cache.put(k, out)
@@ -357,13 +391,13 @@ class GeneticAlgorithm:
         return None
 
     # ------------------------------------------------------------------ loop
-    def run_generation(self, state: GAState, executor) -> dict:
+    def run_generation(self, state: GAState, executor, progress: EvaluationProgress | None = None) -> dict:
         """Breed (or draw) and evaluate one generation; returns its statistics row."""
         t0 = time.perf_counter()
         gen = state.generation + 1
         with _ga_rng(state):
             pop = self.initial_population() if gen == 0 else self.breed(state.population)
-        counts = self.evaluate(state, pop, executor, gen)
+        counts = self.evaluate(state, pop, executor, gen, progress)
         state.population = pop
         state.hof.update(pop)
         state.generation = gen
@@ -380,10 +414,12 @@ class GeneticAlgorithm:
         )
         return row
 
-    def run(self, state: GAState, executor, callbacks: Sequence[Callback] = ()) -> GAState:
-        """Run generations until a stopping rule fires; ``callbacks(state, row)`` after each."""
+    def run(self, state: GAState, executor, callbacks: Sequence[Callback] = (),
+            progress: EvaluationProgress | None = None) -> GAState:
+        """Run generations until a stopping rule fires; ``callbacks(state, row)`` after each,
+        ``progress`` (:class:`EvaluationProgress`) per evaluation."""
         while state.stop_reason is None:
-            row = self.run_generation(state, executor)
+            row = self.run_generation(state, executor, progress)
             for cb in callbacks:
                 cb(state, row)
         return state

@@ -9,24 +9,39 @@ After every generation the runner writes, in this order, the checkpoint, then
 ``evaluations.csv``, ``generations.csv`` and ``best.json`` (all atomic, see
 :mod:`whisker_opt.output.storage`); at the end the convergence plot and, when the best design's
 outcome carries its curves, ``best_curves.csv/png``.
+
+Fidelity
+    A run may be given its fidelity, ``{"preset": name, "f1_resolution": value}``
+    (:func:`whisker_opt.experiment.fidelity.describe`); it is kept in the checkpointed state
+    (``state.extra["fidelity"]``) and written to ``best.json``, the plots and the report. A
+    finished run whose best F_p lies below the preset's f1 resolution logs a warning (the
+    optimum is not resolved at that preset: verify it at a finer one).
+
+Progress
+    A tqdm bar on stderr (shown on a terminal only) counts evaluations as each one finishes
+    (done / expected, best F_p, evaluations/s, failures, cache hits, ETA), and a log line
+    per evaluation (INFO) goes to the log either way (the run and resume workflows write
+    it to the run's ``run.log``, :func:`whisker_opt.workflows.run_log`).
 """
 
 from __future__ import annotations
 
 import logging
 import math
+import sys
+import time
 from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 from whisker_opt.output import storage
 from whisker_opt.optimise.checkpoint import has_checkpoint, load_checkpoint, remove_stale_temporaries, save_checkpoint
 from whisker_opt.optimise.executors import make_executor
-from whisker_opt.optimise.ga import GAState, GeneticAlgorithm, best_design
+from whisker_opt.optimise.ga import EvaluationProgress, GAState, GeneticAlgorithm, best_design
 from whisker_opt.config.optimiser import ExecutorConfig, OptimiserConfig
 from whisker_opt.experiment.outcome import EvalOutcome
-from whisker_opt.output.plots import plot_convergence, write_best_curves
+from whisker_opt.output.plots import design_label, plot_convergence, short_float, write_best_curves
 
 logger = logging.getLogger(__name__)
 
@@ -117,6 +132,7 @@ class _RunWriter:
 def _best_json(state: GAState) -> dict[str, Any]:
     return {
         **best_design(state),
+        "fidelity": run_fidelity(state),
         "seed": state.seed,
         "stop_reason": state.stop_reason,
         "generations": state.generation,
@@ -133,12 +149,61 @@ def _best_outcome(state: GAState) -> EvalOutcome | None:
     return state.cache.get(state.cache.key(state.hof[0]))
 
 
+def run_fidelity(state: GAState, run_dir: Path | None = None) -> dict[str, Any] | None:
+    """The fidelity a run was made at: ``state.extra["fidelity"]``, else (older runs) the preset of
+    ``run_dir/config.yaml``; None when neither is known (e.g. an analytic evaluator)."""
+    fid = (state.extra or {}).get("fidelity")
+    if fid or run_dir is None or not (Path(run_dir) / "config.yaml").is_file():
+        return dict(fid) if fid else None
+    try:
+        from whisker_opt.config.model import load_config
+        from whisker_opt.experiment.fidelity import describe
+
+        cfg = load_config(Path(run_dir) / "config.yaml")
+        return describe(cfg.fidelity, cfg.scene.calibration)
+    except Exception as exc:  # noqa: BLE001 - a report goes on without it
+        logger.info("fidelity of %s unknown: %s", run_dir, exc)
+        return None
+
+
+def resolution_warning(state: GAState, fidelity: Mapping[str, Any] | None, run_dir: Path | None = None) -> str | None:
+    """The warning when a finished run's best feasible F_p lies below its preset's f1 resolution, else None.
+
+    F_p ≥ f1, so such a best design's f1 is below the resolution too: the mesh's error in f1
+    is as large as f1 itself, and a ``target_fp`` stop there means nothing.
+    """
+    res = (fidelity or {}).get("f1_resolution")
+    if not state.hof or res is None or not math.isfinite(float(res)):
+        return None
+    b = best_design(state)
+    if not b["feasible"] or not b["F_p"] < res:
+        return None
+    preset = fidelity["preset"]  # type: ignore[index]
+    msg = f"best F_p {short_float(b['F_p'])} is below the f1 resolution ~{short_float(res)} of preset {preset}"
+    from whisker_opt.experiment.fidelity import PRESET_NAMES
+
+    finer = PRESET_NAMES[PRESET_NAMES.index(preset) + 1:] if preset in PRESET_NAMES else ()
+    if finer:
+        where = f" (whisker-opt verify {run_dir} --preset {finer[-1]})" if run_dir is not None else ""
+        msg += f": verify at a finer preset{where}"
+    else:
+        msg += ": no shipped preset resolves it; treat it as f1 ≈ 0 within mesh error"
+    if state.stop_reason == "target_fp":
+        msg += "; the run stopped on target_fp, which lies below what this preset resolves"
+    return msg
+
+
 def write_plots(run_dir: Path, state: GAState, cfg: OptimiserConfig) -> list[Path]:
-    """Convergence plot, and the best design's curves when its outcome holds them."""
+    """Convergence plot, and the best design's curves when its outcome holds them.
+
+    Titles name the run's fidelity (:func:`run_fidelity`) and, for the curves, the trim.
+    """
     out: list[Path] = []
     if not state.logbook:
         return out
     lb = state.logbook
+    fidelity = run_fidelity(state, run_dir)
+    stop = f"stopped by {state.stop_reason}" if state.stop_reason else "running"
     out.append(
         plot_convergence(
             Path(run_dir) / "convergence.png",
@@ -147,43 +212,115 @@ def write_plots(run_dir: Path, state: GAState, cfg: OptimiserConfig) -> list[Pat
             [r["mean_fp"] for r in lb],
             [r["best_feasible"] for r in lb],
             cfg.stopping.target_fp,
-            title=f"GA convergence ({state.stop_reason or 'running'})",
+            title=f"GA convergence ({stop}, generation {state.generation}, {state.n_evaluations} evaluations)",
+            fidelity=fidelity,
         )
     )
     best_out = _best_outcome(state)
     if best_out is not None and all(k in best_out.extra for k in ("delta", "eps_i", "eps_c")):
-        b = best_design(state)
-        g = b["genes"]
-        title = (
-            f"best: α={g['alpha']:.3f}°, l={g['l']:.2f}, t={g['t']:.2f} mm, Q_i={g['Q_i']:.4f} MPa, "
-            f"f1={b['f1']:.3g}"
-        )
+        title = f"best design: {design_label(best_design(state)['genes'], cfg.trim)}"
         out.append(
             write_best_curves(
-                run_dir, best_out.extra["delta"], best_out.extra["eps_i"], best_out.extra["eps_c"], title
+                run_dir, best_out.extra["delta"], best_out.extra["eps_i"], best_out.extra["eps_c"], title,
+                best_out.extra.get("eps_u"), fidelity,
             )
         )
     return out
 
 
-class _Progress:
-    """tqdm bar over generations: best F_p, evaluations/s, failures, ETA."""
+def progress_bar(total: int | None, desc: str, unit: str, enabled: bool = True, initial: int = 0):
+    """A tqdm bar on stderr, shown only when ``enabled`` and stderr is a terminal.
 
-    def __init__(self, total: int, initial: int, enabled: bool) -> None:
-        from tqdm.auto import tqdm
+    Parameters
+    ----------
+    total : int or None
+        Expected count.
+    desc, unit : str
+        Label and unit of the count.
+    enabled : bool
+        False hides it (``progress=False`` / ``--no-progress``).
+    initial : int
+        Count already done (a resumed job).
 
-        self.bar = tqdm(total=total, initial=initial, unit="gen", desc="GA", disable=not enabled, dynamic_ncols=True)
+    Returns
+    -------
+    tqdm.tqdm
+    """
+    from tqdm import tqdm
 
-    def __call__(self, state: GAState, row: dict) -> None:
-        rate = state.n_evaluations / state.elapsed_s if state.elapsed_s > 0 else math.nan
-        self.bar.set_postfix_str(
-            f"gen {state.generation} best F_p {row['best_fp']:.4g} {rate:.2f} evals/s "
-            f"fail {state.n_failures} hits {state.n_cache_hits}",
-            refresh=False,
-        )
+    shown = bool(enabled) and bool(getattr(sys.stderr, "isatty", lambda: False)())
+    return tqdm(total=total, initial=initial, desc=desc, unit=unit, disable=not shown, dynamic_ncols=True,
+                file=sys.stderr)
+
+
+class _Progress(EvaluationProgress):
+    """Per-evaluation progress of a run: a tqdm bar (evaluations done / expected, best F_p,
+    evaluations/s, failures, ETA) and a log line per evaluation.
+
+    The expected count is exact for the generation under way and ``population − n_elite`` per
+    later generation up to ``max_generations`` (an upper bound: unvaried offspring and cache
+    hits are not evaluated); the bar is closed at 100 % when a stopping rule ends the run.
+    """
+
+    def __init__(self, cfg: OptimiserConfig, state: GAState, enabled: bool) -> None:
+        self.cfg = cfg
+        self.per_generation = max(cfg.ga.population - cfg.ga.n_elite, 0)
+        self.done = state.n_evaluations
+        self.failures = state.n_failures
+        self.hits = state.n_cache_hits
+        self.best = state.hof[0].fitness.values[1] if state.hof and state.hof[0].fitness.values[0] == 0.0 else math.inf
+        self.generation = state.generation
+        self.batch = 0
+        self.in_batch = 0
+        self.initial = self.done
+        self.t0 = time.perf_counter()
+        self.bar = progress_bar(self._expected(state.generation + 1, None), "GA", "eval", enabled,
+                                initial=self.done)
+        self._postfix()
+
+    def _expected(self, generation: int, batch: int | None) -> int:
+        """Evaluations done + the rest of generation ``generation`` (its ``batch`` when known) +
+        the bound of the later generations."""
+        later = max(self.cfg.stopping.max_generations - generation, 0)
+        if batch is None:
+            batch = self.cfg.ga.population if generation == 0 else self.per_generation
+        return self.done + max(batch - self.in_batch, 0) + later * self.per_generation
+
+    def _postfix(self) -> None:
+        best = "-" if not math.isfinite(self.best) else f"{self.best:.4g}"
+        self.bar.set_postfix_str(f"gen {max(self.generation, 0)}/{self.cfg.stopping.max_generations} best F_p {best} "
+                                 f"fail {self.failures} hits {self.hits}", refresh=False)
+
+    def start_generation(self, state: GAState, generation: int, n_to_run: int, n_cached: int) -> None:
+        self.generation, self.batch, self.in_batch = generation, n_to_run, 0
+        self.hits += n_cached
+        self.bar.total = self._expected(generation, n_to_run)
+        self._postfix()
+        self.bar.refresh()
+        logger.info("generation %d: %d design(s) to evaluate, %d from the cache", generation, n_to_run, n_cached)
+
+    def result(self, state: GAState, generation: int, genes: dict[str, float], outcome: EvalOutcome,
+               fp: float | None) -> None:
+        self.done += 1
+        self.in_batch += 1
+        if fp is None:
+            self.failures += 1
+        else:
+            self.best = min(self.best, fp)
+        self._postfix()
         self.bar.update(1)
+        rate = (self.done - self.initial) / max(time.perf_counter() - self.t0, 1e-9)
+        logger.info("generation %d, evaluation %d/%d: %s -> %s%s (%.1f s; %d done, %.3g evaluations/s, %d failed)",
+                    generation, self.in_batch, self.batch, {k: round(v, 6) for k, v in genes.items()}, outcome.status,
+                    f" f1={outcome.f1:.6g} F_p={fp:.6g}" if fp is not None else f" ({outcome.reason})",
+                    float(outcome.timings.get("eval_s", math.nan)), self.done, rate, self.failures)
 
-    def close(self) -> None:
+    def close(self, finished: bool) -> None:
+        """Close the bar; at 100 % when the run finished (whatever rule stopped it)."""
+        if finished:
+            self.bar.total = self.done
+            self._postfix()
+            self.bar.refresh()
         self.bar.close()
 
 
@@ -199,18 +336,23 @@ def _drive(
 ) -> RunSummary:
     writer = _RunWriter(run_dir, ga, config)
     if state.stop_reason is None:
-        bar = _Progress(ga.cfg.stopping.max_generations + 1, state.generation + 1, progress)
+        bar = _Progress(ga.cfg, state, progress)
         try:
             with make_executor(exec_cfg, evaluator) as ex:
-                ga.run(state, ex, callbacks=[writer, bar, *callbacks])
+                ga.run(state, ex, callbacks=[writer, *callbacks], progress=bar)
         finally:
-            bar.close()
+            bar.close(finished=state.stop_reason is not None)
     writer.finish(state)
+    fidelity = run_fidelity(state, run_dir)
     logger.info(
-        "run %s finished: %s after generation %d, %d evaluations, %d cache hits, %d failures, best F_p=%.6g",
+        "run %s finished: %s after generation %d, %d evaluations, %d cache hits, %d failures, best F_p=%.6g (%s)",
         run_dir, state.stop_reason, state.generation, state.n_evaluations, state.n_cache_hits,
         state.n_failures, state.hof[0].fitness.values[1],
+        f"preset {fidelity['preset']}, f1 resolution {fidelity['f1_resolution']:.3g}" if fidelity else "preset unknown",
     )
+    warning = resolution_warning(state, fidelity, run_dir)
+    if warning:
+        logger.warning("%s", warning)
     return _summary(run_dir, state)
 
 
@@ -221,6 +363,7 @@ def run_optimisation(
     seed: int,
     progress: bool = True,
     callbacks: Sequence[Callable[[GAState, dict], None]] = (),
+    fidelity: Mapping[str, Any] | None = None,
 ) -> RunSummary:
     """Run the GA from scratch, writing results and a checkpoint per generation into ``run_dir``.
 
@@ -236,9 +379,13 @@ def run_optimisation(
     seed : int
         Master seed (e.g. ``cfg_opt.resolve_seed(cfg.seed)``).
     progress : bool
-        Show the tqdm progress bar (stderr).
+        Show the tqdm progress bar (stderr, on a terminal), ticking per evaluation.
     callbacks : sequence of callable
         Extra ``callback(state, row)`` after each generation (after the checkpoint).
+    fidelity : mapping, optional
+        ``{"preset", "f1_resolution"}`` of the evaluator
+        (:func:`whisker_opt.experiment.fidelity.describe`): kept in the state, written to
+        ``best.json``, the plots and the report.
 
     Returns
     -------
@@ -254,7 +401,10 @@ def run_optimisation(
     run_dir.mkdir(parents=True, exist_ok=True)
     config = write_run_metadata(run_dir, cfg_opt, seed)
     ga = GeneticAlgorithm(cfg_opt, seed)
-    return _drive(ga, ga.new_state(), run_dir, evaluator, cfg_opt.executor, config, progress, callbacks)
+    state = ga.new_state()
+    if fidelity:
+        state.extra["fidelity"] = dict(fidelity)
+    return _drive(ga, state, run_dir, evaluator, cfg_opt.executor, config, progress, callbacks)
 
 
 def write_run_metadata(run_dir: Path, cfg_opt: OptimiserConfig, seed: int) -> dict[str, Any]:
@@ -346,6 +496,7 @@ def resume_optimisation(
     progress: bool = True,
     executor: ExecutorConfig | None = None,
     callbacks: Sequence[Callable[[GAState, dict], None]] = (),
+    fidelity: Mapping[str, Any] | None = None,
 ) -> RunSummary:
     """Continue a run from its last checkpoint; the result equals an uninterrupted run.
 
@@ -365,6 +516,9 @@ def resume_optimisation(
         Evaluate on another back end than the stored one (results do not depend on it).
     callbacks : sequence of callable
         Extra per-generation callbacks.
+    fidelity : mapping, optional
+        As in :func:`run_optimisation`; fills in a state that does not hold it yet (a run
+        killed before its first checkpoint, or one made before the fidelity was recorded).
 
     Returns
     -------
@@ -378,7 +532,9 @@ def resume_optimisation(
     ga = GeneticAlgorithm(cfg, seed)
     if state is None:
         state = ga.new_state()
-    else:
+    if fidelity and not state.extra.get("fidelity"):
+        state.extra["fidelity"] = dict(fidelity)
+    if state.generation >= 0:
         _RunWriter(run_dir, ga, config).write_tables(state)
         logger.info("resuming %s after generation %d", run_dir, state.generation)
     summary = _drive(ga, state, run_dir, evaluator, executor or cfg.executor, config, progress, callbacks)
@@ -409,7 +565,9 @@ def report(run_dir: Path, max_rows: int = 60) -> str:
     Returns
     -------
     str
-        Multi-line text: run facts, best design, hall of fame and per-generation table.
+        Multi-line text: run facts (with the fidelity preset and its f1 resolution), best
+        design, hall of fame and per-generation table; a ``WARNING`` line when the best F_p
+        lies below the f1 resolution (:func:`resolution_warning`).
     """
     run_dir = Path(run_dir)
     state, cfg, _, seed = load_run(run_dir)
@@ -420,10 +578,20 @@ def report(run_dir: Path, max_rows: int = 60) -> str:
     b = best_design(state)
     statuses = Counter(r["status"] for r in state.records if r["status"] != "ok")
     rate = state.n_evaluations / state.elapsed_s if state.elapsed_s > 0 else math.nan
+    fidelity = run_fidelity(state, run_dir)
+    if fidelity:
+        over = f" (overridden: {', '.join(f'{k}={v}' for k, v in fidelity['overrides'].items())})" \
+            if fidelity.get("overrides") else ""
+        fid_line = (f"preset {fidelity['preset']}{over}, f1 resolution ~{short_float(fidelity['f1_resolution'])} "
+                    f"(calibrated strain): f1 below it is not resolved")
+    else:
+        fid_line = "not recorded"
+    warning = resolution_warning(state, fidelity, run_dir) if state.stop_reason else None
     lines = [
         f"run            {run_dir}",
         f"seed           {seed}",
         f"status         {'finished: ' + state.stop_reason if state.stop_reason else 'interrupted (resume it)'}",
+        f"fidelity       {fid_line}",
         f"generations    {state.generation} (+ initial population), population {cfg.ga.population}",
         f"evaluations    {state.n_evaluations} solved, {state.n_cache_hits} cache hits, "
         f"{state.n_failures} failed" + (f" ({', '.join(f'{k} {v}' for k, v in sorted(statuses.items()))})" if statuses else ""),
@@ -437,6 +605,8 @@ def report(run_dir: Path, max_rows: int = 60) -> str:
     for t in ga.terms:
         lines.append(f"  κ_{t.gene:<4} {_fmt(b['kappas'].get(t.gene))}  (C = {t.weight:g}, prefer {t.prefer})")
     lines.append(f"  F_p    {_fmt(b['F_p'])}  ({b['status']}, generation {b['generation_found']}, eval {b['eval_id']})")
+    if warning:
+        lines.append(f"  WARNING {warning}")
     lines += ["", "hall of fame", "  rank " + "".join(f"{n:>11}" for n in ga.names) + f"{'f1':>13}{'F_p':>13}  status"]
     for k, ind in enumerate(state.hof[:10]):
         info = ind.info or {}

@@ -1,7 +1,10 @@
 """Compensation results on disk: the Δ → Q table and the beam-vs-FE sensitivity comparison.
 
 Writes what :mod:`whisker_opt.analysis.compensation` computes: CSV (one row per trim, or per
-(a, Q) cell), JSON metadata with the curves, and a PNG figure each.
+(a, Q) cell), JSON metadata with the curves, and a PNG figure each. The figures come from
+:func:`table_figure` and :func:`comparison_figure`; their titles name the design and the FE
+fidelity preset (``fidelity = {"preset": name, ...}``,
+:func:`whisker_opt.experiment.fidelity.describe`).
 """
 
 from __future__ import annotations
@@ -10,10 +13,17 @@ import csv
 import json
 import logging
 from pathlib import Path
+from typing import Any, Mapping
 
 import numpy as np
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.ticker import MaxNLocator, MultipleLocator
 
 logger = logging.getLogger(__name__)
+
+#: The recovery rate the compensation aims at [%] (drawn on the recovery panel).
+RECOVERY_TARGET_PCT = 85.0
 
 _TABLE_COLUMNS = ("trim_mm", "Q_MPa", "recovery_rate_pct", "compensation_error_pct", "gap_before", "gap_after",
                   "at_bound", "Q_analytic_MPa", "Q_minus_Q_analytic_MPa", "analytic_root_found",
@@ -31,6 +41,89 @@ def _fmt(v) -> str:
     return f"{float(v):.10g}"
 
 
+def _preset_text(fidelity: Mapping[str, Any] | None) -> str:
+    if not fidelity or not fidelity.get("preset"):
+        return "FE preset not recorded"
+    return f"FE preset {fidelity['preset']}" + (" (overridden)" if fidelity.get("overrides") else "")
+
+
+def _design_text(design) -> str:
+    return f"α = {design.alpha:g}°, l = {design.l:g} mm, t = {design.t:g} mm, L = {design.L:g} mm"
+
+
+def _trim_ticks(ax, trims: np.ndarray) -> None:
+    """Integer ticks on the trim axis when every trim is a whole number of mm."""
+    t = trims[np.isfinite(trims)]
+    if t.size and np.allclose(t, np.round(t)):
+        span = float(t.max() - t.min())
+        ax.xaxis.set_major_locator(MultipleLocator(1.0) if span <= 12 else MaxNLocator(integer=True, min_n_ticks=1))
+
+
+def table_figure(table, delta_ref: float | None = None, point_recovery=None,
+                 fidelity: Mapping[str, Any] | None = None) -> Figure:
+    """The figure of :func:`write_table`: Δ → Q (FE and beam) and the recovery rates.
+
+    Parameters
+    ----------
+    table : whisker_opt.analysis.compensation.CompensationTable
+    delta_ref : float, optional
+        Deflection [mm] of ``point_recovery``.
+    point_recovery : array_like, optional
+        Recovery rate [%] per row at ``delta_ref``.
+    fidelity : mapping, optional
+        The FE preset (``{"preset": name}``), named in the title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Rows whose FE pressure sits at a bound of [0, Q_i] (``at_bound``, trims > 0) are
+        marked and labelled on both panels; the 85 % recovery line is labelled.
+    """
+    fig = Figure(figsize=(9.6, 4.4), layout="constrained")
+    ax1, ax2 = fig.subplots(1, 2, sharex=True)
+    tr = table.trims
+    q = table.pressures
+    bound = np.array([bool(r.at_bound) and r.trim > 0 for r in table.rows], dtype=bool)
+    lower = bound & np.array([r.at_bound == "lower" for r in table.rows], dtype=bool)
+    ax1.plot(tr, q, "o-", color="C0", label="FE (response) compensation")
+    qa = table.column("Q_analytic")
+    if np.any(np.isfinite(qa)):
+        ax1.plot(tr, qa, "s--", color="C1", label="analytic (beam model)")
+    ax1.axhline(table.Q_i, color="0.5", lw=0.8, ls=":", label=f"Q_i = {table.Q_i:g} MPa (upper bound)")
+    rec = table.column("recovery_rate")
+    ax2.plot(tr, rec, "o-", color="C0", label=f"FE, on the curve {table.scalar}")
+    if delta_ref is not None and point_recovery is not None:
+        ax2.plot(tr, point_recovery, "s--", color="C2", label=f"FE, at δ = {delta_ref:g} mm")
+    for mask, text in ((lower, "FE Q at its bound 0 (fully vented)"), (bound & ~lower, "FE Q at its bound Q_i")):
+        if mask.any():
+            ax1.plot(tr[mask], q[mask], "v" if mask is lower else "^", ms=10, mfc="none", mec="C3", mew=1.5,
+                     ls="none", label=text)
+            ax2.plot(tr[mask], rec[mask], "v" if mask is lower else "^", ms=10, mfc="none", mec="C3", mew=1.5,
+                     ls="none", label=f"{text}: recovery capped")
+    if lower.any():
+        ax1.annotate(f"Q = 0 for Δ = {', '.join(f'{x:g}' for x in tr[lower])} mm",
+                     (tr[lower][0], 0.0), xytext=(0, 18), textcoords="offset points", ha="center", fontsize=8,
+                     color="C3", arrowprops={"arrowstyle": "->", "color": "C3", "lw": 0.8})
+    ax1.set_xlabel("trim Δ [mm]")
+    ax1.set_ylabel("vent pressure Q [MPa]")
+    ax1.set_ylim(bottom=-0.04 * table.Q_i, top=1.12 * table.Q_i)
+    ax1.legend(fontsize=7, loc="upper right")
+    ax1.set_title("vent pressure per trim", fontsize=9)
+    ax2.axhline(RECOVERY_TARGET_PCT, color="0.3", lw=0.9, ls=":")
+    ax2.annotate(f"{RECOVERY_TARGET_PCT:g} % recovery (target)", (0.02, RECOVERY_TARGET_PCT), xycoords=("axes fraction", "data"),
+                 xytext=(0, 3), textcoords="offset points", fontsize=8, color="0.3")
+    ax2.set_xlabel("trim Δ [mm]")
+    ax2.set_ylabel("recovery rate [%]")
+    finite = rec[np.isfinite(rec)]
+    ax2.set_ylim(min(0.0, float(finite.min()) - 5.0) if finite.size else 0.0, 105.0)
+    ax2.legend(fontsize=7, loc="lower left")
+    ax2.set_title("recovery rate (100 % = intact response restored)", fontsize=9)
+    _trim_ticks(ax1, tr)
+    fig.suptitle(f"Compensation: {_design_text(table.design)}, intact at Q_i = {table.Q_i:g} MPa\n"
+                 f"{_preset_text(fidelity)}; beam model for the analytic Q", fontsize=10)
+    return fig
+
+
 def _reference_delta(table, delta_ref: float | None) -> float | None:
     """``delta_ref`` if it is a sample of the table, else None (with a log line)."""
     if delta_ref is None:
@@ -41,7 +134,8 @@ def _reference_delta(table, delta_ref: float | None) -> float | None:
     return None
 
 
-def write_table(path_dir, table, delta_ref: float | None = 1.0) -> dict[str, Path]:
+def write_table(path_dir, table, delta_ref: float | None = 1.0,
+                fidelity: Mapping[str, Any] | None = None) -> dict[str, Path]:
     """Write a compensation table: ``compensation_table.csv``, ``.json`` (metadata, curves) and ``.png``.
 
     ``table`` is a :class:`whisker_opt.analysis.compensation.CompensationTable`.
@@ -53,7 +147,8 @@ def write_table(path_dir, table, delta_ref: float | None = 1.0) -> dict[str, Pat
     the readings and the recovery/compensation measures at the single deflection delta_ref_mm
     (eps_o_ref, eps_b_ref, eps_c_ref, recovery_rate_ref_pct, compensation_error_ref_pct; the
     beam model compares at δ = 1 mm). Empty/NaN where not applicable (Δ = 0 has nothing to recover;
-    no point columns when ``delta_ref`` is None or not a sample of the table).
+    no point columns when ``delta_ref`` is None or not a sample of the table). ``fidelity``
+    (the FE preset) is named in the figure's title (:func:`table_figure`).
 
     Returns
     -------
@@ -86,32 +181,10 @@ def write_table(path_dir, table, delta_ref: float | None = 1.0) -> dict[str, Pat
         "curves": [{"trim_mm": r.trim, "Q_MPa": r.Q, "eps_o": list(r.eps_target), "eps_b": list(r.eps_broken),
                     "eps_c": list(r.eps_compensated)} for r in table.rows],
     }
+    if fidelity:
+        meta["fidelity"] = dict(fidelity)
     paths["json"].write_text(json.dumps(meta, indent=2))
-
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(9, 3.8), layout="constrained")
-    ax1, ax2 = fig.subplots(1, 2)
-    tr = table.trims
-    ax1.plot(tr, table.pressures, "o-", label="response (FE) compensation")
-    qa = table.column("Q_analytic")
-    if np.any(np.isfinite(qa)):
-        ax1.plot(tr, qa, "s--", label="analytic (beam)")
-    ax1.axhline(table.Q_i, color="0.6", lw=0.8, ls=":")
-    ax1.set_xlabel("trim Δ [mm]")
-    ax1.set_ylabel("vent pressure Q [MPa]")
-    ax1.set_ylim(bottom=0.0)
-    ax1.legend(fontsize=8)
-    ax1.set_title(f"Δ → Q  (Q_i = {table.Q_i:g} MPa)")
-    ax2.plot(tr, table.column("recovery_rate"), "o-", label=f"curve {table.scalar}")
-    if dref is not None:
-        ax2.plot(tr, pm["recovery_rate"], "s--", label=f"at δ = {dref:g} mm")
-    ax2.axhline(85.0, color="0.6", lw=0.8, ls=":")
-    ax2.set_xlabel("trim Δ [mm]")
-    ax2.set_ylabel("recovery rate [%]")
-    ax2.set_ylim(0.0, 105.0)
-    ax2.legend(fontsize=8)
-    ax2.set_title("recovery rate")
+    fig = table_figure(table, dref, pm["recovery_rate"] if dref is not None else None, fidelity)
     fig.savefig(paths["png"], dpi=120)
     logger.info("wrote compensation table to %s", out)
     return paths
@@ -119,10 +192,55 @@ def write_table(path_dir, table, delta_ref: float | None = 1.0) -> dict[str, Pat
 
 
 
-def write_comparison(path_dir, comparison) -> dict[str, Path]:
+def comparison_figure(comparison, fidelity: Mapping[str, Any] | None = None,
+                      delta_ref: float | None = None) -> Figure:
+    """The figure of :func:`write_comparison`: ε/δ against a per Q (FE solid, beam dashed) and
+    their relative difference.
+
+    Parameters
+    ----------
+    comparison : whisker_opt.analysis.compensation.SensitivityComparison
+    fidelity : mapping, optional
+        The FE preset, named in the title and the legend.
+    delta_ref : float, optional
+        Deflection δ [mm] of the sensitivity ε(δ)/δ, named in the title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    rel = comparison.relative_difference
+    fig = Figure(figsize=(9.6, 4.4), layout="constrained")
+    ax1, ax2 = fig.subplots(1, 2)
+    colors = [f"C{j % 10}" for j in range(comparison.Q.size)]
+    for j, qj in enumerate(comparison.Q):
+        ax1.plot(comparison.a, comparison.fe[:, j], "o-", ms=3, color=colors[j], label=f"Q = {qj:g} MPa")
+        ax1.plot(comparison.a, comparison.beam[:, j], "--", color=colors[j])
+        ax2.plot(comparison.a, 100.0 * rel[:, j], "o-", color=colors[j], ms=3, label=f"Q = {qj:g} MPa")
+    style = [Line2D([], [], color="0.2", ls="-", label=_preset_text(fidelity).replace("FE preset", "FE, preset")),
+             Line2D([], [], color="0.2", ls="--", label="beam model")]
+    ax1.set_yscale("log")
+    ax1.set_xlabel("contact ratio a [-]")
+    ax1.set_ylabel("sensitivity ε/δ [1/mm]")
+    ax1.legend(handles=ax1.get_legend_handles_labels()[0] + style, fontsize=7)
+    ax1.set_title("gauge sensitivity", fontsize=9)
+    ax2.axhline(0.0, color="0.6", lw=0.8)
+    ax2.set_xlabel("contact ratio a [-]")
+    ax2.set_ylabel("(beam − FE)/FE [%]")
+    ax2.legend(fontsize=7)
+    ax2.set_title("beam model relative to FE", fontsize=9)
+    at = f"ε(δ = {delta_ref:g} mm)/δ" if delta_ref is not None else "ε/δ"
+    fig.suptitle(f"Gauge sensitivity {at} [1/mm]: beam model vs FE ({_preset_text(fidelity)})\n"
+                 f"{_design_text(comparison.design)}", fontsize=10)
+    return fig
+
+
+def write_comparison(path_dir, comparison, fidelity: Mapping[str, Any] | None = None,
+                     delta_ref: float | None = None) -> dict[str, Path]:
     """Write ``sensitivity_comparison.csv`` (long format: a, Q_MPa, beam, fe, rel_diff) and ``.png``.
 
-    ``comparison`` is a :class:`whisker_opt.analysis.compensation.SensitivityComparison`.
+    ``comparison`` is a :class:`whisker_opt.analysis.compensation.SensitivityComparison`;
+    ``fidelity`` and ``delta_ref`` label the figure (:func:`comparison_figure`).
 
     Returns
     -------
@@ -139,24 +257,6 @@ def write_comparison(path_dir, comparison) -> dict[str, Path]:
         for i, ai in enumerate(comparison.a):
             for j, qj in enumerate(comparison.Q):
                 w.writerow([_fmt(v) for v in (ai, qj, comparison.beam[i, j], comparison.fe[i, j], rel[i, j])])
-
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(9, 3.8), layout="constrained")
-    ax1, ax2 = fig.subplots(1, 2)
-    colors = [f"C{j % 10}" for j in range(comparison.Q.size)]
-    for j, qj in enumerate(comparison.Q):
-        ax1.plot(comparison.a, comparison.fe[:, j], "-", color=colors[j], label=f"FE Q={qj:g}")
-        ax1.plot(comparison.a, comparison.beam[:, j], "--", color=colors[j])
-        ax2.plot(comparison.a, 100.0 * rel[:, j], "o-", color=colors[j], ms=3, label=f"Q={qj:g} MPa")
-    ax1.set_yscale("log")
-    ax1.set_xlabel("contact ratio a")
-    ax1.set_ylabel("ε/δ [1/mm] (FE solid, beam dashed)")
-    ax1.legend(fontsize=7)
-    ax2.axhline(0.0, color="0.6", lw=0.8)
-    ax2.set_xlabel("contact ratio a")
-    ax2.set_ylabel("(beam − FE)/FE [%]")
-    ax2.legend(fontsize=7)
-    fig.savefig(paths["png"], dpi=120)
+    comparison_figure(comparison, fidelity, delta_ref).savefig(paths["png"], dpi=120)
     logger.info("wrote sensitivity comparison to %s", out)
     return paths

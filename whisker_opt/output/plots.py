@@ -1,7 +1,15 @@
 """Plots of a run: convergence of the GA and the response curves of a design.
 
 Figures are drawn with matplotlib's object API on an Agg canvas (no pyplot, no global
-backend switch, works without a display) and written atomically.
+backend switch, works without a display) and written atomically. Each plot has a
+``*_figure`` function that returns the :class:`matplotlib.figure.Figure` (for tests and
+for callers that want to draw more) and a ``plot_*`` function that writes it.
+
+Every title names the fidelity preset whose numbers the plot shows and its f1 resolution
+(:attr:`whisker_opt.experiment.fidelity.Preset.f1_resolution`), passed as the mapping
+``fidelity = {"preset": name, "f1_resolution": value}`` stored with a run
+(:func:`whisker_opt.experiment.fidelity.describe`). Strains are gauge readings multiplied
+by the calibration ξ (``scene.calibration``): "calibrated strain", dimensionless.
 """
 
 from __future__ import annotations
@@ -9,15 +17,19 @@ from __future__ import annotations
 import io
 import math
 from pathlib import Path
-from typing import Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 
 from whisker_opt.output import storage
 from whisker_opt.output.storage import atomic_write_bytes
 from whisker_opt.experiment import objective
+
+#: Unit of f1, F_p and the readings in labels.
+STRAIN_UNIT = "[-] (calibrated strain)"
 
 
 def _save(fig: Figure, path: Path) -> Path:
@@ -28,6 +40,89 @@ def _save(fig: Figure, path: Path) -> Path:
     return Path(path)
 
 
+def short_float(x: float | None, digits: int = 1) -> str:
+    """``x`` in short scientific notation: ``2e-3``, ``1.16e-3`` (``digits`` after the point at most)."""
+    if x is None or not math.isfinite(float(x)):
+        return "nan"
+    if x == 0:
+        return "0"
+    mant, exp = f"{float(x):.{digits}e}".split("e")
+    mant = mant.rstrip("0").rstrip(".") if "." in mant else mant
+    return f"{mant}e{int(exp)}"
+
+
+def fidelity_label(fidelity: Mapping[str, Any] | None) -> str:
+    """``"preset coarse, f1 resolution ~2e-3"`` (``"(overridden)"`` after the name when it is), or a
+    statement that no preset was recorded."""
+    if not fidelity or not fidelity.get("preset"):
+        return "fidelity preset not recorded"
+    name = str(fidelity["preset"]) + (" (overridden)" if fidelity.get("overrides") else "")
+    res = fidelity.get("f1_resolution")
+    if res is None or not math.isfinite(float(res)):
+        return f"preset {name}"
+    return f"preset {name}, f1 resolution ~{short_float(res)}"
+
+
+def design_label(genes: Mapping[str, float], trim: float | None = None) -> str:
+    """The genome with units, and the trim: ``α = 2.960°, l = 10.09 mm, …, trim Δ = 5 mm``."""
+    g = {k: float(v) for k, v in genes.items()}
+    parts = []
+    if "alpha" in g:
+        parts.append(f"α = {g['alpha']:.3f}°")
+    for name in ("l", "t"):
+        if name in g:
+            parts.append(f"{name} = {g[name]:.2f} mm")
+    if "Q_i" in g:
+        parts.append(f"Q_i = {g['Q_i']:.4f} MPa")
+    if trim is not None:
+        parts.append(f"trim Δ = {float(trim):g} mm")
+    return ", ".join(parts)
+
+
+def convergence_figure(
+    generations: Sequence[int],
+    best_fp: Sequence[float],
+    mean_fp: Sequence[float],
+    best_feasible: Sequence[bool] | None = None,
+    target_fp: float | None = None,
+    title: str = "GA convergence",
+    fidelity: Mapping[str, Any] | None = None,
+) -> Figure:
+    """The convergence figure of :func:`plot_convergence` (integer generation ticks)."""
+    g = np.asarray(generations, dtype=float)
+    best = np.asarray(best_fp, dtype=float)
+    mean = np.asarray(mean_fp, dtype=float)
+    fig = Figure(figsize=(6.4, 4.2))
+    ax = fig.add_subplot(1, 1, 1)
+    ax.plot(g, best, "o-", ms=3, label="best F_p (hall of fame)")
+    ax.plot(g, mean, "s--", ms=3, alpha=0.7, label="mean F_p of the feasible designs")
+    if best_feasible is not None:
+        bad = ~np.asarray(best_feasible, dtype=bool)
+        if bad.any():
+            ax.plot(g[bad], best[bad], "rx", label="best is a failure")
+    if target_fp is not None and target_fp > 0:
+        ax.axhline(target_fp, color="0.4", lw=0.8, ls=":", label=f"target_fp {short_float(target_fp)}")
+    vals = np.concatenate([best, mean])
+    if np.any(np.isfinite(vals) & (vals > 0)):
+        ax.set_yscale("log", nonpositive="mask")
+    res = (fidelity or {}).get("f1_resolution")
+    if res is not None and math.isfinite(float(res)) and res > 0:
+        ax.axhline(res, color="C3", lw=0.9, ls="-.",
+                   label=f"f1 resolution of preset {fidelity['preset']} (~{short_float(res)})")
+        lo, hi = ax.get_ylim()
+        ax.axhspan(min(lo, res), res, color="C3", alpha=0.07, lw=0)
+        ax.set_ylim(lo, hi)
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True, min_n_ticks=1))
+    if g.size:
+        ax.set_xlim(float(np.nanmin(g)) - 0.5, float(np.nanmax(g)) + 0.5)
+    ax.set_xlabel("generation (0 = initial population)")
+    ax.set_ylabel(f"F_p {STRAIN_UNIT}")
+    ax.set_title(f"{title}\n{fidelity_label(fidelity)}", fontsize=10)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7, loc="best")
+    return fig
+
+
 def plot_convergence(
     path: Path,
     generations: Sequence[int],
@@ -36,6 +131,7 @@ def plot_convergence(
     best_feasible: Sequence[bool] | None = None,
     target_fp: float | None = None,
     title: str = "GA convergence",
+    fidelity: Mapping[str, Any] | None = None,
 ) -> Path:
     """Best and mean F_p per generation, log y (non-positive values are not drawn).
 
@@ -51,29 +147,73 @@ def plot_convergence(
     target_fp : float, optional
         Drawn as a horizontal line.
     title : str
+        First title line; the second names the fidelity.
+    fidelity : mapping, optional
+        ``{"preset", "f1_resolution"}`` of the run: named in the title, the resolution drawn
+        as a line with the unresolved range below it shaded.
+
+    Returns
+    -------
+    Path
     """
-    g = np.asarray(generations, dtype=float)
-    best = np.asarray(best_fp, dtype=float)
-    mean = np.asarray(mean_fp, dtype=float)
-    fig = Figure(figsize=(6.4, 4.0))
-    ax = fig.add_subplot(1, 1, 1)
-    ax.plot(g, best, "o-", ms=3, label="best F_p")
-    ax.plot(g, mean, "s--", ms=3, alpha=0.7, label="mean F_p (feasible)")
-    if best_feasible is not None:
-        bad = ~np.asarray(best_feasible, dtype=bool)
-        if bad.any():
-            ax.plot(g[bad], best[bad], "rx", label="best is a failure")
-    if target_fp is not None and target_fp > 0:
-        ax.axhline(target_fp, color="0.5", lw=0.8, ls=":", label=f"target {target_fp:g}")
-    vals = np.concatenate([best, mean])
-    if np.any(np.isfinite(vals) & (vals > 0)):
-        ax.set_yscale("log", nonpositive="mask")
-    ax.set_xlabel("generation")
-    ax.set_ylabel("F_p [-]")
-    ax.set_title(title)
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
+    fig = convergence_figure(generations, best_fp, mean_fp, best_feasible, target_fp, title, fidelity)
     return _save(fig, path)
+
+
+def curves_figure(
+    delta: Sequence[float],
+    eps_i: Sequence[float],
+    eps_c: Sequence[float],
+    title: str = "",
+    eps_u: Sequence[float] | None = None,
+    fidelity: Mapping[str, Any] | None = None,
+) -> Figure:
+    """The two-panel figure of :func:`plot_curves`: responses above, residual ε_i − ε_c below."""
+    d = np.asarray(delta, dtype=float)
+    a = np.asarray(eps_i, dtype=float)
+    b = np.asarray(eps_c, dtype=float)
+    u = None if eps_u is None else np.asarray(eps_u, dtype=float)
+    f1 = objective.f1(a[1:], b[1:]) if len(d) > 1 else math.nan
+    fig = Figure(figsize=(6.4, 5.8))
+    ax, ax_r = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [2, 1]})
+    ax.plot(d, a, "-", label="ε_i intact, Q = Q_i")
+    ax.plot(d, b, "--", label="ε_c trimmed, vented (Q = 0)")
+    if u is not None:
+        f1_u = objective.f1(a[1:], u[1:]) if len(d) > 1 else math.nan
+        ax.plot(d, u, ":", color="C2",
+                label=f"ε_u trimmed, still at Q_i (uncompensated): mean |ε_i − ε_u| = {short_float(f1_u, 2)}")
+    ax.set_ylabel(f"gauge strain ε {STRAIN_UNIT}")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=7, loc="upper left")
+    r = a - b
+    ax_r.plot(d, r, "-", color="C3", lw=1.2, label="ε_i − ε_c")
+    ax_r.fill_between(d, r, 0.0, color="C3", alpha=0.15, lw=0)
+    ax_r.axhline(0.0, color="0.3", lw=0.6)
+    if math.isfinite(f1) and f1 > 0:
+        # f1 on the side(s) where the residual lies (both when it changes sign)
+        big = float(np.nanmax(np.abs(r))) if r.size else 0.0
+        signs = [sg for sg, has in ((1.0, np.any(r > 0.01 * big)), (-1.0, np.any(r < -0.01 * big))) if has]
+        for k, sg in enumerate(signs):
+            ax_r.axhline(sg * f1, color="0.2", lw=0.9, ls=":",
+                         label=("± " if len(signs) > 1 else "") + f"f1 = mean |ε_i − ε_c| = {short_float(f1, 2)}"
+                         if k == 0 else None)
+    res = (fidelity or {}).get("f1_resolution")
+    if res is not None and math.isfinite(float(res)) and res > 0:
+        lo, hi = ax_r.get_ylim()
+        ax_r.axhspan(-res, res, color="0.5", alpha=0.12, lw=0,
+                     label=f"± f1 resolution ~{short_float(res)}: a smaller f1 is not resolved")
+        ax_r.set_ylim(lo, hi)
+    ax_r.set_xlabel("deflection δ [mm]")
+    ax_r.set_ylabel("ε_i − ε_c [-]")
+    ax_r.ticklabel_format(axis="y", style="sci", scilimits=(-2, 2))
+    ax_r.grid(True, alpha=0.3)
+    ax_r.legend(fontsize=7, loc="best")
+    ax_r.set_title(f"residual ε_i − ε_c; f1 = mean |ε_i − ε_c| over δ > 0 = {short_float(f1, 2)} "
+                   "(calibrated strain)", fontsize=9)
+    head = f"{title}\n" if title else ""
+    ax.set_title(f"{head}{fidelity_label(fidelity)}", fontsize=9)
+    fig.set_layout_engine("constrained")
+    return fig
 
 
 def plot_curves(
@@ -82,42 +222,64 @@ def plot_curves(
     eps_i: Sequence[float],
     eps_c: Sequence[float],
     title: str = "",
+    eps_u: Sequence[float] | None = None,
+    fidelity: Mapping[str, Any] | None = None,
 ) -> Path:
-    """Gauge responses ε_i(δ) (intact, pressurised) and ε_c(δ) (trimmed, vented), and their gap.
+    """Gauge responses ε_i(δ) (intact, pressurised), ε_c(δ) (trimmed, vented) and, when given,
+    ε_u(δ) (trimmed, still at Q_i); below them the residual ε_i − ε_c, whose mean absolute
+    value is f1.
 
     Parameters
     ----------
     path : Path
         Output image.
     delta : sequence
-        Deflection δ [mm].
+        Deflection δ [mm], starting at 0 (δ = 0 is left out of f1).
     eps_i, eps_c : sequences
         Calibrated gauge strain [-] of the intact and the compensated (trimmed) whisker.
     title : str
+        First title line (e.g. :func:`design_label`); the next names the fidelity.
+    eps_u : sequence, optional
+        Calibrated gauge strain [-] of the trimmed whisker left at Q_i.
+    fidelity : mapping, optional
+        ``{"preset", "f1_resolution"}``; the resolution is shaded on the residual panel.
+
+    Returns
+    -------
+    Path
     """
-    d = np.asarray(delta, dtype=float)
-    a = np.asarray(eps_i, dtype=float)
-    b = np.asarray(eps_c, dtype=float)
-    f1 = objective.f1(a[1:], b[1:]) if len(d) > 1 else math.nan
-    fig = Figure(figsize=(6.4, 4.0))
-    ax = fig.add_subplot(1, 1, 1)
-    ax.plot(d, a, "-", label="ε_i intact, Q = Q_i")
-    ax.plot(d, b, "--", label="ε_c trimmed, Q = 0")
-    ax.fill_between(d, a, b, color="C3", alpha=0.15, label=f"|ε_i − ε_c|, mean {f1:.3g}")
-    ax.set_xlabel("deflection δ [mm]")
-    ax.set_ylabel("gauge strain ε [-]")
-    ax.set_title(title)
-    ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8)
-    return _save(fig, path)
+    return _save(curves_figure(delta, eps_i, eps_c, title, eps_u, fidelity), path)
 
 
 def write_best_curves(run_dir: Path, delta: Sequence[float], eps_i: Sequence[float], eps_c: Sequence[float],
-                      title: str = "best design") -> Path:
-    """``best_curves.csv`` (delta_mm, eps_i, eps_c) and ``best_curves.png``; returns the CSV path."""
+                      title: str = "best design", eps_u: Sequence[float] | None = None,
+                      fidelity: Mapping[str, Any] | None = None) -> Path:
+    """``best_curves.csv`` and ``best_curves.png``; returns the CSV path.
+
+    Parameters
+    ----------
+    run_dir : Path
+    delta, eps_i, eps_c : sequences
+        As in :func:`plot_curves`.
+    title : str
+    eps_u : sequence, optional
+        The uncompensated curve (trimmed whisker at Q_i), plotted and written as column ``eps_u``.
+    fidelity : mapping, optional
+        As in :func:`plot_curves`.
+
+    Returns
+    -------
+    Path
+        The CSV (columns ``delta_mm, eps_i, eps_c`` and, with ``eps_u``, ``eps_u``).
+    """
     run_dir = Path(run_dir)
+    cols = ["delta_mm", "eps_i", "eps_c"]
     rows = [{"delta_mm": float(d), "eps_i": float(a), "eps_c": float(b)} for d, a, b in zip(delta, eps_i, eps_c)]
+    if eps_u is not None:
+        cols.append("eps_u")
+        for row, v in zip(rows, eps_u):
+            row["eps_u"] = float(v)
     path = run_dir / storage.BEST_CURVES_CSV
-    storage.write_csv(path, ["delta_mm", "eps_i", "eps_c"], rows)
-    plot_curves(run_dir / "best_curves.png", delta, eps_i, eps_c, title)
+    storage.write_csv(path, cols, rows)
+    plot_curves(run_dir / "best_curves.png", delta, eps_i, eps_c, title, eps_u, fidelity)
     return path
