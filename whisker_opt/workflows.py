@@ -475,8 +475,9 @@ def run_config(run_dir: Path) -> WhiskerConfig:
     return load_config(run_config_path(run_dir))
 
 
-def resume(run_dir: Path, progress: bool = True):
-    """Continue a killed run from its last checkpoint (same result as an uninterrupted run).
+def resume(run_dir: Path, progress: bool = True, max_generations: int | None = None):
+    """Continue a killed run from its last checkpoint (same result as an uninterrupted run), or
+    extend a finished one to ``max_generations`` (:func:`~whisker_opt.optimise.runner.resume_optimisation`).
 
     Whatever a kill left unwritten is written: ``optimiser.json`` and ``environment.json``,
     the tables and the convergence plot, and ``best/`` with ``best_curves.csv/png`` when any
@@ -500,7 +501,8 @@ def resume(run_dir: Path, progress: bool = True):
     load_run(run_dir)  # a damaged run directory is refused before run.log is written into it
     with run_log(run_dir):
         logger.info("resume of %s", run_dir)
-        summary = resume_optimisation(run_dir, wiring.evaluator(cfg), progress=progress, fidelity=fidelity_of(cfg))
+        summary = resume_optimisation(run_dir, wiring.evaluator(cfg), progress=progress, fidelity=fidelity_of(cfg),
+                                      max_generations=max_generations)
         missing = missing_best_outputs(run_dir, summary)
         if missing:
             logger.info("rebuilding the best design's outputs (missing: %s)", ", ".join(missing))

@@ -21,7 +21,7 @@ A YAML file has these top-level sections, each optional (an empty file is refuse
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, Sequence
 
 import yaml
 from pydantic import BaseModel, Field, ValidationError, create_model
@@ -245,7 +245,43 @@ def _parse(path: Path, text: str) -> Any:
         raise ConfigError(f"{path}: a YAML value cannot be read: {what}".replace("\n", " ")) from None
 
 
-def load_config(path: str | Path, allow_empty: bool = False) -> WhiskerConfig:
+def apply_settings(data: dict, settings: Sequence[str]) -> dict:
+    """``data`` (a run file's content) with ``KEY=VALUE`` settings applied, as ``--set`` does.
+
+    ``KEY`` is a dotted path of sections and keys (``optimiser.ga.population``); ``VALUE`` is
+    read as YAML (``3``, ``0.2``, ``true``, ``[2, 6]``, ``coarse``). Sections are created as
+    needed; the result is validated with the file, so a wrong key or value is reported as
+    in a file.
+
+    Raises
+    ------
+    ConfigError
+        A setting without ``=``, an empty key, or a key below a value that is not a section.
+    """
+    out = dict(data)
+    for item in settings:
+        key, sep, text = str(item).partition("=")
+        parts = [k.strip() for k in key.split(".")]
+        if not sep or not all(parts):
+            raise ConfigError(f"--set {item!r}: expected KEY=VALUE with a dotted key, e.g. optimiser.ga.population=20")
+        try:
+            value = yaml.safe_load(text) if text.strip() else ""
+        except yaml.YAMLError as exc:
+            raise ConfigError(f"--set {item!r}: VALUE is not readable: {str(exc).splitlines()[0]}") from None
+        node = out
+        for depth, k in enumerate(parts[:-1]):
+            child = node.get(k)
+            if child is None:
+                child = {}
+            elif not isinstance(child, dict):
+                raise ConfigError(f"--set {item!r}: {'.'.join(parts[:depth + 1])} is a value, not a section")
+            node[k] = child = dict(child)
+            node = child
+        node[parts[-1]] = value
+    return out
+
+
+def load_config(path: str | Path, allow_empty: bool = False, settings: Sequence[str] = ()) -> WhiskerConfig:
     """Read and validate a YAML run file.
 
     Parameters
@@ -255,6 +291,8 @@ def load_config(path: str | Path, allow_empty: bool = False) -> WhiskerConfig:
     allow_empty : bool
         Accept an empty file (nothing, only comments, or ``{}``) as "every default"
         (the command line's ``--defaults``); otherwise it is an error.
+    settings : sequence of str
+        ``KEY=VALUE`` settings applied over the file (:func:`apply_settings`; ``--set``).
 
     Returns
     -------
@@ -276,6 +314,8 @@ def load_config(path: str | Path, allow_empty: bool = False) -> WhiskerConfig:
     if not isinstance(data, dict):
         sections = ", ".join(WhiskerConfig.model_fields)
         raise ConfigError(f"{path}: the top level must be a mapping of sections ({sections}), got {show(data)}")
+    if settings:
+        data = apply_settings(data, settings)
     try:
         return WhiskerConfig.model_validate(data)
     except ValidationError as exc:

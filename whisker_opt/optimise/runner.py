@@ -497,6 +497,7 @@ def resume_optimisation(
     executor: ExecutorConfig | None = None,
     callbacks: Sequence[Callable[[GAState, dict], None]] = (),
     fidelity: Mapping[str, Any] | None = None,
+    max_generations: int | None = None,
 ) -> RunSummary:
     """Continue a run from its last checkpoint; the result equals an uninterrupted run.
 
@@ -519,19 +520,41 @@ def resume_optimisation(
     fidelity : mapping, optional
         As in :func:`run_optimisation`; fills in a state that does not hold it yet (a run
         killed before its first checkpoint, or one made before the fidelity was recorded).
+    max_generations : int, optional
+        Raise the run's ``stopping.max_generations`` to this (stored for later resumes): a run
+        that stopped on that rule continues, and ends as an uninterrupted run with this limit
+        would have (the GA's random state is in the checkpoint).
 
     Returns
     -------
     RunSummary
         A finished run is not run again; its summary is returned (and its files rewritten).
+
+    Raises
+    ------
+    ValueError
+        ``max_generations`` is below the generations already run.
     """
     run_dir = Path(run_dir)
     state, cfg, config, seed = load_run(run_dir)  # first: nothing is deleted in a folder that is no run
     remove_run_temporaries(run_dir)
+    if max_generations is not None:
+        done = state.generation if state is not None else -1
+        if max_generations < max(done, 0):
+            raise ValueError(f"--max-generations {max_generations}: the run has already bred {done} generations; "
+                             f"give at least {max(done, 0)}")
+        cfg = cfg.model_copy(update={"stopping": cfg.stopping.model_copy(update={"max_generations": max_generations})})
+        config = cfg.model_dump(mode="json")
+        storage.write_json(run_dir / storage.OPTIMISER_JSON, {"seed": int(seed), "optimiser": config})
     _complete_metadata(run_dir, config, seed)
     ga = GeneticAlgorithm(cfg, seed)
     if state is None:
         state = ga.new_state()
+    elif max_generations is not None and state.logbook:
+        state.stop_reason = ga.stop_reason(state)
+        logger.info("max_generations now %d: the run %s", max_generations,
+                    "continues" if state.stop_reason is None else f"stays stopped ({state.stop_reason})")
+
     if fidelity and not state.extra.get("fidelity"):
         state.extra["fidelity"] = dict(fidelity)
     if state.generation >= 0:
