@@ -44,7 +44,7 @@ def test_impossible_design_is_one_line(tmp_path):
     cfg.write_text("design:\n  alpha: 9.0\n")  # the cone closes before the tip
     rc, _, err = _cli("mesh", cfg, "--out", tmp_path / "out")
     line = _one_line_error(rc, err, "mesh")
-    assert "tip radius" in line and "alpha=9" in line
+    assert "tip radius" in line and "design.alpha=9" in line  # named by its run-file key
 
 
 def test_missing_config_and_occupied_run_directory(tmp_path):

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from whisker_opt.optimise.checkpoint import CHECKPOINT_NAME, load_checkpoint
+from whisker_opt.optimise.checkpoint import CHECKPOINT_NAME, RunDirectoryError, load_checkpoint
 from whisker_opt.config.optimiser import OptimiserConfig
 from whisker_opt.optimise.runner import resume_optimisation, run_optimisation
 from whisker_opt.output.storage import read_csv
@@ -97,7 +97,7 @@ run_optimisation(cfg, Path(sys.argv[1]), ev, seed=13, progress=False)
 def _checkpoint_generation(run_dir: Path) -> int:
     try:
         state, _ = load_checkpoint(run_dir)
-    except (FileNotFoundError, EOFError):
+    except (FileNotFoundError, RunDirectoryError):
         return -1
     return state.generation
 
@@ -135,3 +135,24 @@ def test_sigkill_mid_generation_then_resume_equals_uninterrupted(tmp_path, kind)
     ref = run_optimisation(cfg, tmp_path / "ref", ev, seed=13, progress=False)
     _same_run(ref, resumed)
     _same_tables(tmp_path / "ref", run_dir)
+
+
+def test_a_finished_run_extended_with_max_generations_equals_a_longer_run(tmp_path):
+    """resume(max_generations=N) continues a run stopped by max_generations as if N had been set."""
+    from whisker_opt.config.optimiser import OptimiserConfig
+    from whisker_opt.optimise.runner import resume_optimisation, run_optimisation
+    from tests.analytic_fitness import AnalyticFitness
+
+    def cfg(n):
+        return OptimiserConfig.model_validate({"ga": {"population": 6, "n_elite": 1},
+                                               "stopping": {"max_generations": n, "target_fp": 0.0,
+                                                            "stall_generations": 100}})
+
+    ev = AnalyticFitness()
+    long = run_optimisation(cfg(4), tmp_path / "long", ev, seed=3, progress=False)
+    short = run_optimisation(cfg(2), tmp_path / "short", ev, seed=3, progress=False)
+    assert short.generations == 2 and short.stop_reason == "max_generations"
+    extended = resume_optimisation(tmp_path / "short", ev, progress=False, max_generations=4)
+    assert (extended.population, extended.fitness, extended.best) == (long.population, long.fitness, long.best)
+    with pytest.raises(ValueError, match="already bred 4"):
+        resume_optimisation(tmp_path / "short", ev, progress=False, max_generations=3)

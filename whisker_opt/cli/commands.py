@@ -2,6 +2,13 @@
 
 Runners parse arguments, call :mod:`whisker_opt.workflows` and print; they import the heavy
 modules lazily so ``whisker-opt --help`` stays fast.
+
+Every bad input is refused before anything is computed or written: option values by their
+argparse types (:mod:`whisker_opt.cli.arguments`), output folders by
+:func:`~whisker_opt.cli.arguments.ensure_writable_dir`, run directories by
+:func:`~whisker_opt.cli.rundir.check_run_dir`. A computation that fails on valid inputs (a
+scene that does not converge, a mesh that cannot be made) becomes a
+:class:`~whisker_opt.cli.failures.ComputationFailed` (exit status 3).
 """
 
 from __future__ import annotations
@@ -10,8 +17,21 @@ import argparse
 from pathlib import Path
 from typing import Callable
 
-from whisker_opt.config.model import ConfigError, load_config
+from whisker_opt.cli.arguments import (
+    VIEW_TYPES,
+    ArgumentError,
+    OutputError,
+    ensure_writable_dir,
+    finite_float_in,
+    int_in,
+    nonempty_path,
+    positive_float,
+)
+from whisker_opt.cli.failures import ComputationFailed, computation_errors, describe_failure
+from whisker_opt.cli.rundir import check_run_dir, read_config
+from whisker_opt.config.model import ConfigError
 from whisker_opt.experiment.fidelity import PRESET_NAMES
+from whisker_opt.optimise.checkpoint import RunDirectoryError
 
 
 def _user_errors() -> tuple[type[BaseException], ...]:
@@ -21,10 +41,28 @@ def _user_errors() -> tuple[type[BaseException], ...]:
     from whisker_opt.analysis.verify import VerifyError
     from whisker_opt.optimise.executors import MachineFailure
 
-    return (ConfigError, FileNotFoundError, FileExistsError, InvalidDesignError, VerifyError, MachineFailure)
+    return (ConfigError, FileNotFoundError, FileExistsError, InvalidDesignError, VerifyError, MachineFailure,
+            RunDirectoryError, OutputError, ArgumentError)
 
 
 USER_ERRORS = _user_errors()
+"""Exceptions that are the user's to fix: one line on stderr, exit status 2."""
+
+COMPUTATION_ERRORS = (ComputationFailed,)
+"""Exceptions of a computation that did not succeed on valid inputs: one line, exit status 3."""
+
+#: ``--trim`` and ``scene.trim`` [mm] (docs/config.md)
+_TRIM = finite_float_in(0.0, 100.0, "mm")
+#: ``--verify-top`` / ``--top``: as :func:`whisker_opt.analysis.verify.check_args`
+_TOP = int_in(1, 1000, name="top")
+
+
+def _check_output(args: argparse.Namespace, cfg) -> None:
+    """Refuse an output folder that cannot be created or written, before anything is computed."""
+    if args.out is not None:
+        ensure_writable_dir(args.out, "--out")
+    else:
+        ensure_writable_dir(cfg.output.results_dir, f"{args.config}: output.results_dir")
 
 
 def _out_dir(args: argparse.Namespace, cfg, kind: str) -> Path:
@@ -33,22 +71,30 @@ def _out_dir(args: argparse.Namespace, cfg, kind: str) -> Path:
     return args.out or new_run_dir(cfg, args.config, kind)
 
 
+def _failed(exc: BaseException, command: str, out: Path | None = None, scenes=()) -> ComputationFailed:
+    return ComputationFailed(describe_failure(exc, command, out, scenes))
+
+
 # ----------------------------------------------------------------------------- mesh
 def _mesh_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("config", type=Path, help="YAML run file (design + fidelity sections are used)")
-    p.add_argument("--trim", type=float, default=None, help="mesh the design trimmed by this length [mm]")
+    p.add_argument("--trim", type=_TRIM, default=None, help="mesh the design trimmed by this length [mm], 0..100")
     p.add_argument("--method", choices=["auto", "fresh", "template", "swept"], default=None, help="override fidelity.mesh_method")
     p.add_argument("--step", action="store_true", help="also export the CAD solid as STEP and STL")
-    p.add_argument("--out", type=Path, default=None, help="output directory (default: a new run directory)")
+    p.add_argument("--out", type=nonempty_path, default=None, help="output directory (default: a new run directory)")
 
 
 def _mesh_run(args: argparse.Namespace) -> int:
     from whisker_opt import wiring, workflows
 
-    cfg = load_config(args.config)
+    cfg = read_config(args.config)
     wiring.design_from_config(cfg, trim=cfg.scene.trim if args.trim is None else args.trim)  # refuse before mkdir
+    _check_output(args, cfg)
     out = _out_dir(args, cfg, "mesh")
-    design, report = workflows.mesh(cfg, out, trim=args.trim, method=args.method, step=args.step)
+    try:
+        design, report = workflows.mesh(cfg, out, trim=args.trim, method=args.method, step=args.step)
+    except computation_errors() as exc:
+        raise _failed(exc, "mesh") from exc
     width = max(len(k) for k in report)
     print(f"mesh of {design.describe()}")
     for k, v in report.items():
@@ -60,16 +106,20 @@ def _mesh_run(args: argparse.Namespace) -> int:
 # ----------------------------------------------------------------------------- simulate
 def _simulate_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("config", type=Path, help="YAML run file (design, material, scene, fidelity)")
-    p.add_argument("--out", type=Path, default=None, help="output directory (default: a new run directory)")
+    p.add_argument("--out", type=nonempty_path, default=None, help="output directory (default: a new run directory)")
 
 
 def _simulate_run(args: argparse.Namespace) -> int:
     from whisker_opt import workflows
 
-    cfg = load_config(args.config)
-    workflows.simulation_specs(cfg, str(args.config))  # refuse a bad pair before creating the directory
+    cfg = read_config(args.config)
+    specs = workflows.simulation_specs(cfg, str(args.config))  # refuse a bad pair before creating the directory
+    _check_output(args, cfg)
     out = _out_dir(args, cfg, "simulate")
-    sim = workflows.simulate(cfg, out, str(args.config))
+    try:
+        sim = workflows.simulate(cfg, out, str(args.config))
+    except computation_errors() as exc:
+        raise _failed(exc, "simulate", out, list(specs)) from exc
     for name, res in sim.results.items():
         spec = sim.specs[name]
         print(
@@ -88,27 +138,35 @@ def _simulate_run(args: argparse.Namespace) -> int:
 # ----------------------------------------------------------------------------- run / resume / report / verify
 def _run_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("config", type=Path, help="YAML run file with an `optimiser` section")
-    p.add_argument("--out", type=Path, default=None, help="run directory (default: a new one under output.results_dir)")
+    p.add_argument("--out", type=nonempty_path, default=None,
+                   help="run directory (default: a new one under output.results_dir)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--verify", choices=PRESET_NAMES, default=None,
                    help="after the run, re-evaluate the best designs at this preset (as `whisker-opt verify`)")
-    p.add_argument("--verify-top", type=int, default=3, help="designs re-evaluated by --verify (default 3)")
+    p.add_argument("--verify-top", type=_TOP, default=3, help="designs re-evaluated by --verify, 1..1000 (default 3)")
 
 
 def _run_run(args: argparse.Namespace) -> int:
     from whisker_opt import wiring, workflows
     from whisker_opt.optimise.executors import preflight
-    from whisker_opt.optimise.runner import report
+    from whisker_opt.optimise.runner import check_new_run_dir, report
 
-    cfg = load_config(args.config)
+    cfg = read_config(args.config)
     if args.verify:  # refuse bad --verify arguments before the run, not after it
         from whisker_opt.analysis.verify import check_args
 
         check_args(args.verify, args.verify_top)
     wiring.evaluator(cfg)  # an impossible design section is refused before the directory is made
+    if args.out is not None:
+        check_new_run_dir(args.out)  # a run already there: resume it instead
+    _check_output(args, cfg)
     preflight(wiring.optimiser_of(cfg).executor)  # and an unreachable dask scheduler
     run_dir = _out_dir(args, cfg, "run")
-    workflows.run(cfg, run_dir, progress=not args.no_progress)
+    try:
+        workflows.run(cfg, run_dir, progress=not args.no_progress)
+    except computation_errors() as exc:  # re-solving the best design for its meshes, after the GA
+        raise ComputationFailed(f"the GA run is complete in {run_dir}, but solving its best design again for its "
+                                f"meshes failed: {describe_failure(exc, 'run')}") from exc
     print(report(run_dir))
     if args.verify:
         from whisker_opt.analysis.verify import format_rows, verify_run
@@ -120,20 +178,34 @@ def _run_run(args: argparse.Namespace) -> int:
 
 
 def _run_dir_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("run_dir", type=Path, help="run directory written by `whisker-opt run`")
+    p.add_argument("run_dir", type=nonempty_path, help="run directory written by `whisker-opt run`")
 
 
 def _resume_args(p: argparse.ArgumentParser) -> None:
     _run_dir_args(p)
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--from-previous", action="store_true",
+                   help="continue from the previous checkpoint (checkpoint.prev.pkl) when the last one is damaged; "
+                        "the damaged one is kept as checkpoint.damaged.pkl")
 
 
 def _resume_run(args: argparse.Namespace) -> int:
     from whisker_opt import workflows
+    from whisker_opt.optimise.checkpoint import restore_previous
     from whisker_opt.optimise.runner import report
 
-    workflows.resume(args.run_dir, progress=not args.no_progress)
-    print(report(args.run_dir))
+    run_dir = check_run_dir(args.run_dir, need_config=True, load_state=not args.from_previous, allow_unstarted=True)
+    ensure_writable_dir(run_dir, "run_dir")
+    if args.from_previous:
+        gen = restore_previous(run_dir)
+        print(f"continuing from the previous checkpoint (generation {gen}); the replaced one is kept as "
+              f"checkpoint.damaged.pkl")
+    try:
+        workflows.resume(run_dir, progress=not args.no_progress)
+    except computation_errors() as exc:  # re-solving the best design for its meshes, after the GA
+        raise ComputationFailed(f"the GA run is complete in {run_dir}, but solving its best design again for its "
+                                f"meshes failed: {describe_failure(exc, 'resume')}") from exc
+    print(report(run_dir))
     return 0
 
 
@@ -141,12 +213,16 @@ def _verify_args(p: argparse.ArgumentParser) -> None:
     _run_dir_args(p)
     p.add_argument("--preset", choices=PRESET_NAMES, default="fine",
                    help="fidelity preset of the re-evaluation (default: fine)")
-    p.add_argument("--top", type=int, default=3, help="number of best feasible designs to re-evaluate (default 3)")
+    p.add_argument("--top", type=_TOP, default=3,
+                   help="number of best feasible designs to re-evaluate, 1..1000 (default 3)")
 
 
 def _verify_run(args: argparse.Namespace) -> int:
-    from whisker_opt.analysis.verify import format_rows, verify_run
+    from whisker_opt.analysis.verify import check_args, format_rows, verify_run
 
+    check_args(args.preset, args.top)
+    check_run_dir(args.run_dir, need_config=True)
+    ensure_writable_dir(args.run_dir, f"run_dir (verify_{args.preset}.csv is written there)")
     rows = verify_run(args.run_dir, args.preset, args.top)
     print(format_rows(rows, args.preset))
     print(f"written to {args.run_dir / f'verify_{args.preset}.csv'}")
@@ -156,8 +232,8 @@ def _verify_run(args: argparse.Namespace) -> int:
 def _report_run(args: argparse.Namespace) -> int:
     from whisker_opt.optimise.runner import report
 
-    if not args.run_dir.is_dir():
-        raise FileNotFoundError(f"{args.run_dir}: no such run directory")
+    check_run_dir(args.run_dir)
+    ensure_writable_dir(args.run_dir, "run_dir (report rebuilds its plots)")
     print(report(args.run_dir))
     return 0
 
@@ -165,28 +241,39 @@ def _report_run(args: argparse.Namespace) -> int:
 # ----------------------------------------------------------------------------- compensate
 def _compensate_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("config", type=Path, help="YAML run file (design, scene.Q_i, optimiser.trim = largest trim)")
-    p.add_argument("--step", type=float, default=1.0, help="trim step of the table [mm]")
-    p.add_argument("--delta-ref", type=float, default=1.0,
-                   help="deflection of the point measures and of the sensitivity ε(δ)/δ [mm] (docs/physics.md: 1)")
-    p.add_argument("--compare-a", type=float, nargs="+", default=[0.5, 0.75, 1.0], metavar="A",
-                   help="contact ratios of the beam-vs-FE sensitivity comparison")
-    p.add_argument("--compare-Q", type=float, nargs="+", default=[0.0, 0.1, 0.2], metavar="Q",
-                   help="pressures [MPa] of the beam-vs-FE sensitivity comparison")
+    p.add_argument("--step", type=positive_float(100.0, "mm"), default=1.0,
+                   help="trim step of the table [mm], (0, 100]")
+    p.add_argument("--delta-ref", type=positive_float(30.0, "mm"), default=1.0,
+                   help="deflection of the point measures and of the sensitivity ε(δ)/δ [mm], "
+                        "(0, scene.deflection] (docs/physics.md: 1)")
+    p.add_argument("--compare-a", type=finite_float_in(0.0, 1.0, lo_open=True), nargs="+", default=[0.5, 0.75, 1.0],
+                   metavar="A", help="contact ratios of the beam-vs-FE sensitivity comparison, (0, 1]")
+    p.add_argument("--compare-Q", type=finite_float_in(0.0, 1.0, "MPa"), nargs="+", default=[0.0, 0.1, 0.2],
+                   metavar="Q", help="pressures [MPa] of the beam-vs-FE sensitivity comparison, [0, 1]")
     p.add_argument("--no-compare", action="store_true", help="skip the beam-vs-FE sensitivity comparison")
-    p.add_argument("--out", type=Path, default=None, help="output directory")
+    p.add_argument("--out", type=nonempty_path, default=None, help="output directory")
 
 
 def _compensate_run(args: argparse.Namespace) -> int:
     """Δ → Q table (FE, with the analytic Q beside it) and the beam-vs-FE sensitivity comparison; prints both."""
-    from whisker_opt import workflows
+    from whisker_opt import wiring, workflows
 
-    cfg = load_config(args.config)
-    if cfg.scene.Q_i <= 0:  # checked again by the workflow; here before a directory is made
+    cfg = read_config(args.config)
+    # the workflow checks these again; here before a directory is made
+    if cfg.scene.Q_i <= 0:
         raise ConfigError(f"{args.config}: scene.Q_i: the intact pressure Q_i must be > 0 for compensation "
                           f"(got {cfg.scene.Q_i})")
+    if args.delta_ref > cfg.scene.deflection:
+        raise ArgumentError(f"--delta-ref: {args.delta_ref:g} is outside the allowed range (0, scene.deflection = "
+                            f"{cfg.scene.deflection:g}] mm of {args.config}")
+    wiring.design_from_config(cfg, wiring.optimiser_of(cfg).trim)  # the largest trim must leave a whisker
+    _check_output(args, cfg)
     out = _out_dir(args, cfg, "compensate")
-    res = workflows.compensate(cfg, out, step=args.step, delta_ref=args.delta_ref, compare_a=args.compare_a,
-                               compare_Q=args.compare_Q, compare=not args.no_compare, source=str(args.config))
+    try:
+        res = workflows.compensate(cfg, out, step=args.step, delta_ref=args.delta_ref, compare_a=args.compare_a,
+                                   compare_Q=args.compare_Q, compare=not args.no_compare, source=str(args.config))
+    except computation_errors() as exc:
+        raise _failed(exc, "compensate", out) from exc
     print(f"compensation table of {res.design.describe()}, Q_i = {cfg.scene.Q_i:g} MPa ({res.table_seconds:.0f} s)")
     print(res.paths["csv"].read_text())
     print(f"monotone (Q non-increasing in Δ): {res.table.is_monotone()}")
@@ -216,10 +303,21 @@ def _view_args(p: argparse.ArgumentParser) -> None:
     except ImportError as exc:  # pyvista missing: the command explains itself when run
         p.add_argument("path", type=Path, help=f"run directory or VTU (viewer unavailable: {exc})")
         return
-    add(p)
+    add(p, types=VIEW_TYPES)
 
 
 def _view_run(args: argparse.Namespace) -> int:
+    # the image goes to --screenshot, or (no display, or --plots) into the results folder
+    if not hasattr(args, "source") or args.list:
+        pass
+    elif args.screenshot is not None:
+        ensure_writable_dir(args.screenshot.parent, f"--screenshot {args.screenshot}: its folder")
+    elif Path(args.source).exists():
+        from whisker_opt.viewer.guard import is_headless
+
+        if is_headless() or args.plots:
+            root = args.source if Path(args.source).is_dir() else Path(args.source).parent
+            ensure_writable_dir(root, "source: the results folder (view.png and plots go there)")
     return _view_command()[2](args)
 
 

@@ -1,0 +1,626 @@
+"""Bad inputs through every ``whisker-opt`` subcommand and option, each as a subprocess.
+
+Every case is a hand-made bad input: an option value out of range, not a number, NaN or
+infinite; an output path that cannot be written (read-only, under a regular file, an
+existing file); a missing, empty, non-UTF-8 or malformed config; a run directory with a
+truncated, empty or garbage ``checkpoint.pkl``, a damaged ``optimiser.json``,
+``config.yaml``, ``best.json``, ``scenes.json``, ``evaluations.csv`` or VTU file; an
+unsolvable scene. What a case must do:
+
+* exit with status 2 (a bad input, refused before any computation) or 3 (a computation
+  that the inputs allowed did not succeed: the solve-failure cases);
+* write exactly one line to stderr, naming what is wrong, and no Python traceback;
+* not abort (no signal, no VTK crash);
+* write nothing: the paths a case names as outputs must not appear, and the run
+  directories it reads must be left byte for byte as they were (except the files a
+  computation-failure case keeps on purpose).
+
+The table has one row per case (case, exit code, expected code, stderr lines, traceback
+yes/no, seconds, first stderr line); the totals follow. Usage::
+
+    python3 benchmarks/bad_inputs.py [--jobs 2] [--skip-slow] [--only SUBSTRING] [--keep]
+                                     [--cli "python3 -m whisker_opt.cli"]
+
+The fixtures (a tiny run made with ``whisker-opt run`` on a coarse, 2-individual,
+0-generation config: about 10 s) live in a temporary folder (``--workdir`` to choose it).
+``--skip-slow`` leaves out the two solve-failure cases, which compute for 20-60 s each.
+"""
+
+from __future__ import annotations
+
+import argparse
+import concurrent.futures
+import hashlib
+import os
+import pickle
+import shlex
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+TINY = """\
+fidelity:
+  preset: coarse
+scene:
+  trim: 5.0
+optimiser:
+  trim: 5.0
+  ga:
+    population: 2
+    n_elite: 1
+    tournament: 2
+  stopping:
+    max_generations: 0
+  executor:
+    kind: serial
+seed: 3
+output:
+  results_dir: {results}
+"""
+
+#: intact solves; trimmed_uncompensated (20 mm long, at 0.35 MPa) fails near δ = 29 mm
+SOLVE_FAILS_LATE = """\
+fidelity:
+  preset: coarse
+scene:
+  Q_i: 0.35
+  trim: 50.0
+  deflection: 30.0
+output:
+  results_dir: {results}
+"""
+
+#: compensation at Q_i = 1 MPa: the intact scene cannot be pressurised (fails near 0.42 MPa)
+COMPENSATE_FAILS = """\
+fidelity:
+  preset: coarse
+scene:
+  Q_i: 1.0
+optimiser:
+  trim: 2.0
+output:
+  results_dir: {results}
+"""
+
+
+@dataclass
+class Case:
+    """One bad input.
+
+    Attributes
+    ----------
+    name : str
+    argv : list of str
+        Arguments after ``whisker-opt``.
+    expect : int
+        Expected exit status (2: refused input, 3: computation failed).
+    absent : tuple of Path
+        Paths that must not exist after the case.
+    frozen : tuple of Path
+        Files or folders that must be unchanged by the case.
+    words : tuple of str
+        Words the stderr line must contain (the option or file name).
+    slow : bool
+        Computes before failing (skipped with ``--skip-slow``).
+    """
+
+    name: str
+    argv: list
+    expect: int = 2
+    absent: tuple = ()
+    frozen: tuple = ()
+    words: tuple = ()
+    slow: bool = False
+
+
+@dataclass
+class Outcome:
+    """What a case did."""
+
+    case: Case
+    rc: int | None
+    stderr: str
+    seconds: float
+    problems: list = field(default_factory=list)
+
+    @property
+    def lines(self) -> list:
+        return [ln for ln in self.stderr.splitlines() if ln.strip()]
+
+    @property
+    def traceback(self) -> bool:
+        return "Traceback (most recent call last)" in self.stderr
+
+    @property
+    def timed_out(self) -> bool:
+        return self.rc is None
+
+    @property
+    def aborted(self) -> bool:
+        return self.rc is not None and self.rc < 0 or self.rc in (134, 139) or any(
+            w in self.stderr for w in ("Segmentation fault", "Aborted", "core dumped", "vtkOutputWindow", "ERROR: In "))
+
+
+# ============================================================================ fixtures
+def _tree_digest(path: Path) -> str:
+    """Digest of a file or of a folder's names, sizes and contents (what 'unchanged' means)."""
+    h = hashlib.sha256()
+    path = Path(path)
+    if not path.exists():
+        return "absent"
+    items = [path] if path.is_file() else sorted(p for p in path.rglob("*"))
+    for p in items:
+        h.update(str(p.relative_to(path.parent)).encode())
+        if p.is_file():
+            h.update(p.read_bytes())
+    return h.hexdigest()
+
+
+class Workspace:
+    """The fixture files of the cases, in ``root``; ``cli`` is the command line of ``whisker-opt``."""
+
+    def __init__(self, root: Path, cli: list[str]) -> None:
+        self.root = Path(root)
+        self.cli = cli
+        self.results = self.root / "results"
+        self.results.mkdir(parents=True, exist_ok=True)
+        self.afile = self.root / "afile.txt"
+        self.afile.write_text("a regular file\n")
+        self.good = self._write("good.yaml", TINY.format(results=self.results))
+        self.ro = self._read_only_dir()
+        self.run = self.root / "run"
+
+    def _write(self, name: str, text: str | bytes) -> Path:
+        p = self.root / name
+        p.parent.mkdir(parents=True, exist_ok=True)
+        if isinstance(text, bytes):
+            p.write_bytes(text)
+        else:
+            p.write_text(text)
+        return p
+
+    def _read_only_dir(self) -> Path:
+        """A folder nothing can be created in (as root, chmod does not stop writes: /sys then)."""
+        if hasattr(os, "geteuid") and os.geteuid() == 0 and Path("/sys").is_dir():
+            return Path("/sys/whisker-opt-bad-inputs")
+        d = self.root / "readonly"
+        d.mkdir(exist_ok=True)
+        d.chmod(0o555)
+        return d / "out"
+
+    def config(self, name: str, text: str | bytes) -> Path:
+        """A config file ``name`` holding ``text`` (``{results}`` filled in)."""
+        if isinstance(text, str):
+            text = text.replace("{results}", str(self.results))
+        return self._write(f"configs/{name}", text)
+
+    def make_run(self) -> None:
+        """The tiny run all run-directory cases start from."""
+        if (self.run / "checkpoint.pkl").is_file():
+            return
+        t0 = time.perf_counter()
+        proc = subprocess.run([*self.cli, "run", str(self.good), "--out", str(self.run), "--no-progress"],
+                              capture_output=True, text=True, cwd=self.root)
+        if proc.returncode != 0:
+            sys.exit(f"cannot make the fixture run: {proc.stderr}")
+        print(f"fixture run made in {time.perf_counter() - t0:.1f} s: {self.run}", file=sys.stderr)
+
+    def run_copy(self, name: str, damage: dict | None = None, remove: tuple = ()) -> Path:
+        """A copy of the fixture run with files replaced (``damage``: relative path -> bytes, or
+        None for a folder in place of the file) or removed."""
+        d = self.root / "runs" / name
+        if d.exists():
+            shutil.rmtree(d)
+        shutil.copytree(self.run, d)
+        for rel in remove:
+            p = d / rel
+            shutil.rmtree(p) if p.is_dir() else p.unlink()
+        for rel, data in (damage or {}).items():
+            p = d / rel
+            if p.is_dir():
+                shutil.rmtree(p)
+            elif p.exists():
+                p.unlink()
+            if data is None:
+                p.mkdir(parents=True)
+            else:
+                p.parent.mkdir(parents=True, exist_ok=True)
+                p.write_bytes(data)
+        return d
+
+
+GARBAGE = bytes(range(256)) * 4
+NON_UTF8 = b"design:\n  D: 18\n  name: \xff\xfe\xfa\n"
+
+
+# ============================================================================ the cases
+def build_cases(w: Workspace) -> list[Case]:
+    """Every case, in subcommand order (the fixtures are written on the way)."""
+    cases: list[Case] = []
+    out = w.root / "outs"
+
+    def add(name, argv, expect=2, absent=(), frozen=(), words=(), slow=False):
+        cases.append(Case(name, [str(a) for a in argv], expect, tuple(absent), tuple(frozen), tuple(words), slow))
+
+    good = w.good
+    bad_cfgs = {
+        "missing": (w.root / "configs" / "no_such.yaml", "no_such.yaml"),
+        "directory": (w.root, str(w.root)),
+        "empty": (w.config("empty.yaml", ""), "empty.yaml"),
+        "non_utf8": (w.config("non_utf8.yaml", NON_UTF8), "non_utf8.yaml"),
+        "binary": (w.config("binary.yaml", GARBAGE), "binary.yaml"),
+        "list": (w.config("list.yaml", "- 1\n- 2\n"), "list.yaml"),
+        "yaml_syntax": (w.config("syntax.yaml", "scene: [1, 2\n"), "syntax.yaml"),
+        "unknown_key": (w.config("unknown.yaml", "design:\n  alpah: 3\n"), "alpah"),
+        "out_of_range": (w.config("range.yaml", "design:\n  t: -1\n"), "design.t"),
+        "nan_value": (w.config("nan.yaml", "scene:\n  deflection: .nan\n"), "deflection"),
+        "impossible_design": (w.config("cone.yaml", "design:\n  alpha: 9.0\nscene:\n  trim: 5.0\n"), "alpha"),
+    }
+    trim = "scene:\n  trim: 5.0\n"  # simulate needs a trim for its pair
+    results_under_file = w.config("results_under_file.yaml", f"{trim}output:\n  results_dir: {w.afile}/sub\n")
+    results_read_only = w.config("results_read_only.yaml", f"{trim}output:\n  results_dir: {w.ro}\n")
+    results_is_file = w.config("results_is_file.yaml", f"{trim}output:\n  results_dir: {w.afile}\n")
+
+    # ------------------------------------------------------------------ global
+    add("no command", [], words=("COMMAND",))
+    add("unknown command", ["frobnicate"], words=("frobnicate",))
+    add("-v without a command", ["-v"], words=("COMMAND",))
+
+    # ------------------------------------------------------------------ mesh
+    for k, (cfg, word) in bad_cfgs.items():
+        add(f"mesh config {k}", ["mesh", cfg, "--out", out / f"mesh_{k}"], absent=[out / f"mesh_{k}"], words=(word,))
+    add("mesh no config", ["mesh"], words=("config",))
+    for v in ("nan", "inf", "-inf", "1e309", "-1", "101", "abc", "", "0x10"):
+        add(f"mesh --trim {v!r}", ["mesh", good, "--trim", v, "--out", out / "mesh_trim"], absent=[out / "mesh_trim"],
+            words=("--trim",))
+    add("mesh --trim past the chamber", ["mesh", good, "--trim", "60", "--out", out / "mesh_trim60"],
+        absent=[out / "mesh_trim60"], words=("trim",))
+    add("mesh --method bogus", ["mesh", good, "--method", "bogus"], words=("--method",))
+    add("mesh --out under a file", ["mesh", good, "--out", w.afile / "sub"], words=("--out",))
+    add("mesh --out is a file", ["mesh", good, "--out", w.afile], frozen=[w.afile], words=("--out",))
+    add("mesh --out read-only", ["mesh", good, "--out", w.ro], absent=[w.ro], words=("--out",))
+    add("mesh --out empty string", ["mesh", good, "--out", ""], words=("--out",))
+    add("mesh results_dir under a file", ["mesh", results_under_file], words=("results_dir",))
+    add("mesh results_dir read-only", ["mesh", results_read_only], words=("results_dir",))
+    add("mesh results_dir is a file", ["mesh", results_is_file], frozen=[w.afile], words=("results_dir",))
+
+    # ------------------------------------------------------------------ simulate
+    for k in ("missing", "empty", "non_utf8", "binary", "list", "unknown_key", "nan_value", "impossible_design"):
+        cfg, word = bad_cfgs[k]
+        add(f"simulate config {k}", ["simulate", cfg, "--out", out / f"sim_{k}"], absent=[out / f"sim_{k}"],
+            words=(word,))
+    pair0 = w.config("pair_trim0.yaml", "scene:\n  pair: true\n  trim: 0\n")
+    add("simulate pair with trim 0", ["simulate", pair0, "--out", out / "sim_pair0"], absent=[out / "sim_pair0"],
+        words=("scene.trim",))
+    add("simulate --out under a file", ["simulate", good, "--out", w.afile / "sub"], words=("--out",))
+    add("simulate --out is a file", ["simulate", good, "--out", w.afile], frozen=[w.afile], words=("--out",))
+    add("simulate --out read-only", ["simulate", good, "--out", w.ro], words=("--out",))
+    add("simulate results_dir under a file", ["simulate", results_under_file], words=("results_dir",))
+    add("simulate results_dir read-only", ["simulate", results_read_only], words=("results_dir",))
+    add("simulate unknown option", ["simulate", good, "--trim", "1"], words=("--trim",))
+    late = w.config("solve_fails_late.yaml", SOLVE_FAILS_LATE)
+    add("simulate solve fails in the 2nd scene", ["simulate", late, "--out", out / "sim_fails"], expect=3,
+        words=("trimmed_uncompensated", "intact"), slow=True)
+
+    # ------------------------------------------------------------------ run
+    for k in ("missing", "empty", "non_utf8", "binary", "list", "unknown_key", "impossible_design"):
+        cfg, word = bad_cfgs[k]
+        add(f"run config {k}", ["run", cfg, "--out", out / f"run_{k}", "--no-progress"], absent=[out / f"run_{k}"],
+            words=(word,))
+    pop1 = w.config("pop1.yaml", "optimiser:\n  ga:\n    population: 1\n")
+    add("run optimiser.ga.population 1", ["run", pop1, "--out", out / "run_pop1"], absent=[out / "run_pop1"],
+        words=("population",))
+    for v in ("0", "-1", "1001", "abc", "nan", "1.5", ""):
+        add(f"run --verify-top {v!r}", ["run", good, "--out", out / "run_vt", "--verify", "coarse", "--verify-top", v],
+            absent=[out / "run_vt"], words=("--verify-top",))
+    add("run --verify bogus", ["run", good, "--verify", "bogus"], words=("--verify",))
+    add("run --out under a file", ["run", good, "--out", w.afile / "sub", "--no-progress"], words=("--out",))
+    add("run --out is a file", ["run", good, "--out", w.afile, "--no-progress"], frozen=[w.afile], words=("--out",))
+    add("run --out read-only", ["run", good, "--out", w.ro, "--no-progress"], words=("--out",))
+    add("run --out holds a run", ["run", good, "--out", w.run, "--no-progress"], frozen=[w.run],
+        words=("already holds a run",))
+    add("run results_dir under a file", ["run", results_under_file, "--no-progress"], words=("results_dir",))
+    add("run results_dir read-only", ["run", results_read_only, "--no-progress"], words=("results_dir",))
+
+    # ------------------------------------------------------------------ damaged run directories
+    ck = w.run / "checkpoint.pkl"
+    ck_bytes = ck.read_bytes()
+    damaged = {
+        "checkpoint truncated": ({"checkpoint.pkl": ck_bytes[: len(ck_bytes) // 2]}, (), "checkpoint.pkl"),
+        "checkpoint cut by 1 byte": ({"checkpoint.pkl": ck_bytes[:-1]}, (), "checkpoint.pkl"),
+        "checkpoint empty": ({"checkpoint.pkl": b""}, (), "checkpoint.pkl"),
+        "checkpoint garbage": ({"checkpoint.pkl": GARBAGE}, (), "checkpoint.pkl"),
+        "checkpoint text": ({"checkpoint.pkl": b"not a pickle\n"}, (), "checkpoint.pkl"),
+        "checkpoint other pickle": ({"checkpoint.pkl": pickle.dumps([1, 2, 3])}, (), "checkpoint.pkl"),
+        "checkpoint other format": ({"checkpoint.pkl": pickle.dumps({"format": 99})}, (), "checkpoint.pkl"),
+        "checkpoint missing keys": ({"checkpoint.pkl": pickle.dumps({"format": 1})}, (), "checkpoint.pkl"),
+        "checkpoint is a folder": ({"checkpoint.pkl": None}, (), "checkpoint.pkl"),
+        "optimiser.json garbage": ({"optimiser.json": GARBAGE}, ("checkpoint.pkl",), "optimiser.json"),
+        "optimiser.json truncated": ({"optimiser.json": b'{"seed": 3, "optimiser": {'}, ("checkpoint.pkl",),
+                                     "optimiser.json"),
+        "optimiser.json a list": ({"optimiser.json": b"[1, 2]"}, ("checkpoint.pkl",), "optimiser.json"),
+        "optimiser.json no seed": ({"optimiser.json": b'{"optimiser": {}}'}, ("checkpoint.pkl",), "optimiser.json"),
+        "optimiser.json bad value": ({"optimiser.json": b'{"seed": 1, "optimiser": {"ga": {"population": 1}}}'},
+                                     ("checkpoint.pkl",), "optimiser.json"),
+        "optimiser.json seed text": ({"optimiser.json": b'{"seed": "x", "optimiser": {}}'}, ("checkpoint.pkl",),
+                                     "optimiser.json"),
+        "no checkpoint nor optimiser.json": ({}, ("checkpoint.pkl", "optimiser.json"), "checkpoint.pkl"),
+        "config.yaml garbage": ({"config.yaml": GARBAGE}, (), "config.yaml"),
+        "config.yaml non-UTF-8": ({"config.yaml": NON_UTF8}, (), "config.yaml"),
+        "config.yaml a list": ({"config.yaml": b"- 1\n"}, (), "config.yaml"),
+        "config.yaml bad key": ({"config.yaml": b"design:\n  alpah: 3\n"}, (), "config.yaml"),
+        "config.yaml missing": ({}, ("config.yaml",), "config.yaml"),
+        "config.yaml is a folder": ({"config.yaml": None}, (), "config.yaml"),
+    }
+    runs = {k: w.run_copy(k.replace(" ", "_").replace(".", "_"), dmg, rm) for k, (dmg, rm, _) in damaged.items()}
+    needs_config = {"resume", "verify"}
+    for cmd in ("resume", "report", "verify"):
+        for k, (_, _, word) in damaged.items():
+            if k.startswith("config.yaml") and cmd not in needs_config:
+                continue
+            if k == "no checkpoint nor optimiser.json" and cmd == "resume":
+                continue  # a run killed before it wrote anything but config.yaml: resume starts it
+            extra = ["--no-progress"] if cmd == "resume" else (["--preset", "coarse", "--top", "1"] if cmd == "verify"
+                                                               else [])
+            add(f"{cmd} {k}", [cmd, runs[k], *extra], frozen=[runs[k]], words=(word,))
+    for cmd in ("resume", "report", "verify"):
+        add(f"{cmd} missing dir", [cmd, w.root / "no_such_run"], words=("no_such_run",))
+        add(f"{cmd} a file", [cmd, w.afile], frozen=[w.afile], words=("afile.txt",))
+        empty = w.root / "runs" / "empty_dir"
+        empty.mkdir(parents=True, exist_ok=True)
+        add(f"{cmd} empty dir", [cmd, empty], frozen=[empty], words=("empty_dir",))
+    # --from-previous
+    no_prev = w.run_copy("from_prev_missing", {"checkpoint.pkl": GARBAGE})
+    add("resume --from-previous without one", ["resume", no_prev, "--from-previous", "--no-progress"],
+        frozen=[no_prev], words=("checkpoint.prev.pkl",))
+    both = w.run_copy("from_prev_damaged", {"checkpoint.pkl": GARBAGE, "checkpoint.prev.pkl": ck_bytes[:100]})
+    add("resume --from-previous damaged too", ["resume", both, "--from-previous", "--no-progress"], frozen=[both],
+        words=("checkpoint.prev.pkl",))
+    # read-only run directory: resume/report/verify write into it
+    add("resume run dir under a file", ["resume", w.afile / "run"], words=("afile.txt",))
+    # verify options
+    for v in ("0", "-3", "1001", "abc", "nan", "2.5"):
+        add(f"verify --top {v!r}", ["verify", w.run, "--top", v], frozen=[w.run], words=("--top",))
+    add("verify --preset bogus", ["verify", w.run, "--preset", "bogus"], frozen=[w.run], words=("--preset",))
+    add("report extra argument", ["report", w.run, "--top", "3"], frozen=[w.run], words=("--top",))
+
+    # ------------------------------------------------------------------ compensate
+    comp = w.config("comp.yaml", "fidelity:\n  preset: coarse\nscene:\n  Q_i: 0.1\n  deflection: 5\n"
+                    "optimiser:\n  trim: 2.0\noutput:\n  results_dir: {results}\n")
+    for opt, values in {
+        "--step": ("0", "-1", "nan", "inf", "abc", "101", "1e309"),
+        "--delta-ref": ("0", "-1", "nan", "inf", "31", "abc"),
+    }.items():
+        for v in values:
+            add(f"compensate {opt} {v!r}", ["compensate", comp, opt, v, "--out", out / "comp"], absent=[out / "comp"],
+                words=(opt,))
+    add("compensate --delta-ref past scene.deflection", ["compensate", comp, "--delta-ref", "6", "--out", out / "comp"],
+        absent=[out / "comp"], words=("--delta-ref",))
+    add("compensate --delta-ref past scene.deflection, no --out", ["compensate", comp, "--delta-ref", "6"],
+        frozen=[w.results], words=("--delta-ref",))
+    for v in ("0", "1.5", "nan", "-0.5", "abc", "inf"):
+        add(f"compensate --compare-a {v!r}", ["compensate", comp, "--compare-a", "0.5", v, "--out", out / "comp"],
+            absent=[out / "comp"], words=("--compare-a",))
+    for v in ("-0.1", "nan", "inf", "2", "abc"):
+        add(f"compensate --compare-Q {v!r}", ["compensate", comp, "--compare-Q", v, "--out", out / "comp"],
+            absent=[out / "comp"], words=("--compare-Q",))
+    add("compensate --compare-a without values", ["compensate", comp, "--compare-a"], words=("--compare-a",))
+    q0 = w.config("comp_q0.yaml", "scene:\n  Q_i: 0\n")
+    add("compensate Q_i 0", ["compensate", q0, "--out", out / "comp_q0"], absent=[out / "comp_q0"], words=("Q_i",))
+    for k in ("missing", "empty", "non_utf8", "list"):
+        cfg, word = bad_cfgs[k]
+        add(f"compensate config {k}", ["compensate", cfg, "--out", out / f"comp_{k}"], absent=[out / f"comp_{k}"],
+            words=(word,))
+    big_trim = w.config("comp_trim.yaml", "scene:\n  Q_i: 0.1\noptimiser:\n  trim: 60\n")
+    add("compensate optimiser.trim past the chamber", ["compensate", big_trim, "--out", out / "comp_trim"],
+        absent=[out / "comp_trim"], words=("trim",))
+    add("compensate --out under a file", ["compensate", comp, "--out", w.afile / "sub"], words=("--out",))
+    add("compensate --out is a file", ["compensate", comp, "--out", w.afile], frozen=[w.afile], words=("--out",))
+    add("compensate --out read-only", ["compensate", comp, "--out", w.ro], words=("--out",))
+    comp_ro = w.config("comp_ro.yaml", f"scene:\n  Q_i: 0.1\noptimiser:\n  trim: 2.0\noutput:\n  results_dir: {w.ro}\n")
+    add("compensate results_dir read-only", ["compensate", comp_ro], words=("results_dir",))
+    comp_uf = w.config("comp_uf.yaml", f"scene:\n  Q_i: 0.1\noptimiser:\n  trim: 2.0\noutput:\n"
+                                        f"  results_dir: {w.afile}/sub\n")
+    add("compensate results_dir under a file", ["compensate", comp_uf], words=("results_dir",))
+    cfail = w.config("compensate_fails.yaml", COMPENSATE_FAILS)
+    add("compensate solve fails", ["compensate", cfail, "--no-compare", "--out", out / "comp_fails"], expect=3,
+        words=("Q",), slow=True)
+
+    # ------------------------------------------------------------------ view
+    shot = out / "view.png"
+    run = w.run
+    view_opts = {
+        "--window-size": [("0", "0"), ("-1", "100"), ("100000", "100"), ("abc", "100"), ("100", "1.5"), ("49", "600"),
+                          ("800",)],
+        "--clim-percentile": [("-1",), ("50",), ("nan",), ("inf",), ("abc",)],
+        "--delta": [("-1",), ("nan",), ("inf",), ("abc",), ("1000",)],
+        "--rank": [("0",), ("-1",), ("abc",), ("1.5",), ("99999",)],
+        "--eval": [("-1",), ("abc",), ("99999",), ("",)],
+        "--scale": [("-1",), ("nan",), ("inf",), ("abc",), ("1e12",)],
+    }
+    for opt, values in view_opts.items():
+        for vals in values:
+            word = "eval_id" if vals == ("99999",) and opt == "--eval" else opt  # a valid id the run lacks
+            add(f"view {opt} {' '.join(vals)!r}", ["view", run, opt, *vals, "--screenshot", shot], absent=[shot],
+                frozen=[run], words=(word,))
+    for name in ("a.xyz", "noext", "a.", ".png", "a.PNG", "a.svg"):
+        p = out / name
+        add(f"view --screenshot {name}", ["view", run, "--screenshot", p], absent=[p], frozen=[run],
+            words=("--screenshot",))
+    add("view --screenshot under a file", ["view", run, "--screenshot", w.afile / "x.png"], frozen=[run, w.afile],
+        words=("--screenshot",))
+    add("view --screenshot read-only", ["view", run, "--screenshot", w.ro / "x.png"], frozen=[run],
+        words=("--screenshot",))
+    add("view --screenshot is a folder", ["view", run, "--screenshot", w.results], frozen=[run],
+        words=("--screenshot",))
+    add("view --screenshot empty", ["view", run, "--screenshot", ""], frozen=[run], words=("--screenshot",))
+    for opt, val in (("--field", "bogus"), ("--scene", "bogus"), ("--state", "bogus"), ("--group", "bogus"),
+                     ("--group", "../.."), ("--cavity", "bogus"), ("--camera", "bogus"), ("--layout", "bogus"), ("--clim", "bogus")):
+        add(f"view {opt} {val}", ["view", run, opt, val, "--screenshot", shot], absent=[shot], frozen=[run],
+            words=(val if opt not in ("--cavity", "--camera", "--layout", "--clim") else opt,))
+    add("view --rank with --eval", ["view", run, "--rank", "1", "--eval", "1", "--screenshot", shot], absent=[shot],
+        frozen=[run], words=("--rank",))
+    add("view --state with --delta", ["view", run, "--state", "deflected", "--delta", "1", "--screenshot", shot],
+        absent=[shot], frozen=[run], words=("--state",))
+    add("view missing source", ["view", w.root / "no_such", "--screenshot", shot], absent=[shot], words=("no_such",))
+    add("view a non-VTU file", ["view", w.afile, "--screenshot", shot], absent=[shot], words=("afile.txt",))
+    add("view an empty folder", ["view", w.root / "runs" / "empty_dir", "--screenshot", shot], absent=[shot],
+        words=("empty_dir",))
+    vtu = "best/intact_deflected.vtu"
+    vtu_bytes = (run / vtu).read_bytes()
+    view_damaged = {
+        "VTU garbage": ({vtu: GARBAGE}, vtu),
+        "VTU empty": ({vtu: b""}, vtu),
+        "VTU truncated": ({vtu: vtu_bytes[: len(vtu_bytes) // 2]}, vtu),
+        "VTU text": ({vtu: b"<VTKFile>\n"}, vtu),
+        "scenes.json garbage": ({"best/scenes.json": GARBAGE}, "scenes.json"),
+        "scenes.json a list": ({"best/scenes.json": b"[1]"}, "scenes.json"),
+        "best.json garbage": ({"best.json": GARBAGE}, "best.json"),
+        "best.json non-UTF-8": ({"best.json": b'{"a": "\xff"}'}, "best.json"),
+        "config.yaml non-UTF-8": ({"config.yaml": NON_UTF8}, "config.yaml"),
+        "evaluations.csv garbage": ({"evaluations.csv": GARBAGE}, "evaluations.csv"),
+        "evaluations.csv empty": ({"evaluations.csv": b""}, "evaluations.csv"),
+    }
+    for k, (dmg, word) in view_damaged.items():
+        d = w.run_copy("view_" + k.replace(" ", "_").replace(".", "_"), dmg)
+        extra = ["--rank", "1"] if k.startswith("evaluations") else []
+        add(f"view {k}", ["view", d, *extra, "--screenshot", shot], absent=[shot], frozen=[d], words=(word,))
+    single = w.root / "single.vtu"
+    single.write_bytes(GARBAGE)
+    add("view one garbage .vtu", ["view", single, "--screenshot", shot], absent=[shot], frozen=[single],
+        words=("single.vtu",))
+    # ------------------------------------------------------------------ file-system refusals
+    long = "a" * 300  # longer than a file name may be
+    loop = w.root / "loop1"
+    if not loop.is_symlink():
+        (w.root / "loop2").symlink_to(loop)
+        loop.symlink_to(w.root / "loop2")
+    add("mesh config name too long", ["mesh", w.root / long], words=(long[:50],))
+    add("mesh config /dev/null", ["mesh", "/dev/null"], words=("/dev/null",))
+    add("mesh --out name too long", ["mesh", good, "--out", w.root / long], words=("--out",))
+    add("mesh --out through a symlink loop", ["mesh", good, "--out", loop / "x"], words=("--out",))
+    add("report name too long", ["report", w.root / long], words=(long[:50],))
+    add("view source name too long", ["view", w.root / long, "--screenshot", shot], absent=[shot],
+        words=(long[:50],))
+    add("view --screenshot name too long", ["view", run, "--screenshot", w.root / f"{long}.png"], frozen=[run],
+        words=("--screenshot",))
+    add("view --list with --screenshot .xyz", ["view", run, "--list", "--screenshot", out / "l.xyz"],
+        absent=[out / "l.xyz"], frozen=[run], words=("--screenshot",))
+    return cases
+
+
+# ============================================================================ running
+def run_case(case: Case, cwd: Path, timeout: float, cli: list[str]) -> Outcome:
+    """Run one case as ``whisker-opt ...`` (``cli``); check its exit status, stderr and the files."""
+    before = {p: _tree_digest(p) for p in case.frozen}
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    t0 = time.perf_counter()
+    try:
+        proc = subprocess.run([*cli, *case.argv], capture_output=True, text=True, cwd=cwd, env=env,
+                              timeout=timeout)
+        rc, err = proc.returncode, proc.stderr
+    except subprocess.TimeoutExpired as exc:
+        rc = None
+        err = (exc.stderr.decode(errors="replace") if isinstance(exc.stderr, bytes) else (exc.stderr or ""))
+        err = f"timed out after {timeout:g} s (computing?)\n{err}"
+    o = Outcome(case, rc, err, time.perf_counter() - t0)
+    if rc != case.expect:
+        o.problems.append(f"exit {rc}, expected {case.expect}")
+    if len(o.lines) != 1:
+        o.problems.append(f"{len(o.lines)} stderr lines")
+    if o.traceback:
+        o.problems.append("traceback")
+    if o.aborted:
+        o.problems.append("abort")
+    if o.timed_out:
+        o.problems.append("timed out")
+    first = o.lines[0] if o.lines else ""
+    missing = [wd for wd in case.words if wd.lower() not in first.lower()]
+    if missing:
+        o.problems.append(f"message lacks {missing}")
+    for p in case.absent:
+        if Path(p).exists():
+            o.problems.append(f"wrote {p}")
+            if Path(p).is_dir():
+                shutil.rmtree(p, ignore_errors=True)
+            else:
+                Path(p).unlink()
+    for p, digest in before.items():
+        if _tree_digest(p) != digest:
+            o.problems.append(f"changed {p}")
+    return o
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--jobs", type=int, default=2, help="cases run at once (default 2)")
+    ap.add_argument("--skip-slow", action="store_true", help="leave out the cases that compute before failing")
+    ap.add_argument("--only", default=None, help="run only the cases whose name contains this")
+    ap.add_argument("--timeout", type=float, default=300.0, help="seconds before a case counts as hung")
+    ap.add_argument("--workdir", type=Path, default=None, help="fixture folder (default: a temporary one)")
+    ap.add_argument("--keep", action="store_true", help="keep the fixture folder")
+    ap.add_argument("--verbose", action="store_true", help="print the whole stderr of failing cases")
+    ap.add_argument("--cli", default="whisker-opt",
+                    help="command line of whisker-opt (default: the console script), e.g. 'python3 -m whisker_opt.cli' "
+                         "with PYTHONPATH set to another checkout")
+    args = ap.parse_args(argv)
+    root = args.workdir or Path(tempfile.mkdtemp(prefix="whisker-opt-bad-inputs-"))
+    try:
+        cli = shlex.split(args.cli)
+        w = Workspace(root, cli)
+        w.make_run()
+        cases = build_cases(w)
+        n_all = len(cases)
+        if args.skip_slow:
+            cases = [c for c in cases if not c.slow]
+        if args.only:
+            cases = [c for c in cases if args.only in c.name]
+        t0 = time.perf_counter()
+        with concurrent.futures.ThreadPoolExecutor(max(1, args.jobs)) as ex:
+            outcomes = list(ex.map(lambda c: run_case(c, root, args.timeout, cli), cases))
+        wall = time.perf_counter() - t0
+        width = max(len(o.case.name) for o in outcomes)
+        print(f"{'case':<{width}}  exit  exp lines  tb    s  first stderr line")
+        for o in outcomes:
+            first = o.lines[0] if o.lines else ""
+            if len(first) > 150:
+                first = first[:147] + "..."
+            flag = "" if not o.problems else "  <-- " + "; ".join(o.problems)
+            print(f"{o.case.name:<{width}}  {str(o.rc):>4}  {o.case.expect:>3} {len(o.lines):>5}  "
+                  f"{'yes' if o.traceback else 'no':<3} {o.seconds:>5.1f}  {first}{flag}")
+            if args.verbose and o.problems:
+                print("    " + o.stderr.replace("\n", "\n    ").rstrip())
+        n = len(outcomes)
+        tot = {
+            "cases": f"{n} (of {n_all})",
+            "expected exit code": sum(o.rc == o.case.expect for o in outcomes),
+            "exit 2": sum(o.rc == 2 for o in outcomes),
+            "exit 3": sum(o.rc == 3 for o in outcomes),
+            "other exit": sum(o.rc not in (2, 3) for o in outcomes),
+            "one stderr line": sum(len(o.lines) == 1 for o in outcomes),
+            "tracebacks": sum(o.traceback for o in outcomes),
+            "aborts": sum(o.aborted for o in outcomes),
+            "timed out (computing)": sum(o.timed_out for o in outcomes),
+            "wrote or changed files": sum(any(p.startswith(("wrote", "changed")) for p in o.problems)
+                                          for o in outcomes),
+            "message lacks the option/file": sum(any(p.startswith("message lacks") for p in o.problems)
+                                                 for o in outcomes),
+            "over 5 s (computed)": sum(o.seconds > 5 and not o.case.slow for o in outcomes),
+            "cases with any problem": sum(bool(o.problems) for o in outcomes),
+            "wall time": f"{wall:.0f} s",
+        }
+        print()
+        for k, v in tot.items():
+            print(f"{k:<32} {v}")
+        return 0 if not any(o.problems for o in outcomes) else 1
+    finally:
+        if not args.keep and args.workdir is None:
+            shutil.rmtree(root, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

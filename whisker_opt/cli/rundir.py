@@ -1,0 +1,153 @@
+"""Checks of a run directory given to ``resume``, ``report`` and ``verify``, made before they compute.
+
+A run directory is what ``whisker-opt run`` writes (:mod:`whisker_opt.output.storage`):
+``config.yaml``, ``optimiser.json`` and, after the first generation, ``checkpoint.pkl``.
+Each damaged or missing file is reported in one line naming it and what is wrong
+(:class:`whisker_opt.optimise.checkpoint.RunDirectoryError`, or :class:`FileNotFoundError`
+for a missing folder or file), so that no command reads a damaged file half-way.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from whisker_opt.config.model import ConfigError, WhiskerConfig, load_config
+from whisker_opt.optimise.checkpoint import CHECKPOINT_NAME, RunDirectoryError
+from whisker_opt.output.storage import OPTIMISER_JSON
+
+
+def read_config(path: Path) -> WhiskerConfig:
+    """:func:`whisker_opt.config.model.load_config`, with unreadable files also a :class:`ConfigError`.
+
+    Parameters
+    ----------
+    path : Path
+
+    Returns
+    -------
+    WhiskerConfig
+
+    Raises
+    ------
+    ConfigError
+        Missing, unreadable, not UTF-8, empty, not YAML or not a valid run file (the message
+        names it).
+    """
+    import yaml
+
+    path = Path(path)
+    if path.exists() and not path.is_file():
+        raise ConfigError(f"{path}: not a file")
+    if path.is_file():
+        try:
+            text = path.read_bytes().decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise ConfigError(f"{path}: not UTF-8 text (byte {exc.object[exc.start:exc.start + 1]!r} "
+                              f"at position {exc.start})") from None
+        except OSError as exc:
+            raise ConfigError(f"{path}: cannot be read ({exc.strerror or exc})") from None
+        try:
+            empty = yaml.safe_load(text) is None
+        except yaml.YAMLError:
+            empty = False  # load_config names the syntax error
+        if empty:
+            raise ConfigError(f"{path}: empty config file (no section); write at least one key, "
+                              "e.g. `fidelity: {preset: default}`")
+    try:
+        return load_config(path)
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{path}: not UTF-8 text (position {exc.start})") from None
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot be read ({exc.strerror or exc})") from None
+
+
+def _optimiser_json(run_dir: Path) -> None:
+    """Check ``optimiser.json`` as :func:`whisker_opt.optimise.runner.load_run` reads it."""
+    from pydantic import ValidationError
+
+    from whisker_opt.config.model import format_validation_error
+    from whisker_opt.config.optimiser import OptimiserConfig
+
+    path = run_dir / OPTIMISER_JSON
+    if not path.exists():
+        raise FileNotFoundError(f"{run_dir}: not a run directory (no {CHECKPOINT_NAME} nor {OPTIMISER_JSON})")
+    if not path.is_file():
+        raise RunDirectoryError(f"{path}: not a file")
+    try:
+        meta = json.loads(path.read_bytes().decode("utf-8"))
+    except UnicodeDecodeError as exc:
+        raise RunDirectoryError(f"{path}: damaged (not UTF-8 text at position {exc.start})") from None
+    except json.JSONDecodeError as exc:
+        raise RunDirectoryError(f"{path}: damaged (not valid JSON: {exc.msg} at line {exc.lineno} "
+                                f"column {exc.colno})") from None
+    except OSError as exc:
+        raise RunDirectoryError(f"{path}: cannot be read ({exc.strerror or exc})") from None
+    if not isinstance(meta, dict):
+        raise RunDirectoryError(f"{path}: damaged (top level is a {type(meta).__name__}, expected an object with "
+                                "'seed' and 'optimiser')")
+    seed = meta.get("seed")
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= 2**32 - 1:
+        raise RunDirectoryError(f"{path}: damaged ('seed' is {seed!r}, expected an integer in 0..4294967295)")
+    if not isinstance(meta.get("optimiser"), dict):
+        raise RunDirectoryError(f"{path}: damaged ('optimiser' is a {type(meta.get('optimiser')).__name__}, "
+                                "expected an object)")
+    try:
+        OptimiserConfig.model_validate(meta["optimiser"])
+    except ValidationError as exc:
+        raise RunDirectoryError(format_validation_error(exc, f"{path}: optimiser")) from None
+
+
+def check_run_dir(run_dir: Path, need_config: bool = False, load_state: bool = False,
+                  allow_unstarted: bool = False) -> Path:
+    """Refuse a folder that is not a usable run directory, naming the file at fault.
+
+    Parameters
+    ----------
+    run_dir : Path
+    need_config : bool
+        ``config.yaml`` must be a valid run file (``resume``, ``verify``).
+    load_state : bool
+        Read the whole checkpoint now (``resume``, which deletes stale temporary files
+        before reading it); otherwise only its presence is checked here and its contents
+        when the command reads it.
+    allow_unstarted : bool
+        Accept a run directory holding only ``config.yaml`` (a run killed before it wrote
+        anything else, which ``resume`` starts again).
+
+    Returns
+    -------
+    Path
+        ``run_dir``.
+
+    Raises
+    ------
+    FileNotFoundError
+        No such folder, or it holds neither a checkpoint nor ``optimiser.json``, or no
+        ``config.yaml`` when one is needed.
+    RunDirectoryError
+        Not a folder, or a damaged checkpoint or ``optimiser.json``.
+    ConfigError
+        A damaged ``config.yaml``.
+    """
+    from whisker_opt.optimise.checkpoint import load_checkpoint
+
+    run_dir = Path(run_dir)
+    if not run_dir.exists():
+        raise FileNotFoundError(f"{run_dir}: no such run directory")
+    if not run_dir.is_dir():
+        raise RunDirectoryError(f"{run_dir}: not a folder; give a run directory written by `whisker-opt run`")
+    if need_config:
+        cfg = run_dir / "config.yaml"
+        if not cfg.exists():
+            raise FileNotFoundError(f"{cfg}: not found; is {run_dir} a run directory?")
+        read_config(cfg)
+    ck = run_dir / CHECKPOINT_NAME
+    if ck.exists():
+        if not ck.is_file():
+            raise RunDirectoryError(f"{ck}: not a whisker-opt checkpoint (not a regular file)")
+        if load_state:
+            load_checkpoint(run_dir)
+    elif not (allow_unstarted and not (run_dir / OPTIMISER_JSON).exists()):
+        _optimiser_json(run_dir)
+    return run_dir
