@@ -6,8 +6,9 @@ import pickle
 
 import pytest
 
-from whisker_opt.optimise.executors import (DaskExecutor, MachineFailure, ProcessExecutor, SerialExecutor,
-                                            connect_scheduler, make_executor, preflight)
+from whisker_opt.optimise.dask_executor import DaskExecutor, connect_scheduler
+from whisker_opt.optimise.backend import make_executor, preflight
+from whisker_opt.optimise.executors import MachineFailure, ProcessExecutor, SerialExecutor
 from whisker_opt.config.optimiser import ExecutorConfig, OptimiserConfig
 from whisker_opt.optimise.runner import run_optimisation
 from tests.analytic_fitness import AnalyticFitness, FailureRegion

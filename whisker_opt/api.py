@@ -233,7 +233,7 @@ def run(cfg: WhiskerConfig, out: str | Path | None = None, progress: bool = Fals
     ('max_generations', {'alpha': 3.9..., 'l': 12.2..., 't': 2.1..., 'Q_i': 0.12...})
     """
     from whisker_opt import wiring, workflows
-    from whisker_opt.optimise.executors import preflight
+    from whisker_opt.optimise.backend import preflight
 
     if out is None:  # refuse an impossible design or executor before creating the directory
         wiring.evaluator(cfg)

@@ -437,7 +437,7 @@ def run(cfg: WhiskerConfig, run_dir: Path, progress: bool = True):
         The executor cannot start (an unreachable dask scheduler), or workers were lost during
         the run (it resumes from its last checkpoint).
     """
-    from whisker_opt.optimise.executors import preflight
+    from whisker_opt.optimise.backend import preflight
     from whisker_opt.optimise.runner import check_new_run_dir, remove_run_temporaries, run_optimisation
 
     opt = wiring.optimiser_of(cfg)

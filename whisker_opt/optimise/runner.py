@@ -37,7 +37,7 @@ from typing import Any, Callable, Mapping, Sequence
 
 from whisker_opt.output import storage
 from whisker_opt.optimise.checkpoint import has_checkpoint, load_checkpoint, remove_stale_temporaries, save_checkpoint
-from whisker_opt.optimise.executors import make_executor
+from whisker_opt.optimise.backend import make_executor
 from whisker_opt.optimise.ga import EvaluationProgress, GAState, GeneticAlgorithm, best_design
 from whisker_opt.config.optimiser import ExecutorConfig, OptimiserConfig
 from whisker_opt.experiment.outcome import EvalOutcome
