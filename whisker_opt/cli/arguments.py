@@ -164,6 +164,57 @@ def eval_id(text: str) -> str:
     return str(int_in(0, 10**12)(text))
 
 
+def setting(text: str) -> str:
+    """An argparse type: a ``KEY=VALUE`` setting of ``--set`` (a dotted key, a YAML value).
+
+    Whether the key and the value suit the run file is checked when the file is read
+    (:func:`whisker_opt.config.model.load_config`), with the file's own messages.
+
+    Parameters
+    ----------
+    text : str
+
+    Returns
+    -------
+    str
+        ``text`` unchanged.
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        No ``=``, or an empty key or an empty part of the dotted key.
+    """
+    key, sep, _ = str(text).partition("=")
+    if not sep or not all(k.strip() for k in key.split(".")):
+        raise argparse.ArgumentTypeError(f"{text!r} is not KEY=VALUE with a dotted key, "
+                                          "e.g. optimiser.ga.population=20")
+    return str(text)
+
+
+def preset_setting(choices: tuple[str, ...]) -> Callable[[str], str]:
+    """An argparse type: ``--preset NAME`` as the setting ``fidelity.preset=NAME``.
+
+    ``--preset`` appends to the same list as ``--set``, so the two apply in the order given.
+
+    Parameters
+    ----------
+    choices : tuple of str
+        The fidelity presets.
+
+    Returns
+    -------
+    callable
+        ``str -> str``, raising :class:`argparse.ArgumentTypeError` for a name not in ``choices``.
+    """
+    def check(text: str) -> str:
+        if text not in choices:
+            raise argparse.ArgumentTypeError(f"invalid choice: {text!r} (choose from {', '.join(choices)})")
+        return f"fidelity.preset={text}"
+
+    check.__name__ = "preset"
+    return check
+
+
 def image_path(text: str) -> Path:
     """An argparse type: the path of an image file to write (``--screenshot``).
 

@@ -26,6 +26,8 @@ from whisker_opt.cli.arguments import (
     int_in,
     nonempty_path,
     positive_float,
+    preset_setting,
+    setting,
 )
 from whisker_opt.cli.failures import ComputationFailed, computation_errors, describe_failure
 from whisker_opt.cli.rundir import check_run_dir, read_config
@@ -55,6 +57,38 @@ COMPUTATION_ERRORS = (ComputationFailed,)
 _TRIM = finite_float_in(0.0, 100.0, "mm")
 #: ``--verify-top`` / ``--top``: as :func:`whisker_opt.analysis.verify.check_args`
 _TOP = int_in(1, 1000, name="top")
+#: ``resume --max-generations``
+_GENERATIONS = int_in(0, 1_000_000)
+
+
+def _raised_by(exc: BaseException, function: str) -> bool:
+    """Whether ``exc`` was raised in a function of this name (its traceback's innermost frame)."""
+    tb = exc.__traceback__
+    while tb is not None and tb.tb_next is not None:
+        tb = tb.tb_next
+    return tb is not None and tb.tb_frame.f_code.co_name == function
+
+
+def _config_args(p: argparse.ArgumentParser, helptext: str) -> None:
+    """CONFIG and the options that change it: ``--set``, ``--preset``, ``--defaults``."""
+    p.add_argument("config", type=Path, help=helptext)
+    p.add_argument("--set", dest="settings", action="append", type=setting, default=[], metavar="KEY=VALUE",
+                   help="set a run-file key over the file, e.g. --set optimiser.ga.population=20 (repeatable; "
+                        "the value is read as YAML; the run directory's config.yaml holds the result)")
+    p.add_argument("--preset", dest="settings", action="append", type=preset_setting(PRESET_NAMES),
+                   metavar="{" + ",".join(PRESET_NAMES) + "}", help="fidelity preset: --set fidelity.preset=NAME")
+    p.add_argument("--defaults", action="store_true",
+                   help="accept an empty run file (every key at its default)")
+
+
+def _progress_arg(p: argparse.ArgumentParser) -> None:
+    # SUPPRESS: `whisker-opt --no-progress COMMAND` (the top-level option) is not overwritten
+    p.add_argument("--no-progress", action="store_true", default=argparse.SUPPRESS, help="no progress bar")
+
+
+def _read(args: argparse.Namespace):
+    """The run file of ``args.config`` with its settings (``--set``, ``--preset``, ``--defaults``)."""
+    return read_config(args.config, allow_empty=args.defaults, settings=args.settings)
 
 
 def _check_output(args: argparse.Namespace, cfg) -> None:
@@ -77,7 +111,7 @@ def _failed(exc: BaseException, command: str, out: Path | None = None, scenes=()
 
 # ----------------------------------------------------------------------------- mesh
 def _mesh_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("config", type=Path, help="YAML run file (design + fidelity sections are used)")
+    _config_args(p, "YAML run file (design + fidelity sections are used)")
     p.add_argument("--trim", type=_TRIM, default=None, help="mesh the design trimmed by this length [mm], 0..100")
     p.add_argument("--method", choices=["auto", "fresh", "template", "swept"], default=None, help="override fidelity.mesh_method")
     p.add_argument("--step", action="store_true", help="also export the CAD solid as STEP and STL")
@@ -87,7 +121,7 @@ def _mesh_args(p: argparse.ArgumentParser) -> None:
 def _mesh_run(args: argparse.Namespace) -> int:
     from whisker_opt import wiring, workflows
 
-    cfg = read_config(args.config)
+    cfg = _read(args)
     wiring.design_from_config(cfg, trim=cfg.scene.trim if args.trim is None else args.trim)  # refuse before mkdir
     _check_output(args, cfg)
     out = _out_dir(args, cfg, "mesh")
@@ -105,14 +139,14 @@ def _mesh_run(args: argparse.Namespace) -> int:
 
 # ----------------------------------------------------------------------------- simulate
 def _simulate_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("config", type=Path, help="YAML run file (design, material, scene, fidelity)")
+    _config_args(p, "YAML run file (design, material, scene, fidelity)")
     p.add_argument("--out", type=nonempty_path, default=None, help="output directory (default: a new run directory)")
 
 
 def _simulate_run(args: argparse.Namespace) -> int:
     from whisker_opt import workflows
 
-    cfg = read_config(args.config)
+    cfg = _read(args)
     specs = workflows.simulation_specs(cfg, str(args.config))  # refuse a bad pair before creating the directory
     _check_output(args, cfg)
     out = _out_dir(args, cfg, "simulate")
@@ -137,10 +171,10 @@ def _simulate_run(args: argparse.Namespace) -> int:
 
 # ----------------------------------------------------------------------------- run / resume / report / verify
 def _run_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("config", type=Path, help="YAML run file with an `optimiser` section")
+    _config_args(p, "YAML run file with an `optimiser` section")
     p.add_argument("--out", type=nonempty_path, default=None,
                    help="run directory (default: a new one under output.results_dir)")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    _progress_arg(p)
     p.add_argument("--verify", choices=PRESET_NAMES, default=None,
                    help="after the run, re-evaluate the best designs at this preset (as `whisker-opt verify`)")
     p.add_argument("--verify-top", type=_TOP, default=3, help="designs re-evaluated by --verify, 1..1000 (default 3)")
@@ -148,10 +182,10 @@ def _run_args(p: argparse.ArgumentParser) -> None:
 
 def _run_run(args: argparse.Namespace) -> int:
     from whisker_opt import wiring, workflows
-    from whisker_opt.optimise.executors import preflight
+    from whisker_opt.optimise.backend import preflight
     from whisker_opt.optimise.runner import check_new_run_dir, report
 
-    cfg = read_config(args.config)
+    cfg = _read(args)
     if args.verify:  # refuse bad --verify arguments before the run, not after it
         from whisker_opt.analysis.verify import check_args
 
@@ -183,10 +217,13 @@ def _run_dir_args(p: argparse.ArgumentParser) -> None:
 
 def _resume_args(p: argparse.ArgumentParser) -> None:
     _run_dir_args(p)
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    _progress_arg(p)
     p.add_argument("--from-previous", action="store_true",
                    help="continue from the previous checkpoint (checkpoint.prev.pkl) when the last one is damaged; "
                         "the damaged one is kept as checkpoint.damaged.pkl")
+    p.add_argument("--max-generations", type=_GENERATIONS, default=None, metavar="N",
+                   help="extend the run to N generations (raises optimiser.stopping.max_generations; "
+                        "a finished run continues), 0..1000000")
 
 
 def _resume_run(args: argparse.Namespace) -> int:
@@ -201,10 +238,14 @@ def _resume_run(args: argparse.Namespace) -> int:
         print(f"continuing from the previous checkpoint (generation {gen}); the replaced one is kept as "
               f"checkpoint.damaged.pkl")
     try:
-        workflows.resume(run_dir, progress=not args.no_progress)
+        workflows.resume(run_dir, progress=not args.no_progress, max_generations=args.max_generations)
     except computation_errors() as exc:  # re-solving the best design for its meshes, after the GA
         raise ComputationFailed(f"the GA run is complete in {run_dir}, but solving its best design again for its "
                                 f"meshes failed: {describe_failure(exc, 'resume')}") from exc
+    except ValueError as exc:
+        if not _raised_by(exc, "resume_optimisation") or isinstance(exc, USER_ERRORS):
+            raise
+        raise ArgumentError(str(exc)) from None  # N below the generations already run
     print(report(run_dir))
     return 0
 
@@ -240,7 +281,7 @@ def _report_run(args: argparse.Namespace) -> int:
 
 # ----------------------------------------------------------------------------- compensate
 def _compensate_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("config", type=Path, help="YAML run file (design, scene.Q_i, optimiser.trim = largest trim)")
+    _config_args(p, "YAML run file (design, scene.Q_i, optimiser.trim = largest trim)")
     p.add_argument("--step", type=positive_float(100.0, "mm"), default=1.0,
                    help="trim step of the table [mm], (0, 100]")
     p.add_argument("--delta-ref", type=positive_float(30.0, "mm"), default=1.0,
@@ -251,6 +292,7 @@ def _compensate_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--compare-Q", type=finite_float_in(0.0, 1.0, "MPa"), nargs="+", default=[0.0, 0.1, 0.2],
                    metavar="Q", help="pressures [MPa] of the beam-vs-FE sensitivity comparison, [0, 1]")
     p.add_argument("--no-compare", action="store_true", help="skip the beam-vs-FE sensitivity comparison")
+    _progress_arg(p)
     p.add_argument("--out", type=nonempty_path, default=None, help="output directory")
 
 
@@ -258,7 +300,7 @@ def _compensate_run(args: argparse.Namespace) -> int:
     """Δ → Q table (FE, with the analytic Q beside it) and the beam-vs-FE sensitivity comparison; prints both."""
     from whisker_opt import wiring, workflows
 
-    cfg = read_config(args.config)
+    cfg = _read(args)
     # the workflow checks these again; here before a directory is made
     if cfg.scene.Q_i <= 0:
         raise ConfigError(f"{args.config}: scene.Q_i: the intact pressure Q_i must be > 0 for compensation "
@@ -271,7 +313,8 @@ def _compensate_run(args: argparse.Namespace) -> int:
     out = _out_dir(args, cfg, "compensate")
     try:
         res = workflows.compensate(cfg, out, step=args.step, delta_ref=args.delta_ref, compare_a=args.compare_a,
-                                   compare_Q=args.compare_Q, compare=not args.no_compare, source=str(args.config))
+                                   compare_Q=args.compare_Q, compare=not args.no_compare, source=str(args.config),
+                                   progress=not args.no_progress)
     except computation_errors() as exc:
         raise _failed(exc, "compensate", out) from exc
     print(f"compensation table of {res.design.describe()}, Q_i = {cfg.scene.Q_i:g} MPa ({res.table_seconds:.0f} s)")
@@ -287,6 +330,36 @@ def _compensate_run(args: argparse.Namespace) -> int:
             print(f"  a={ai:g}  {cells}")
         print(f"max |relative difference| = {100 * cmp.max_abs_relative_difference:.1f}%")
     print(f"written to {out} ({', '.join(str(p) for p in res.paths.values())})")
+    return 0
+
+
+# ----------------------------------------------------------------------------- init
+def _init_args(p: argparse.ArgumentParser) -> None:
+    from whisker_opt.config.template import CASES
+
+    p.add_argument("path", type=nonempty_path, nargs="?", default=Path("whisker.yaml"), metavar="PATH",
+                   help="run file to write (default: whisker.yaml)")
+    p.add_argument("--case", choices=list(CASES), default="demo",
+                   help="starting point: demo (a short GA on the coarse preset), case1 (reference case 1), "
+                        "simulate (one intact/trimmed pair); default demo")
+    p.add_argument("--force", action="store_true", help="overwrite PATH when it exists")
+
+
+def _init_run(args: argparse.Namespace) -> int:
+    from whisker_opt.config.template import render_template
+    from whisker_opt.output.storage import atomic_write_text
+
+    path = Path(args.path)
+    if path.is_dir():
+        raise OutputError(f"{path}: is a folder; give a file name such as {path / 'whisker.yaml'}")
+    if path.exists() and not args.force:
+        raise FileExistsError(f"{path} already exists; pass --force to overwrite it")
+    ensure_writable_dir(path.parent, f"{path}: its folder")
+    text = render_template(args.case)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(path, text)
+    command = "simulate" if args.case == "simulate" else "run"
+    print(f"wrote {path} (case {args.case}); edit it, then: whisker-opt {command} {path}")
     return 0
 
 
@@ -322,10 +395,13 @@ def _view_run(args: argparse.Namespace) -> int:
 
 
 REGISTRY: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None], Callable[[argparse.Namespace], int]]] = {
+    "init": ("write a commented run file to start from (every key with its meaning, unit and range)",
+             _init_args, _init_run),
     "mesh": ("build and mesh a design; write the mesh and a quality report", _mesh_args, _mesh_run),
     "simulate": ("run one scene or the intact/trimmed pair; write the curve, reports and meshes", _simulate_args, _simulate_run),
     "run": ("run the GA optimisation of a config; write a results directory", _run_args, _run_run),
-    "resume": ("continue an interrupted run from its last checkpoint", _resume_args, _resume_run),
+    "resume": ("continue an interrupted run from its last checkpoint, or extend a finished one "
+               "(--max-generations)", _resume_args, _resume_run),
     "report": ("print a run's summary table and rebuild its plots", _run_dir_args, _report_run),
     "verify": ("re-evaluate a run's best designs at a finer fidelity preset (is the optimum real?)",
                _verify_args, _verify_run),

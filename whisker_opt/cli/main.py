@@ -6,6 +6,11 @@ with status 2 before anything is computed, as does a file-system refusal (a name
 no permission, a read-only or full disk); a computation that fails on valid inputs (a scene
 that does not converge, a mesh that cannot be made) exits with status 3. Any other
 exception is a bug and keeps its traceback.
+
+``-v/--verbose`` (counted) and ``--no-progress`` are accepted before or after the command
+(``whisker-opt -v run CFG`` and ``whisker-opt run CFG -v``; the counts add up). ``-v`` shows
+INFO and ``-vv`` DEBUG records while the chatty libraries of :data:`QUIET_LOGGERS` stay at
+WARNING; ``-vvv`` lets every logger through.
 """
 
 from __future__ import annotations
@@ -17,6 +22,9 @@ import sys
 
 from whisker_opt.cli import commands
 
+
+#: Third-party loggers kept at WARNING at ``-v`` and ``-vv`` (their DEBUG output drowns the program's).
+QUIET_LOGGERS = ("matplotlib", "PIL", "numba", "distributed", "asyncio", "urllib3", "fsspec", "tornado")
 
 #: errno values of an OSError the user's file system causes (not a bug of the program).
 _FILE_SYSTEM_ERRNOS = frozenset(
@@ -51,17 +59,52 @@ def one_line(message: str) -> str:
     return "; ".join(ln.strip() for ln in str(message).strip().splitlines() if ln.strip())
 
 
+class _Version(argparse.Action):
+    """``--version``: print ``whisker-opt <version>`` and exit (the version is looked up only then)."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS, help=None):
+        super().__init__(option_strings=option_strings, dest=dest, default=default, nargs=0, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None):  # noqa: D102 - argparse.Action
+        import whisker_opt
+
+        print(f"whisker-opt {whisker_opt.__version__}")
+        parser.exit()
+
+
+_VERBOSE_HELP = "more log output: -v info, -vv debug, -vvv also the debug output of libraries (matplotlib, numba, ...)"
+
+
 def _parser() -> argparse.ArgumentParser:
     p = _Parser(
         prog="whisker-opt",
         description="Design optimiser for soft, pneumatically tunable whisker sensors.",
+        epilog="Exit status: 0 done; 2 a bad input (nothing computed); 3 a computation failed; 130 interrupted.",
     )
-    p.add_argument("-v", "--verbose", action="count", default=0, help="more log output (-vv for debug)")
+    p.add_argument("--version", action=_Version, help="print the version and exit")
+    p.add_argument("-v", "--verbose", action="count", default=0, help=_VERBOSE_HELP)
+    p.add_argument("--no-progress", action="store_true", default=False,
+                   help="no progress bar (run, resume, compensate)")
+    # after the command: counted apart (a subparser's namespace replaces the top-level value) and added up
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("-v", "--verbose", dest="verbose_after", action="count", default=argparse.SUPPRESS,
+                        help=_VERBOSE_HELP)
     sub = p.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name, (helptext, add_args, _) in commands.REGISTRY.items():
-        sp = sub.add_parser(name, help=helptext, description=helptext)
+        sp = sub.add_parser(name, help=helptext, description=helptext, parents=[common])
         add_args(sp)
     return p
+
+
+def _set_up_logging(verbose: int) -> None:
+    """Console logging at WARNING, INFO (``-v``), DEBUG (``-vv``, :data:`QUIET_LOGGERS` kept at WARNING)
+    or DEBUG of every logger (``-vvv``)."""
+    level = logging.WARNING - 10 * min(verbose, 2)
+    logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
+    logging.getLogger().setLevel(level)  # also when a handler was installed before (basicConfig then does nothing)
+    if verbose >= 1:
+        for name in QUIET_LOGGERS:
+            logging.getLogger(name).setLevel(logging.WARNING if verbose <= 2 else logging.NOTSET)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -81,8 +124,8 @@ def main(argv: list[str] | None = None) -> int:
         args = _parser().parse_args(argv)
     except SystemExit as exc:  # --help, or an argparse error already printed
         return int(exc.code or 0) if isinstance(exc.code, int) or exc.code is None else 2
-    level = logging.WARNING - 10 * min(args.verbose, 2)
-    logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
+    args.verbose += getattr(args, "verbose_after", 0)
+    _set_up_logging(args.verbose)
     _, _, run = commands.REGISTRY[args.command]
     try:
         return int(run(args) or 0)

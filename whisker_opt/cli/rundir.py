@@ -1,4 +1,5 @@
-"""Checks of a run directory given to ``resume``, ``report`` and ``verify``, made before they compute.
+"""Reading a run file (:func:`read_config`), and checks of a run directory given to ``resume``,
+``report`` and ``verify``, made before they compute.
 
 A run directory is what ``whisker-opt run`` writes (:mod:`whisker_opt.output.storage`):
 ``config.yaml``, ``optimiser.json`` and, after the first generation, ``checkpoint.pkl``.
@@ -11,18 +12,23 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Sequence
 
 from whisker_opt.config.model import ConfigError, WhiskerConfig, load_config
 from whisker_opt.optimise.checkpoint import CHECKPOINT_NAME, RunDirectoryError
 from whisker_opt.output.storage import OPTIMISER_JSON
 
 
-def read_config(path: Path) -> WhiskerConfig:
-    """:func:`whisker_opt.config.model.load_config`, with unreadable files also a :class:`ConfigError`.
+def read_config(path: Path, allow_empty: bool = False, settings: Sequence[str] = ()) -> WhiskerConfig:
+    """:func:`whisker_opt.config.model.load_config`, with a file the system cannot read also a :class:`ConfigError`.
 
     Parameters
     ----------
     path : Path
+    allow_empty : bool
+        Accept an empty run file as every default (``--defaults``).
+    settings : sequence of str
+        ``KEY=VALUE`` settings applied over the file (``--set``, ``--preset``).
 
     Returns
     -------
@@ -31,34 +37,12 @@ def read_config(path: Path) -> WhiskerConfig:
     Raises
     ------
     ConfigError
-        Missing, unreadable, not UTF-8, empty, not YAML or not a valid run file (the message
-        names it).
+        Missing, unreadable, not UTF-8, empty (unless ``allow_empty``), not YAML, a value
+        YAML cannot read, or not a valid run file with its settings (the message names it).
     """
-    import yaml
-
-    path = Path(path)
-    if path.exists() and not path.is_file():
-        raise ConfigError(f"{path}: not a file")
-    if path.is_file():
-        try:
-            text = path.read_bytes().decode("utf-8")
-        except UnicodeDecodeError as exc:
-            raise ConfigError(f"{path}: not UTF-8 text (byte {exc.object[exc.start:exc.start + 1]!r} "
-                              f"at position {exc.start})") from None
-        except OSError as exc:
-            raise ConfigError(f"{path}: cannot be read ({exc.strerror or exc})") from None
-        try:
-            empty = yaml.safe_load(text) is None
-        except yaml.YAMLError:
-            empty = False  # load_config names the syntax error
-        if empty:
-            raise ConfigError(f"{path}: empty config file (no section); write at least one key, "
-                              "e.g. `fidelity: {preset: default}`")
     try:
-        return load_config(path)
-    except UnicodeDecodeError as exc:
-        raise ConfigError(f"{path}: not UTF-8 text (position {exc.start})") from None
-    except OSError as exc:
+        return load_config(path, allow_empty=allow_empty, settings=tuple(settings))
+    except OSError as exc:  # a name too long, a parent that cannot be searched
         raise ConfigError(f"{path}: cannot be read ({exc.strerror or exc})") from None
 
 
