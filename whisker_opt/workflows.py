@@ -96,7 +96,8 @@ def mesh(cfg: WhiskerConfig, out: Path, trim: float | None = None, method: str |
         solid = build_solid(design)
         export_step(solid, out / "whisker.step")
         export_stl(solid, out / "whisker.stl")
-    report = dict(wm.report.as_dict(), mesh_seconds=round(elapsed, 3), method=method)
+    # the method actually used (e.g. 'template:default_a3.3_t3.6') stays; the one asked for beside it
+    report = dict(wm.report.as_dict(), mesh_seconds=round(elapsed, 3), method_requested=method, trim_mm=trim)
     (out / "mesh_report.json").write_text(json.dumps(report, indent=2))
     return design, report
 
@@ -171,6 +172,13 @@ def simulate(cfg: WhiskerConfig, out: Path, source: str = "config") -> Simulatio
     header = ",".join(cols)
     np.savetxt(out / "curve.csv", np.column_stack(list(cols.values())), delimiter=",", header=header, comments="")
     storage.atomic_write_text(out / SCENES_JSON, json.dumps(summary, indent=2, default=float))
+    if sc.pair:
+        from whisker_opt.output.plots import design_label, plot_curves
+
+        d = specs[wiring.INTACT].design
+        plot_curves(out / "curves.png", delta, cols["eps_intact"], cols["eps_trimmed"],
+                    f"{design_label({'alpha': d.alpha, 'l': d.l, 't': d.t, 'Q_i': sc.Q_i}, sc.trim)}",
+                    cols.get(f"eps_{wiring.UNCOMPENSATED}"), fidelity_of(cfg))
     return sim
 
 

@@ -130,7 +130,8 @@ def _mesh_run(args: argparse.Namespace) -> int:
     except computation_errors() as exc:
         raise _failed(exc, "mesh") from exc
     width = max(len(k) for k in report)
-    print(f"mesh of {design.describe()}")
+    trim_from = "--trim" if args.trim is not None else "scene.trim"
+    print(f"mesh of {design.describe()}" + (f", trimmed by {design.trim:g} mm ({trim_from})" if design.trim else ""))
     for k, v in report.items():
         print(f"  {k:<{width}}  {v}")
     print(f"written to {out}")

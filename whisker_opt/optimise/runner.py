@@ -41,7 +41,7 @@ from whisker_opt.optimise.backend import make_executor
 from whisker_opt.optimise.ga import EvaluationProgress, GAState, GeneticAlgorithm, best_design
 from whisker_opt.config.optimiser import ExecutorConfig, OptimiserConfig
 from whisker_opt.experiment.outcome import EvalOutcome
-from whisker_opt.output.plots import design_label, plot_convergence, short_float, write_best_curves
+from whisker_opt.output.plots import design_label, plot_convergence, plot_curves, short_float, write_best_curves
 
 logger = logging.getLogger(__name__)
 
@@ -217,6 +217,17 @@ def write_plots(run_dir: Path, state: GAState, cfg: OptimiserConfig) -> list[Pat
         )
     )
     best_out = _best_outcome(state)
+    curves_csv = Path(run_dir) / storage.BEST_CURVES_CSV
+    if (best_out is None or "eps_i" not in best_out.extra) and curves_csv.is_file():
+        rows = storage.read_csv(curves_csv)  # the best design's curves as re-solved after the run
+        try:
+            col = {k: [float(r[k]) for r in rows] for k in rows[0]} if rows else {}
+        except (KeyError, ValueError):
+            col = {}
+        if {"delta_mm", "eps_i", "eps_c"} <= set(col):
+            title = f"best design: {design_label(best_design(state)['genes'], cfg.trim)}"
+            out.append(plot_curves(Path(run_dir) / "best_curves.png", col["delta_mm"], col["eps_i"], col["eps_c"],
+                                   title, col.get("eps_u"), fidelity))
     if best_out is not None and all(k in best_out.extra for k in ("delta", "eps_i", "eps_c")):
         title = f"best design: {design_label(best_design(state)['genes'], cfg.trim)}"
         out.append(
