@@ -153,7 +153,7 @@ def test_the_project_speaks_of_itself_only():
 
     files = subprocess.run(["git", "ls-files", "*.py", "*.md", "*.yaml"], cwd=ROOT, capture_output=True, text=True,
                            check=True).stdout.split()
-    pattern = re.compile("S" + "PEC|" + "shared" + "/|" + "issue" + r" [0-9]")
+    pattern = re.compile("S" + "PEC|" + "shared" + "/|" + "(?i:issue)" + r"s? #?[0-9]")
     hits = [f"{f}:{i}" for f in files if (ROOT / f).is_file()
             for i, line in enumerate((ROOT / f).read_text(errors="replace").splitlines(), 1) if pattern.search(line)]
     assert hits == []

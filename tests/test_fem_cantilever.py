@@ -5,7 +5,7 @@ EIθ'' = −P cos θ, θ(0) = 0, θ'(L) = 0, load parameter k = PL²/EI; tip def
 δy/L = ∫₀¹ sin θ ds and shortening δx/L = 1 − ∫₀¹ cos θ ds. We compute the elastica by
 shooting (scipy) and check it against the VERIFICATION.md table. For small k the 3-D beam
 approaches Euler–Bernoulli δ = PL³/(3EI) with E = 3μ (incompressible).
-Issue 3: small load within 2 % of Euler–Bernoulli; k = 1, 2 within 2 % of the elastica.
+Required: small load within 2 % of Euler–Bernoulli; k = 1, 2 within 2 % of the elastica.
 
 Model: box 10 × 1 × 1 (L/h = 10; the Timoshenko shear correction 3EI/(κGAL²) ≈ 0.9 %),
 30 × 3 × 3 cells, base x = 0 clamped, dead traction P/h² in +y on the tip face, D1 = 0,

@@ -3,7 +3,7 @@
 Reference: Cook's membrane (Cook 1974) — tapered panel with corners (0,0), (48,44),
 (48,60), (0,44), left edge clamped, uniform shear on the right edge, plane strain, linear
 elastic G = 0.375, λ = 7500 (ν ≈ 0.49998), total vertical force F = 1: converged vertical
-displacement at (48, 52) = 16.4326 (Richardson-extrapolated, FinEALE). Issue 3: within 1 % on
+displacement at (48, 52) = 16.4326 (Richardson-extrapolated, FinEALE). Required: within 1 % on
 a moderate mesh, and no locking (the displacement does not fall as ν → 0.5).
 
 Model: box_mesh(1, 1, t) mapped bilinearly onto the panel, one element layer with u_z = 0 at

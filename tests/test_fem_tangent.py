@@ -3,7 +3,7 @@
 Reference: the tangent is the exact Jacobian ∂R/∂x of the residual (Wriggers,
 *Nonlinear Finite Element Methods* 2008, §4.2); a central difference with step h has
 truncation error O(h²)·|R'''| and round-off O(ε|R|/h), both ≪ 1e-6 relative at h = 1e-6.
-Issue 3 requires agreement to ≤ 1e-6 relative separately for the material, the
+Required: agreement to ≤ 1e-6 relative separately for the material, the
 follower-pressure and the fibre parts. For the conservative parts (material + fibres)
 the residual must also be the gradient of the discrete potential Π (Assembler.energy).
 """

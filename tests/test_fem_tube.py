@@ -8,7 +8,7 @@ solution, e.g. Ogden, *Non-linear Elastic Deformations* 1984, §5.3.2). With λz
     P = μ [ ln(λa/λb) + (λb⁻² − λa⁻²)/2 ],   μ = 2 C10.
 
 VERIFICATION.md lists P(1.1) = 0.131562, P(1.5) = 0.428228, P(2.0) = 0.574054 for μ = 1,
-A = 1, B = 2 (checked below). Issue 3: the inner stretch vs pressure within 0.5 % up to
+A = 1, B = 2 (checked below). Required: the inner stretch vs pressure within 0.5 % up to
 λa = 1.5; we drive the pressure to P(λa = 1.5) (the curve levels off, so λa is the sensitive
 quantity) and compare λa at P(1.1), P(1.2), …, P(1.5).
 
