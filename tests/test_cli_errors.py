@@ -282,22 +282,19 @@ def test_resume_from_previous(ws, tmp_path, capsys):
     assert PREVIOUS_NAME in line and "no previous checkpoint" in line, line
 
 
-def _fake_scene_failure(s: float):
-    """A ``run_scene`` whose pressurisation stops at load fraction ``s`` (no mesh, no solve)."""
+def _fake_pressurise_failure(s: float):
+    """A ``pressurise`` step that stops at load fraction ``s`` (the real scene meshes first)."""
     from fem.newton import IncrementReport, SolveFailed
 
-    def run_scene(spec, wm=None, keep_states=False, mesh_for=None):
-        def pressurise(spec):
-            last = IncrementReport(s, s + 0.01, False, iterations=20, reason="no convergence in 20 iterations")
-            raise SolveFailed(f"load path failed at s={s:.4g}", [], last)
+    def pressurise(spec, wm):
+        last = IncrementReport(s, s + 0.01, False, iterations=20, reason="no convergence in 20 iterations")
+        raise SolveFailed(f"load path failed at s={s:.4g}", [], last)
 
-        return pressurise(spec)
-
-    return run_scene
+    return pressurise
 
 
 def test_solve_failure_is_one_line_with_status_3(ws, tmp_path, capsys, monkeypatch):
-    monkeypatch.setattr("whisker_opt.experiment.scene.run_scene", _fake_scene_failure(0.5))
+    monkeypatch.setattr("whisker_opt.experiment.scene.pressurise", _fake_pressurise_failure(0.5))
     out = tmp_path / "sim"
     line = _one_line(capsys, cli.main(["simulate", str(ws.good), "--out", str(out)]), "simulate", expect=3)
     for w in ("scene intact", "Q=0.1 MPa", "while pressurising", "reached Q = 0.05 MPa of 0.1 MPa",

@@ -5,20 +5,15 @@ mesh cannot be made (the mesher's errors) ends ``simulate``, ``compensate`` and 
 with exit status 3 and a line naming the scene, the load reached and the reason.
 :func:`describe_failure` builds that line from the exception: the load path's last
 converged fraction is in its report, and the scene (its name in ``simulate``, its
-pressure, trim and contact ratio) and the step that failed (pressurising, placing the
-contact, deflecting) are read from the frames the exception passed through, because the
-solver's exception does not carry them.
+pressure, trim and contact ratio) and the step that failed (meshing, pressurising, placing the
+contact, deflecting) are those the scene code leaves on the exception
+(:func:`whisker_opt.experiment.scene.run_scene`, :func:`whisker_opt.output.scenes.solve_scenes`).
 """
 
 from __future__ import annotations
 
 from pathlib import Path
-from types import TracebackType
 from typing import Any, Iterable
-
-#: Functions of :mod:`whisker_opt.experiment.scene` -> the step of a scene they solve.
-_STEPS = {"pressurise": "pressurising", "place_contact_ring": "placing the contact", "deflect_and_read": "deflecting"}
-
 
 class ComputationFailed(RuntimeError):
     """A solve or a mesh that did not succeed on valid inputs (exit status 3)."""
@@ -43,28 +38,14 @@ def computation_errors() -> tuple[type[BaseException], ...]:
     return (SolveFailed, LinearSolverError, MeshError, MeshingError, TemplateError, FibreLocationError)
 
 
-def _frames(tb: TracebackType | None) -> list:
-    frames = []
-    while tb is not None:
-        frames.append(tb.tb_frame)
-        tb = tb.tb_next
-    return frames
-
-
 def _context(exc: BaseException) -> dict[str, Any]:
-    """Scene name, spec and step of the innermost frames of ``exc``'s traceback (best effort)."""
-    ctx: dict[str, Any] = {}
-    for fr in _frames(exc.__traceback__):
-        name = fr.f_code.co_name
-        loc = fr.f_locals
-        if name == "solve_scenes" and isinstance(loc.get("name"), str):
-            ctx["scene"] = loc["name"]
-        spec = loc.get("spec")
-        if spec is not None and all(hasattr(spec, a) for a in ("Q", "design", "deflection")):
-            ctx["spec"] = spec
-        if name in _STEPS:
-            ctx["step"] = _STEPS[name]
-    return ctx
+    """Scene name, spec and step that the scene code left on ``exc`` (those it knows)."""
+    from whisker_opt.experiment.scene import FAILED_WHILE, FAILED_WITH
+    from whisker_opt.output.scenes import FAILED_NAME
+
+    found = {"scene": getattr(exc, FAILED_NAME, None), "spec": getattr(exc, FAILED_WITH, None),
+             "step": getattr(exc, FAILED_WHILE, None)}
+    return {k: v for k, v in found.items() if v is not None}
 
 
 def _g(x: float) -> str:

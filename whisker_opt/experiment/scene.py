@@ -31,8 +31,10 @@ Only gauge quantities are evaluated per increment; full states are kept only whe
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import time
+from typing import Iterator
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -327,6 +329,26 @@ def _gauged(m: WhiskerMesh | GaugedMesh, design: WhiskerDesign) -> GaugedMesh:
     return m if isinstance(m, GaugedMesh) else GaugedMesh.locate(m, design)
 
 
+#: Attribute names under which a failing step leaves its context on the exception it raises.
+FAILED_WITH, FAILED_WHILE = "scene_spec", "scene_step"
+
+
+@contextlib.contextmanager
+def _step(spec: SceneSpec, step: str) -> Iterator[None]:
+    """Leave the scene's spec and the step (e.g. ``"pressurising"``) on an exception raised inside,
+    keeping its type (the evaluator classifies failures by type); the innermost step wins."""
+    try:
+        yield
+    except Exception as exc:
+        for attr, value in ((FAILED_WITH, spec), (FAILED_WHILE, step)):
+            if getattr(exc, attr, None) is None:
+                try:
+                    setattr(exc, attr, value)
+                except AttributeError:  # pragma: no cover - an exception type without a __dict__
+                    pass
+        raise
+
+
 def run_scene(spec: SceneSpec, wm: WhiskerMesh | GaugedMesh | None = None, keep_states: bool = False,
               mesh_for=None) -> SceneResult:
     """Pressurise-then-deflect one whisker and read its gauge.
@@ -357,6 +379,9 @@ def run_scene(spec: SceneSpec, wm: WhiskerMesh | GaugedMesh | None = None, keep_
         Impossible geometry.
     fem.newton.SolveFailed
         The nonlinear solve did not converge (carries the report).
+
+    Any exception leaves the spec and the step that failed on itself (:data:`FAILED_WITH`,
+    :data:`FAILED_WHILE`), so a caller can say which scene failed where without a second type.
     """
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
@@ -367,17 +392,23 @@ def run_scene(spec: SceneSpec, wm: WhiskerMesh | GaugedMesh | None = None, keep_
             return build_mesh(d, sizing, method=method)
 
     def remesh(sizing: MeshSizing, method: str) -> GaugedMesh:
-        return _gauged(mesh_for(design, sizing, method), design)
+        with _step(spec, "meshing"):
+            return _gauged(mesh_for(design, sizing, method), design)
+
+    def pressurised(g: GaugedMesh) -> Pressurised:
+        with _step(spec, "pressurising"):
+            return pressurise(spec, g.wm)
 
     gm = remesh(spec.sizing, spec.mesh_method) if wm is None else _gauged(wm, design)
     timings["mesh"] = time.perf_counter() - t0
 
     t = time.perf_counter()
-    pre = pressurise(spec, gm.wm)
+    pre = pressurised(gm)
     timings["pressurise"] = time.perf_counter() - t
     t = time.perf_counter()
     contact = scene_contact(spec)
-    placed, pre = place_contact_ring(contact, gm, pre, spec.sizing, remesh, lambda g: pressurise(spec, g.wm))
+    with _step(spec, "placing the contact"):
+        placed, pre = place_contact_ring(contact, gm, pre, spec.sizing, remesh, pressurised)
     if placed is not gm:
         timings["contact_placement"] = time.perf_counter() - t
     gm = placed
@@ -386,7 +417,8 @@ def run_scene(spec: SceneSpec, wm: WhiskerMesh | GaugedMesh | None = None, keep_
     radial = mid_chamber_radial_growth(wm, u1) if spec.Q > 0 else 0.0
 
     t = time.perf_counter()
-    dfl = deflect_and_read(spec, gm, pre, contact)
+    with _step(spec, "deflecting"):
+        dfl = deflect_and_read(spec, gm, pre, contact)
     timings["deflect"] = time.perf_counter() - t - dfl.time_read
     timings["readout"] = dfl.time_read
     delta = np.concatenate([[0.0], np.asarray(dfl.fractions) * spec.deflection])

@@ -22,6 +22,7 @@ writes.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import re
 import time
@@ -424,6 +425,10 @@ def scene_entry(spec, res, gauge_variant: str = "line", **extra) -> dict:
     return entry
 
 
+#: Attribute naming the scene on an exception that :func:`solve_scenes` lets through.
+FAILED_NAME = "scene_name"
+
+
 def solve_scenes(out: Path, specs: dict, gauge_variant: str = "line", **extra) -> tuple[dict, dict]:
     """Solve scenes keeping their states; write their files into ``out`` (:func:`write_scene_files`).
 
@@ -449,7 +454,13 @@ def solve_scenes(out: Path, specs: dict, gauge_variant: str = "line", **extra) -
     results, entries = {}, {}
     for name, spec in specs.items():
         t0 = time.perf_counter()
-        res = run_scene(spec, keep_states=True)
+        try:
+            res = run_scene(spec, keep_states=True)
+        except Exception as exc:
+            if getattr(exc, FAILED_NAME, None) is None:
+                with contextlib.suppress(AttributeError):
+                    setattr(exc, FAILED_NAME, name)  # which scene, beside the spec and step run_scene left
+            raise
         wall = time.perf_counter() - t0
         write_scene_files(out, name, res)
         results[name] = res
