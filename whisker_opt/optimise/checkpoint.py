@@ -114,6 +114,12 @@ def _keep_previous(run_dir: Path) -> None:
     current = run_dir / CHECKPOINT_NAME
     if not current.is_file() or not _looks_complete(current):
         return  # nothing to keep, or a damaged file that must not replace a good previous one
+    previous = run_dir / PREVIOUS_NAME
+    try:
+        if previous.exists() and os.path.samefile(previous, current):
+            return  # already kept (a kill came between this and the replacement of current)
+    except OSError:
+        pass
     tmp = run_dir / f".{PREVIOUS_NAME}.{os.getpid()}.tmp"  # removed by remove_stale_temporaries if left
     try:
         try:
@@ -123,7 +129,7 @@ def _keep_previous(run_dir: Path) -> None:
             os.link(current, tmp)
         except OSError:  # a file system without hard links
             shutil.copyfile(current, tmp)
-        os.replace(tmp, run_dir / PREVIOUS_NAME)
+        os.replace(tmp, previous)
     except BaseException:
         try:
             os.unlink(tmp)

@@ -571,11 +571,7 @@ def resume_optimisation(
     if state.generation >= 0:
         _RunWriter(run_dir, ga, config).write_tables(state)
         logger.info("resuming %s after generation %d", run_dir, state.generation)
-    summary = _drive(ga, state, run_dir, evaluator, executor or cfg.executor, config, progress, callbacks)
-    # the first checkpoint after a kill inside a checkpoint write can leave a temporary of its
-    # own (a rename onto a hard link of the same file does nothing); nothing writes here now
-    remove_run_temporaries(run_dir)
-    return summary
+    return _drive(ga, state, run_dir, evaluator, executor or cfg.executor, config, progress, callbacks)
 
 
 def _fmt(x: Any, spec: str = ".6g") -> str:
