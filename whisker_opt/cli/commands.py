@@ -30,8 +30,8 @@ from whisker_opt.cli.arguments import (
     setting,
 )
 from whisker_opt.cli.failures import ComputationFailed, computation_errors, describe_failure
-from whisker_opt.cli.rundir import check_run_dir, read_config
-from whisker_opt.config.model import ConfigError
+from whisker_opt.cli.rundir import check_run_dir
+from whisker_opt.config.model import ConfigError, load_config
 from whisker_opt.experiment.fidelity import PRESET_NAMES
 from whisker_opt.optimise.checkpoint import RunDirectoryError
 
@@ -88,7 +88,7 @@ def _progress_arg(p: argparse.ArgumentParser) -> None:
 
 def _read(args: argparse.Namespace):
     """The run file of ``args.config`` with its settings (``--set``, ``--preset``, ``--defaults``)."""
-    return read_config(args.config, allow_empty=args.defaults, settings=args.settings)
+    return load_config(args.config, allow_empty=args.defaults, settings=tuple(args.settings))
 
 
 def _check_output(args: argparse.Namespace, cfg) -> None:

@@ -1,5 +1,4 @@
-"""Reading a run file (:func:`read_config`), and checks of a run directory given to ``resume``,
-``report`` and ``verify``, made before they compute.
+"""Checks of a run directory given to ``resume``, ``report`` and ``verify``, made before they compute.
 
 A run directory is what ``whisker-opt run`` writes (:mod:`whisker_opt.output.storage`):
 ``config.yaml``, ``optimiser.json`` and, after the first generation, ``checkpoint.pkl``.
@@ -12,38 +11,10 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Sequence
 
-from whisker_opt.config.model import ConfigError, WhiskerConfig, load_config
+from whisker_opt.config.model import load_config
 from whisker_opt.optimise.checkpoint import CHECKPOINT_NAME, RunDirectoryError
 from whisker_opt.output.storage import OPTIMISER_JSON
-
-
-def read_config(path: Path, allow_empty: bool = False, settings: Sequence[str] = ()) -> WhiskerConfig:
-    """:func:`whisker_opt.config.model.load_config`, with a file the system cannot read also a :class:`ConfigError`.
-
-    Parameters
-    ----------
-    path : Path
-    allow_empty : bool
-        Accept an empty run file as every default (``--defaults``).
-    settings : sequence of str
-        ``KEY=VALUE`` settings applied over the file (``--set``, ``--preset``).
-
-    Returns
-    -------
-    WhiskerConfig
-
-    Raises
-    ------
-    ConfigError
-        Missing, unreadable, not UTF-8, empty (unless ``allow_empty``), not YAML, a value
-        YAML cannot read, or not a valid run file with its settings (the message names it).
-    """
-    try:
-        return load_config(path, allow_empty=allow_empty, settings=tuple(settings))
-    except OSError as exc:  # a name too long, a parent that cannot be searched
-        raise ConfigError(f"{path}: cannot be read ({exc.strerror or exc})") from None
 
 
 def _optimiser_json(run_dir: Path) -> None:
@@ -125,7 +96,7 @@ def check_run_dir(run_dir: Path, need_config: bool = False, load_state: bool = F
         cfg = run_dir / "config.yaml"
         if not cfg.exists():
             raise FileNotFoundError(f"{cfg}: not found; is {run_dir} a run directory?")
-        read_config(cfg)
+        load_config(cfg)
     ck = run_dir / CHECKPOINT_NAME
     if ck.exists():
         if not ck.is_file():

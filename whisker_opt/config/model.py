@@ -204,15 +204,15 @@ EMPTY_HINT = "write at least one section (see docs/config.md), or pass --default
 
 def _read_text(path: Path) -> str:
     """The text of a run file, or a one-line :class:`ConfigError` naming the file."""
-    if not path.exists():
-        raise ConfigError(f"{path}: no such config file")
-    if path.is_dir():
-        raise ConfigError(f"{path}: is a directory, not a config file")
-    if not path.is_file():
-        raise ConfigError(f"{path}: not a regular file (a run file is a YAML text file)")
     try:
+        if not path.exists():
+            raise ConfigError(f"{path}: no such config file")
+        if path.is_dir():
+            raise ConfigError(f"{path}: is a directory, not a config file")
+        if not path.is_file():
+            raise ConfigError(f"{path}: not a regular file (a run file is a YAML text file)")
         raw = path.read_bytes()
-    except OSError as exc:
+    except OSError as exc:  # unreadable, a name too long, a parent that cannot be searched
         raise ConfigError(f"{path}: cannot be read ({exc.strerror or exc})") from None
     try:
         text = raw.decode("utf-8")
