@@ -203,7 +203,7 @@ def finish_mesh(
     fibres = locate_fibres(design, locator, ds=min(fibre_ds_factor * h_wall, FIBRE_DS_MAX))
     report = make_report(
         design, qm.points, qm.cells, faces["cavity"], locator, h_wall, method, time.perf_counter() - t_start,
-        jac_ratio=qm.jacobian_ratio,
+        jac_ratio=qm.jacobian_ratio, off_surface=(qm.n_unprojected, qm.max_unprojected_offset),
     )
     return WhiskerMesh(TetMesh(qm.points, qm.cells), nodes, faces, fibres, design, report, sizing)
 

@@ -67,7 +67,9 @@ class QuadraticMesh:
     face_class : ndarray, shape (n_f,)
         Patch id of each boundary face.
     n_unprojected : int
-        Boundary vertices left off their patch to avoid inversion.
+        Boundary vertices left (partly) off their patch to avoid inversion.
+    max_unprojected_offset : float
+        Largest distance [mm] of such a vertex from its patch.
     n_unsnapped : int
         Elements whose curved mid-edge nodes were reverted to straight.
     jacobian_ratio : ndarray, shape (n_el,)
@@ -81,27 +83,48 @@ class QuadraticMesh:
     faces6: np.ndarray
     face_class: np.ndarray
     n_unprojected: int = 0
+    max_unprojected_offset: float = 0.0
     n_unsnapped: int = 0
     jacobian_ratio: np.ndarray | None = None  # (n_el,) min det J / max |det J| at CHECK_POINTS
 
 
 def _project_safely(d: WhiskerDesign, pts: np.ndarray, tets4: np.ndarray, tris: np.ndarray, cls: np.ndarray):
-    proj = bd.project_vertices(d, pts, tris, cls)
-    moved = np.any(proj != pts, axis=1)
-    reverted = np.zeros(len(pts), dtype=bool)
-    for _ in range(10):
+    """Project the boundary vertices onto their exact surfaces without inverting a tet.
+
+    A vertex whose full projection inverts a neighbouring tet (a thin fTetWild sliver
+    next to the surface) is moved back towards its straight position, halving the
+    projected distance (1/2, 1/4, 1/8 of it) and at last leaving it where it was, until
+    no tet is inverted.
+
+    Returns
+    -------
+    points : ndarray, shape (n_v, 3)
+    n_off : int
+        Vertices left off their surface.
+    max_offset : float
+        Largest distance [mm] of such a vertex from its projection (0 when none).
+    """
+    target = bd.project_vertices(d, pts, tris, cls)
+    proj = target.copy()
+    moved = np.any(target != pts, axis=1)
+    frac = np.ones(len(pts))  # share of the projection each vertex keeps
+    for _ in range(20):
         bad = signed_volumes_linear(proj, tets4) <= 0
         if not bad.any():
             break
         vs = np.unique(tets4[bad])
-        vs = vs[moved[vs] & ~reverted[vs]]
+        vs = vs[moved[vs] & (frac[vs] > 0.0)]
         if len(vs) == 0:
             break
-        proj[vs] = pts[vs]
-        reverted[vs] = True
-    if reverted.any():
-        logger.warning("%d boundary vertices kept off their surface to avoid inverted tets", reverted.sum())
-    return proj, int(reverted.sum())
+        half = 0.5 * frac[vs]
+        frac[vs] = np.where(half < 0.1, 0.0, half)
+        proj[vs] = pts[vs] + frac[vs, None] * (target[vs] - pts[vs])
+    off = moved & (frac < 1.0)
+    max_offset = float(np.linalg.norm(target[off] - proj[off], axis=1).max()) if off.any() else 0.0
+    if off.any():
+        logger.warning("%d boundary vertices kept up to %.3g mm off their surface to avoid inverted tets",
+                       off.sum(), max_offset)
+    return proj, int(off.sum()), max_offset
 
 
 def upgrade(
@@ -142,7 +165,7 @@ def upgrade(
     face_class = np.asarray(face_class, dtype=np.int64)
     if len(face_class) != len(faces6):
         raise ValueError(f"upgrade: face_class has {len(face_class)} entries, mesh has {len(faces6)} boundary faces")
-    pts, n_unproj = _project_safely(design, pts, tets4, tris, face_class)
+    pts, n_unproj, max_off = _project_safely(design, pts, tets4, tris, face_class)
     n_v = len(pts)
     mid = 0.5 * (pts[edges[:, 0]] + pts[edges[:, 1]])
     if cylindrical:
@@ -161,7 +184,7 @@ def upgrade(
         logger.warning("%d elements: curved mid-edge nodes reverted to straight (Jacobian <= 0)", len(bad))
         detj = jacobian_determinants(points, cells, CHECK_POINTS)
     jr = detj.min(axis=1) / np.abs(detj).max(axis=1)
-    return QuadraticMesh(points, cells, felem, flocal, faces6, face_class, n_unproj, len(bad), jr)
+    return QuadraticMesh(points, cells, felem, flocal, faces6, face_class, n_unproj, max_off, len(bad), jr)
 
 
 def mesh_topology(points1: np.ndarray, tets4: np.ndarray) -> tuple:

@@ -61,6 +61,8 @@ class MeshReport:
     h_wall: float
     method: str
     seconds: float = 0.0
+    boundary_off_surface: int = 0
+    boundary_offset_max: float = 0.0
 
     def as_dict(self) -> dict:
         return {k: (float(v) if isinstance(v, (np.floating,)) else v) for k, v in dataclasses.asdict(self).items()}
@@ -165,8 +167,11 @@ def make_report(
     method: str,
     seconds: float = 0.0,
     jac_ratio: np.ndarray | None = None,
+    off_surface: tuple[int, float] = (0, 0.0),
 ) -> MeshReport:
-    """Measure a finished mesh (see module docstring); ``jac_ratio`` reuses known Jacobian ratios."""
+    """Measure a finished mesh (see module docstring); ``jac_ratio`` reuses known Jacobian ratios,
+    ``off_surface`` is (count, largest distance [mm]) of boundary vertices the TET10 upgrade left
+    off their surface."""
     rho = radius_ratio(points, cells)
     jr = jacobian_ratio(points, cells) if jac_ratio is None else jac_ratio
     vol = float(volumes(points, cells, degree=3).sum())
@@ -193,4 +198,6 @@ def make_report(
         h_wall=float(h_wall),
         method=method,
         seconds=float(seconds),
+        boundary_off_surface=int(off_surface[0]),
+        boundary_offset_max=float(off_surface[1]),
     )

@@ -75,16 +75,26 @@ def test_node_order_and_positive_jacobians(wm):
 
 
 def test_boundary_nodes_on_exact_surfaces(wm):
-    d, P = wm.design, wm.mesh.points
+    """Boundary nodes lie on their exact surfaces, except the vertices the TET10 upgrade reports
+    it kept off (to avoid an inverted sliver): at most that many, each within the reported
+    distance, and few (<= 0.2 % of the boundary vertices, <= 5 % of the wall thickness off)."""
+    d, P, r_ = wm.design, wm.mesh.points, wm.report
     x, r, _ = bd.to_meridian(P)
-    o = wm.node_sets["outer"]
-    assert np.abs(r[o] - d.r_outer(x[o])).max() < 1e-9
-    cw = wm.node_sets["cavity_wall"]
-    assert np.abs(r[cw] - d.r_inner(x[cw])).max() < 1e-9
-    assert np.abs(x[wm.node_sets["base"]]).max() < 1e-12
-    assert np.abs(x[wm.node_sets["tip"]] - d.length).max() < 1e-9
-    assert np.abs(x[wm.node_sets["cavity_start"]] - d.c).max() < 1e-9
-    assert np.abs(x[wm.node_sets["cavity_end"]] - d.l).max() < 1e-9
+    gaps = {
+        "outer": np.abs(r - d.r_outer(x)), "cavity_wall": np.abs(r - d.r_inner(x)), "base": np.abs(x),
+        "tip": np.abs(x - d.length), "cavity_start": np.abs(x - d.c), "cavity_end": np.abs(x - d.l),
+    }
+    off, worst, n_boundary = set(), 0.0, set()
+    for name, gap in gaps.items():
+        nodes = wm.node_sets[name]
+        n_boundary.update(nodes[nodes < r_.n_vertices].tolist())
+        bad = nodes[gap[nodes] > 1e-9]  # a mid-edge node is off when a vertex of its edge is
+        off.update(bad[bad < r_.n_vertices].tolist())
+        worst = max(worst, float(gap[bad].max()) if len(bad) else 0.0)
+    assert len(off) <= r_.boundary_off_surface
+    assert worst <= r_.boundary_offset_max + 1e-9
+    assert r_.boundary_off_surface <= max(1, 0.002 * len(n_boundary))
+    assert r_.boundary_offset_max <= 0.05 * d.t
 
 
 def test_face_sets_cover_the_boundary_and_are_outward(wm):
