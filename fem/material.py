@@ -204,3 +204,76 @@ class Yeoh(IsochoricI1Material):
             if k >= 2:
                 d2f += k * (k - 1) * ck * x ** (k - 2)
         return f, df, d2f
+
+
+@dataclass(frozen=True, eq=False)
+class ElementwiseMaterial(IsochoricI1Material):
+    """A different isochoric law in each group of elements (e.g. a stiff cap on a soft body).
+
+    Element e uses ``materials[element_material[e]]``: its W_iso = f_k(Ī1) with k the
+    element's group, so the stress, the tangent coefficients of
+    :meth:`IsochoricI1Material.stress_coefficients` and the energy are those of each
+    element's own law (the assembly integrates element by element; a material interface
+    along element faces is exact for a perfect bond). Vectorised: every law is evaluated
+    once on the elements of its group. Arrays handed to :meth:`f_derivatives` (and so
+    to :meth:`energy`, :meth:`stress_tangent`, :meth:`stress_coefficients`) must have one
+    row per element, shape (n_el, ...), as the assembler's (n_el, n_qp) quadrature arrays
+    do. The tangent is checked against central finite differences in
+    tests/test_model_form.py.
+
+    Parameters
+    ----------
+    materials : tuple of IsochoricI1Material
+        The laws, at least one; all must share one ``d1`` (the volumetric term is
+        assembled with a single D1, :mod:`fem.assembly`).
+    element_material : ndarray (n_el,) int
+        Index into ``materials`` of each element.
+
+    Notes
+    -----
+    ``shear_modulus`` is the largest small-strain shear modulus of the laws (a stiffness
+    scale, not a property of the composite).
+    """
+
+    materials: tuple
+    element_material: np.ndarray
+
+    def __post_init__(self) -> None:
+        mats = tuple(self.materials)
+        if not mats or not all(isinstance(m, IsochoricI1Material) for m in mats):
+            raise ValueError(f"ElementwiseMaterial.materials={self.materials!r}: must be a non-empty tuple of "
+                             "IsochoricI1Material")
+        d1s = {float(m.d1) for m in mats}
+        if len(d1s) != 1:
+            raise ValueError(f"ElementwiseMaterial.materials: every law needs the same d1, got {sorted(d1s)}")
+        idx = np.ascontiguousarray(self.element_material, dtype=np.int64).ravel()
+        if idx.size and (idx.min() < 0 or idx.max() >= len(mats)):
+            raise ValueError(f"ElementwiseMaterial.element_material: index outside [0, {len(mats) - 1}]")
+        object.__setattr__(self, "materials", mats)
+        object.__setattr__(self, "element_material", idx)
+
+    @property
+    def d1(self) -> float:
+        return float(self.materials[0].d1)
+
+    @property
+    def shear_modulus(self) -> float:
+        return max(m.shear_modulus for m in self.materials)
+
+    @property
+    def n_elements(self) -> int:
+        return len(self.element_material)
+
+    def f_derivatives(self, i1bar):
+        i1bar = np.asarray(i1bar, dtype=float)
+        if i1bar.shape[:1] != (self.n_elements,):
+            raise ValueError(f"ElementwiseMaterial.f_derivatives: array of shape {i1bar.shape}, expected "
+                             f"({self.n_elements}, ...) (one row per element)")
+        out = (np.empty_like(i1bar), np.empty_like(i1bar), np.empty_like(i1bar))
+        for k, mat in enumerate(self.materials):
+            sel = self.element_material == k  # (n_el,)
+            if not sel.any():
+                continue
+            for o, v in zip(out, mat.f_derivatives(i1bar[sel])):
+                o[sel] = v
+        return out

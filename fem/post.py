@@ -277,12 +277,66 @@ def von_mises_stress(sigma: np.ndarray) -> np.ndarray:
     return np.sqrt(1.5 * np.einsum("kij,kij->k", s, s))  # (k,)
 
 
+def cauchy_stress_i1(F: np.ndarray, dfdi1: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """Cauchy stress of any mixed-form law whose isochoric energy is f(Ī₁) (neo-Hookean, Yeoh, ...).
+
+    As :func:`cauchy_stress_neo_hookean` with C10 replaced by f'(Ī₁) at each point
+    (:meth:`fem.material.IsochoricI1Material.stress_tangent`: P_iso = 2 f' J^(-2/3) (F − (I₁/3) F⁻ᵀ))::
+
+        σ = 2 f'(Ī₁) J^(-5/3) (B − (tr B / 3) I) + p I
+
+    Parameters
+    ----------
+    F : ndarray, shape (k, 3, 3)
+    dfdi1 : ndarray, shape (k,)
+        f'(Ī₁) [MPa] at each point (C10 for the neo-Hookean law).
+    p : ndarray, shape (k,) or float
+        Pressure [MPa], > 0 in tension.
+
+    Returns
+    -------
+    ndarray, shape (k, 3, 3)
+    """
+    F = np.asarray(F, dtype=float)
+    p = np.broadcast_to(np.asarray(p, dtype=float), F.shape[:1])  # (k,)
+    J = np.linalg.det(F)  # (k,)
+    B = np.einsum("kij,klj->kil", F, F)  # (k, 3, 3) F Fᵀ
+    dev = B - np.einsum("kii->k", B)[:, None, None] / 3.0 * np.eye(3)  # (k, 3, 3)
+    coef = 2.0 * np.asarray(dfdi1, dtype=float) * J ** (-5.0 / 3.0)  # (k,)
+    return coef[:, None, None] * dev + p[:, None, None] * np.eye(3)  # (k, 3, 3)
+
+
+def nodal_law_slope(F: np.ndarray, material, cells: np.ndarray, used: np.ndarray) -> np.ndarray:
+    """f'(Ī₁) of ``material`` at the nodes ``used`` (shape (k,)), Ī₁ from the nodal F (k, 3, 3).
+
+    A material with one law per element group (``element_material``, e.g.
+    :class:`fem.material.ElementwiseMaterial`) gives each node the law of the lowest group among
+    its elements: a node on an interface takes the first law's (the body's).
+    """
+    J = np.linalg.det(F)  # (k,)
+    i1bar = J ** (-2.0 / 3.0) * np.einsum("kij,kij->k", F, F)  # (k,)
+    groups = getattr(material, "element_material", None)
+    if groups is None:
+        return material.f_derivatives(i1bar)[1]
+    n_nodes = int(cells.max()) + 1
+    node_group = np.full(n_nodes, np.iinfo(np.int64).max)
+    np.minimum.at(node_group, cells.ravel(), np.repeat(np.asarray(groups, dtype=np.int64), cells.shape[1]))
+    ng = node_group[np.nonzero(used)[0]] if used.dtype == bool else node_group[used]  # (k,)
+    out = np.empty_like(i1bar)
+    for k, law in enumerate(material.materials):
+        sel = ng == k
+        if sel.any():
+            out[sel] = law.f_derivatives(i1bar[sel])[1]
+    return out
+
+
 def nodal_strain_stress(points: np.ndarray, cells: np.ndarray, u: np.ndarray, p: np.ndarray | None, c10: float,
-                        d1: float = 0.0, formulation: str = "mixed") -> tuple[np.ndarray, np.ndarray]:
-    """Nodal Eulerian log strain and neo-Hookean Cauchy stress of a solved u–p state.
+                        d1: float = 0.0, formulation: str = "mixed", material=None) -> tuple[np.ndarray, np.ndarray]:
+    """Nodal Eulerian log strain and Cauchy stress of a solved u–p state.
 
     F at the nodes from :func:`nodal_deformation_gradient`; ``ln V`` from
-    :func:`eulerian_log_strain`; σ from :func:`cauchy_stress_neo_hookean` with the nodal
+    :func:`eulerian_log_strain`; σ from :func:`cauchy_stress_neo_hookean` (or, given
+    ``material``, :func:`cauchy_stress_i1` with its f'(Ī₁), :func:`nodal_law_slope`) with the nodal
     pressure: the mean of the element pressures around the node (:func:`element_to_nodes`)
     for the 'mixed' formulation, ``2 (J − 1) / D1`` of the nodal F for 'displacement'.
 
@@ -297,6 +351,8 @@ def nodal_strain_stress(points: np.ndarray, cells: np.ndarray, u: np.ndarray, p:
     c10, d1 : float
         [MPa], [1/MPa].
     formulation : {'mixed', 'displacement'}
+    material : fem.material.IsochoricI1Material, optional
+        The solved law; default the neo-Hookean law of ``c10``.
 
     Returns
     -------
@@ -315,5 +371,6 @@ def nodal_strain_stress(points: np.ndarray, cells: np.ndarray, u: np.ndarray, p:
         pn = 2.0 * (np.linalg.det(F) - 1.0) / d1  # (k,)
     else:
         raise ValueError(f"nodal_strain_stress: formulation={formulation!r}, allowed 'mixed', 'displacement'")
-    return (spread_to_nodes(eulerian_log_strain(F), used),
-            spread_to_nodes(cauchy_stress_neo_hookean(F, c10, pn), used))
+    sigma = (cauchy_stress_neo_hookean(F, c10, pn) if material is None
+             else cauchy_stress_i1(F, nodal_law_slope(F, material, cells, used), pn))
+    return spread_to_nodes(eulerian_log_strain(F), used), spread_to_nodes(sigma, used)

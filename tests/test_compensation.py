@@ -267,7 +267,7 @@ def test_compensate_command_writes_table_and_comparison(tmp_path, monkeypatch, c
 
 def test_scene_sensitivity_off_tip_contact_coarse_fe():
     """Real coarse FE at a = 0.5, Q = 0.1 through the command's sensitivity (the scene places the ring)."""
-    from whisker_opt.workflows import scene_sensitivity
+    from whisker_opt.compensation import scene_sensitivity
     from whisker_opt.config.model import WhiskerConfig
     from whisker_opt.experiment.scene import SceneRunner
 

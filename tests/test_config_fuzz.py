@@ -233,7 +233,7 @@ def test_an_empty_config_is_refused_unless_allowed(tmp_path, text):
     ("design: {D: 5}\n".encode("utf-16"), "not UTF-8 text"),
     (b"design: {D: 5}\x00\n", "not a text file (it holds NUL bytes"),
     (b"- design\n- scene\n", "the top level must be a mapping of sections (design, material, scene, fidelity, "
-                             "optimiser, output, seed), got a list ['design', 'scene']"),
+                             "optimiser, robustness, output, calibration, seed), got a list ['design', 'scene']"),
     (b"42\n", "the top level must be a mapping of sections"),
     (b"scene: [1, 2\n", "YAML syntax error at line 2, column 1: while parsing a flow sequence"),
     (b"design:\n\tD: 5\n", "YAML syntax error at line 2"),

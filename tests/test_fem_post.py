@@ -210,3 +210,40 @@ def test_element_to_nodes_and_symmetric_components():
     T = np.array([[[11, 12, 13], [12, 22, 23], [13, 23, 33]]], dtype=float)
     np.testing.assert_array_equal(post.symmetric_components(T)[0], [11, 22, 33, 12, 23, 13])
     assert post.SYMMETRIC_COMPONENTS == ("XX", "YY", "ZZ", "XY", "YZ", "XZ")
+
+
+def test_cauchy_stress_of_a_yeoh_law_and_of_two_laws_by_element():
+    """Any Ī1 law: σ = 2 f'(Ī1) J^(-5/3) dev B + p I equals J⁻¹ P Fᵀ of the material's own stress, at
+    every node of a homogeneously deformed mesh; with one law per element group a node takes the
+    law of the lowest group among its elements."""
+    from fem.material import ElementwiseMaterial, NeoHookean, Yeoh
+
+    F = np.array([[1.3, 0.1, 0.0], [0.05, 0.9, 0.02], [0.0, -0.03, 0.86]])
+    J, G = np.linalg.det(F), np.linalg.inv(F)
+    yeoh, p = Yeoh((0.145, 6.07e-3, 1e-4)), -0.02
+
+    def expected(law):
+        P_iso = law.stress_tangent(F[None], G[None], np.array([J]), need_tangent=False)[0]
+        return (P_iso[0] + p * J * G.T) @ F.T / J
+
+    m = MESHES["curved"]
+    u = m.points @ (F - np.eye(3)).T
+    _, sigma = post.nodal_strain_stress(m.points, m.cells, u, np.full(m.n_elements, p), 0.14, material=yeoh)
+    np.testing.assert_allclose(sigma, np.broadcast_to(expected(yeoh), sigma.shape), atol=1e-12)
+    # incompressible uniaxial closed form: σ_xx − σ_yy = 2 f'(I1) (λ² − 1/λ), I1 = λ² + 2/λ
+    lam = 1.7
+    Fu = np.diag([lam, lam ** -0.5, lam ** -0.5])
+    i1 = lam ** 2 + 2 / lam
+    s = post.cauchy_stress_i1(Fu[None], yeoh.f_derivatives(np.array([i1]))[1], 0.0)[0]
+    fprime = 0.145 + 2 * 6.07e-3 * (i1 - 3) + 3 * 1e-4 * (i1 - 3) ** 2
+    assert s[0, 0] - s[1, 1] == pytest.approx(2 * fprime * (lam ** 2 - 1 / lam), rel=1e-12)
+    # two laws: elements of group 1 everywhere but element 0
+    soft = NeoHookean(0.04)
+    groups = np.ones(m.n_elements, dtype=np.int64)
+    groups[0] = 0
+    mixed = ElementwiseMaterial((soft, yeoh), groups)
+    _, sig2 = post.nodal_strain_stress(m.points, m.cells, u, np.full(m.n_elements, p), 0.14, material=mixed)
+    in0 = np.zeros(m.n_nodes, dtype=bool)
+    in0[m.cells[0]] = True
+    np.testing.assert_allclose(sig2[in0], np.broadcast_to(expected(soft), sig2[in0].shape), atol=1e-12)
+    np.testing.assert_allclose(sig2[~in0], np.broadcast_to(expected(yeoh), sig2[~in0].shape), atol=1e-12)

@@ -254,3 +254,47 @@ def test_evaluator_receives_plain_gene_dict():
 
     run(make_cfg(pop=4, gens=0), ev)
     assert all(set(g) == set(GENE_NAMES) and all(type(v) is float for v in g.values()) for g in got)
+
+
+def _run_with_gauge_factor(target, strain, xi, gens=30):
+    cfg = make_cfg(pop=20, gens=gens, target=target)
+    cfg = cfg.model_copy(update={"stopping": cfg.stopping.model_copy(update={"target_strain": strain})})
+    ga = GeneticAlgorithm(cfg, 5)
+    state = ga.new_state()
+    state.extra["fidelity"] = {"preset": "coarse", "f1_resolution": 2e-3, "calibration": xi}
+    with SerialExecutor(AnalyticFitness()) as ex:
+        ga.run(state, ex)
+    return state
+
+
+@pytest.mark.parametrize("strain", ["uncalibrated", "calibrated"])
+def test_target_is_compared_in_the_strain_it_is_given_in(strain):
+    """F_p / ξ against target_fp for 'uncalibrated', F_p itself for 'calibrated'; the records carry both."""
+    xi, target = 4.0, 1e-4
+    state = _run_with_gauge_factor(target, strain, xi)
+    bests = [r["best_fp"] for r in state.logbook]
+    scaled = [b / xi if strain == "uncalibrated" else b for b in bests]
+    first = next(g for g, v in enumerate(scaled) if v <= target)
+    assert state.stop_reason == "target_fp" and state.generation == first
+    assert all(v > target for v in scaled[:first])
+    for rec in state.records:
+        if rec["status"] == "ok":
+            assert rec["f1_uncalibrated"] == pytest.approx(rec["f1"] / xi, rel=1e-15)
+            assert rec["F_p_uncalibrated"] == pytest.approx(rec["F_p"] / xi, rel=1e-15)
+    assert state.logbook[-1]["best_fp_uncalibrated"] == pytest.approx(bests[-1] / xi, rel=1e-15)
+    best = best_design(state)
+    assert best["F_p_uncalibrated"] == pytest.approx(best["F_p"] / xi) and best["f1_uncalibrated"] == pytest.approx(
+        best["f1"] / xi)
+
+
+def test_uncalibrated_target_stops_earlier_than_the_same_number_calibrated():
+    unc = _run_with_gauge_factor(1e-4, "uncalibrated", 4.0)
+    cal = _run_with_gauge_factor(1e-4, "calibrated", 4.0)
+    assert unc.generation < cal.generation
+
+
+def test_without_a_gauge_factor_the_uncalibrated_columns_stay_empty():
+    cfg = make_cfg(pop=6, gens=1)
+    ga, state = run(cfg, AnalyticFitness())
+    assert all(r["f1_uncalibrated"] is None for r in state.records)
+    assert best_design(state)["F_p_uncalibrated"] is None

@@ -49,7 +49,7 @@ def test_tables_match_the_run(finished_run):
     evals = read_csv(run_dir / "evaluations.csv")
     assert list(evals[0]) == [
         "eval_id", "generation", *GENE_NAMES, "f1", "kappa_Q_i", "kappa_t", "kappa_alpha", "F_p",
-        "status", "reason", "time_s", "cache_hit",
+        "f1_uncalibrated", "F_p_uncalibrated", "status", "reason", "time_s", "cache_hit",
     ]
     assert len(evals) == s.n_evaluations + s.n_cache_hits
     assert sum(r["cache_hit"] == "True" for r in evals) == s.n_cache_hits

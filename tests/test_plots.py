@@ -26,7 +26,7 @@ from whisker_opt.output.plots import (convergence_figure, curves_figure, fidelit
 from whisker_opt.output.storage import read_csv
 from tests.analytic_fitness import AnalyticFitness
 
-COARSE = {"preset": "coarse", "f1_resolution": 2e-3}
+COARSE = {"preset": "coarse", "f1_resolution": 2e-3, "calibration": 3.9}
 
 
 def _tick_labels(ax, axis="x"):
@@ -168,7 +168,7 @@ def test_report_and_best_json_name_the_preset_and_resolution(tmp_path):
     run_optimisation(_cfg(0.0), run, AnalyticFitness(with_curves=True), seed=1, progress=False,
                      fidelity=fidelity.describe(FidelityConfig(preset="default")))
     best = json.loads((run / "best.json").read_text())
-    assert best["fidelity"] == {"preset": "default", "f1_resolution": 1e-3}
+    assert best["fidelity"] == {"preset": "default", "f1_resolution": 1e-3, "calibration": 3.9}
     text = report(run)
     line = next(ln for ln in text.splitlines() if ln.startswith("fidelity"))
     assert "preset default" in line and "f1 resolution ~1e-3" in line

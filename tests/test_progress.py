@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from geometry.design import WhiskerDesign
-from whisker_opt import workflows
+from whisker_opt import compensation as comp_job, workflows
 from whisker_opt.analysis import compensation as comp
 from whisker_opt.analysis.beam import BeamResponse
 from whisker_opt.config.optimiser import OptimiserConfig
@@ -133,9 +133,9 @@ def test_run_ended_early_by_a_rule_closes_at_100_percent(tmp_path, monkeypatch):
 
 
 def test_compensation_table_progress_ticks_per_row(caplog):
-    trims = workflows._table_trims(3.0, 1.0)
-    assert trims == [0.0, 1.0, 2.0, 3.0] and workflows._table_trims(3.0, 2.0) == [0.0, 2.0, 3.0]
-    rows = workflows._TableProgress(BeamResponse(), trims, enabled=False)
+    trims = comp_job._table_trims(3.0, 1.0)
+    assert trims == [0.0, 1.0, 2.0, 3.0] and comp_job._table_trims(3.0, 2.0) == [0.0, 2.0, 3.0]
+    rows = comp_job._TableProgress(BeamResponse(), trims, enabled=False)
     with caplog.at_level(logging.INFO, logger="whisker_opt"):
         table = comp.compensation_table(WhiskerDesign(), 0.2, 3.0, rows, step=1.0, method="root")
         rows.close(finished=True)

@@ -23,6 +23,7 @@ The Python API (:mod:`whisker_opt.api`), importable from this package::
     resume(run_dir)                continue a killed run
     load_run(run_dir)              read a run directory back -> RunResults
     verify(run_dir, preset, top)   re-evaluate a run's best designs at a finer preset
+    vent_pressure(trim, a, table)  the vent pressure Q(Δ, a) from a compensation map (CompensationMap)
 
 Example::
 
@@ -39,7 +40,7 @@ The same jobs run from the shell as ``whisker-opt <command>`` (:mod:`whisker_opt
 from __future__ import annotations
 
 __all__ = ["__version__", "load_config", "simulate", "evaluate", "run", "resume", "load_run", "verify",
-           "RunResults"]
+           "RunResults", "vent_pressure", "CompensationMap"]
 
 _API_NAMES = frozenset(__all__) - {"__version__"}
 

@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 if TYPE_CHECKING:  # pragma: no cover - annotations only; the imports are heavy
+    from whisker_opt.analysis.compensation_map import CompensationMap
     from whisker_opt.config.model import WhiskerConfig
     from whisker_opt.experiment.outcome import EvalOutcome
     from whisker_opt.optimise.runner import RunSummary
@@ -34,7 +35,8 @@ if TYPE_CHECKING:  # pragma: no cover - annotations only; the imports are heavy
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["load_config", "simulate", "evaluate", "run", "resume", "load_run", "verify", "RunResults"]
+__all__ = ["load_config", "simulate", "evaluate", "run", "resume", "load_run", "verify", "RunResults",
+           "vent_pressure", "CompensationMap"]
 
 #: Stem of a run directory created for a config that came from Python, not from a file
 #: (``<output.name or this>-<kind>-<UTC time>``).
@@ -415,3 +417,50 @@ def verify(run_dir: str | Path, preset: str = "fine", top: int = 3) -> list[dict
     from whisker_opt.analysis.verify import verify_run
 
     return verify_run(Path(run_dir), preset, top)
+
+
+def vent_pressure(trim: float, a: float, table) -> float:
+    """The vent pressure [MPa] after a trim Δ [mm] for a strike at contact ratio a, from a compensation map.
+
+    Bilinear in (Δ, a) on the map ``whisker-opt compensate CONFIG --map`` writes (docs/physics.md §7):
+    exact at the map's nodes; cells whose pressure sits at a bound (0: vent fully, or Q_i) enter
+    with that clipped value.
+
+    Parameters
+    ----------
+    trim : float
+        Trim Δ [mm] within the map's trims.
+    a : float
+        Contact ratio within the map's contact ratios.
+    table : CompensationMap, str or Path
+        A loaded map (:meth:`CompensationMap.load`), a ``compensation_map.json`` or the results
+        directory holding it.
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    whisker_opt.analysis.compensation_map.MapRangeError
+        ``trim`` or ``a`` outside the map (one line: the argument, its value, the range).
+    FileNotFoundError
+        No map at the path.
+
+    Examples
+    --------
+    >>> vent_pressure(3.7, 0.6, "out/compensate_default-compensate-20250101-120000")  # doctest: +SKIP
+    0.0412...
+    """
+    from whisker_opt.compensation import vent_pressure as _vent_pressure
+
+    return _vent_pressure(trim, a, table)
+
+
+def __getattr__(name: str) -> Any:
+    """``CompensationMap`` (:class:`whisker_opt.analysis.compensation_map.CompensationMap`), imported on first use."""
+    if name == "CompensationMap":
+        from whisker_opt.analysis.compensation_map import CompensationMap
+
+        return CompensationMap
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -17,8 +17,8 @@ Scene names of a genome (:func:`design_scene_specs`):
 from __future__ import annotations
 
 import re
-from dataclasses import replace
-from typing import Mapping
+from dataclasses import dataclass, replace
+from typing import Any, Mapping
 
 from whisker_opt.config.model import FidelityConfig, WhiskerConfig
 from whisker_opt.config.optimiser import OptimiserConfig
@@ -166,6 +166,9 @@ def scene_spec(cfg: WhiskerConfig, design, Q: float):
         deflection=cfg.scene.deflection,
         c10=cfg.material.C10,
         d1=cfg.material.D1,
+        rubber=cfg.material.rubber,
+        cap_rubber=cfg.material.cap_rubber,
+        base_support=cfg.scene.base_support,
         calibration=cfg.scene.calibration,
         band_width=cfg.scene.band_width,
         n_pressure_steps=preset.n_pressure_steps,
@@ -175,14 +178,191 @@ def scene_spec(cfg: WhiskerConfig, design, Q: float):
     )
 
 
-def evaluator(cfg: WhiskerConfig, keep_curves: bool = False, validate: bool = True):
+def evaluator(cfg: WhiskerConfig, keep_curves: bool = False, validate: bool = True, robust: bool = True):
     """The GA's :class:`whisker_opt.experiment.evaluator.SceneEvaluator` for a config (its base
-    design validated unless ``validate`` is False)."""
+    design validated unless ``validate`` is False).
+
+    With ``optimiser.robust`` set (and ``robust`` True) it is wrapped in a :class:`RobustEvaluator`,
+    whose f1 is mean + k·std of f1 over the tolerances of the ``robustness`` section; ``robust=False``
+    gives the nominal evaluator whatever the config says.
+    """
     from whisker_opt.experiment.evaluator import SceneEvaluator
 
     base = scene_spec(cfg, design_from_config(cfg, 0.0, validate), 0.0)
-    return SceneEvaluator(base, optimiser_of(cfg).trim, cfg.scene.delta_step, cfg.scene.gauge_variant,
-                          keep_curves)
+    ev = SceneEvaluator(base, optimiser_of(cfg).trim, cfg.scene.delta_step, cfg.scene.gauge_variant,
+                        keep_curves)
+    if robust and optimiser_of(cfg).robust is not None:
+        return robust_evaluator(cfg, ev)
+    return ev
+
+
+# ----------------------------------------------------------------------------- tolerances
+def tolerance_half_widths(cfg: WhiskerConfig) -> tuple[float, ...]:
+    """The ``robustness.tolerances`` of a config in :data:`whisker_opt.config.robustness.TOLERANCE_KEYS`
+    order, checked against the scene they deviate.
+
+    Raises
+    ------
+    ConfigError
+        The calibration tolerance is not below ``scene.calibration`` (a gauge factor must stay > 0).
+    """
+    from whisker_opt.config.model import ConfigError
+
+    tol = cfg.robustness.tolerances
+    if tol.calibration >= cfg.scene.calibration:
+        raise ConfigError(f"robustness.tolerances.calibration: {tol.calibration:g} must be < scene.calibration = "
+                          f"{cfg.scene.calibration:g} (the deviated gauge factor must stay > 0)")
+    return tol.half_widths()
+
+
+def deviated(ev, genes: Mapping[str, float], deviation) -> tuple:
+    """The evaluator and genome of a design deviated by ``deviation`` from its nominal one.
+
+    Parameters
+    ----------
+    ev : whisker_opt.experiment.evaluator.SceneEvaluator
+        The nominal evaluator.
+    genes : mapping
+        The nominal genome.
+    deviation : sequence of float
+        In :data:`whisker_opt.config.robustness.TOLERANCE_KEYS` order: Δα [deg], Δl, Δt [mm] added
+        to the genes; Δr_f [mm], the fibre radius, applied as ``fibre_radius_frac`` + Δr_f / t with the
+        nominal t (r_f = r_i + frac·t, docs/physics.md §1) and clipped to [0, 1]; ΔC10 [%] of C10;
+        Δξ added to the calibration factor ξ.
+
+    Returns
+    -------
+    evaluator : SceneEvaluator
+        With the deviated fibre radius and C10 (ξ unchanged).
+    genes : dict
+    scale : float
+        (ξ + Δξ)/ξ: every reading, hence f1, is proportional to ξ (docs/physics.md §4), so the
+        deviated ξ multiplies the nominal-ξ result instead of solving again.
+    """
+    from whisker_opt.config.robustness import TOLERANCE_KEYS
+
+    dev = dict(zip(TOLERANCE_KEYS, (float(v) for v in deviation)))
+    g = {k: float(v) for k, v in genes.items()}
+    for name in GEOMETRY_GENES:
+        g[name] += dev[name]
+    base = ev.base_spec
+    frac = min(max(base.design.fibre_radius_frac + dev["fibre_radius"] / float(genes["t"]), 0.0), 1.0)
+    spec = replace(base, design=replace(base.design, fibre_radius_frac=frac), c10=base.c10 * (1.0 + dev["C10"] / 100.0))
+    return replace(ev, base_spec=spec), g, (base.calibration + dev["calibration"]) / base.calibration
+
+
+def robust_evaluator(cfg: WhiskerConfig, ev) -> "RobustEvaluator":
+    """``ev`` wrapped by the robust objective of ``optimiser.robust`` and the ``robustness`` section."""
+    from whisker_opt.optimise.robust import draw  # a leaf module: numpy only
+
+    rob, opt = cfg.robustness, optimiser_of(cfg)
+    half = tolerance_half_widths(cfg)
+    points: tuple = ()
+    if opt.robust.method == "sample":
+        pts = draw(rob.sample.n, half, rob.distribution, rob.sample.design, rob.sample_seed(cfg.seed), rob.normal_sigmas)
+        points = tuple(tuple(float(v) for v in row) for row in pts)
+    return RobustEvaluator(ev, half, float(opt.robust.k), opt.robust.method, rob.distribution, rob.normal_sigmas,
+                           rob.fd_step, points)
+
+
+@dataclass(frozen=True)
+class RobustEvaluator:
+    """Picklable evaluator ``genes -> EvalOutcome`` whose f1 is the robust objective mean + k·std of f1.
+
+    mean and std come from :mod:`whisker_opt.optimise.robust` over the deviations of
+    :func:`deviated`: the first-order expansion (``expansion``: the nominal design and two per
+    toleranced parameter; the calibration's cost nothing, see :func:`deviated`) or the seeded
+    sample ``points`` (``sample``: the nominal design and one per point, the same points for every
+    genome). The outcome's ``extra`` holds ``f1_nominal``, ``f1_mean``, ``f1_std`` and
+    ``robust_objective`` and its ``reason`` says what the f1 it carries is, so that a run's
+    ``evaluations.csv`` records both. A deviated design that fails fails the genome, with the
+    deviation named. Every other attribute (``specs``, ``samples``, ``base_spec``, ...) is the
+    wrapped evaluator's.
+    """
+
+    inner: Any
+    half_widths: tuple[float, ...]
+    k: float = 1.0
+    method: str = "expansion"
+    distribution: str = "uniform"
+    sigmas: float = 3.0
+    fd_step: float = 1.0
+    points: tuple = ()
+
+    @property
+    def base_spec(self):
+        return self.inner.base_spec
+
+    @property
+    def trim(self) -> float:
+        return self.inner.trim
+
+    @property
+    def delta_step(self) -> float:
+        return self.inner.delta_step
+
+    @property
+    def gauge_variant(self) -> str:
+        return self.inner.gauge_variant
+
+    @property
+    def keep_curves(self) -> bool:
+        return self.inner.keep_curves
+
+    def specs(self, genes: dict, validate: bool = True) -> tuple:
+        """The nominal genome's (intact, trimmed) scene specs."""
+        return self.inner.specs(genes, validate)
+
+    def samples(self):
+        return self.inner.samples()
+
+    def __call__(self, genes: dict):
+        import math
+        import time
+
+        import numpy as np
+
+        from whisker_opt.optimise.robust import expansion_estimate, robust_objective, sample_estimate
+        from whisker_opt.config.robustness import TOLERANCE_KEYS
+        from whisker_opt.experiment.outcome import EvalOutcome
+
+        t0 = time.perf_counter()
+        nominal = self.inner(genes)
+        if not nominal.ok:
+            return nominal
+        outcomes = {(0.0,) * (len(TOLERANCE_KEYS) - 1): nominal}
+        failed: list = []
+
+        def f1_at(x) -> list[float]:
+            key = tuple(float(v) for v in x[:-1])
+            ev, g, scale = deviated(self.inner, genes, x)
+            if key not in outcomes:
+                outcomes[key] = ev(g)
+            out = outcomes[key]
+            if not out.ok:
+                failed.append((x, out))
+                return [math.nan]
+            return [out.f1 * scale]
+
+        if self.method == "sample":
+            est = sample_estimate(f1_at, np.asarray(self.points, dtype=float))
+        else:
+            est = expansion_estimate(f1_at, self.half_widths, self.distribution, self.sigmas, self.fd_step,
+                                     corners=False)
+        elapsed = time.perf_counter() - t0
+        if failed:
+            x, out = failed[0]
+            where = ", ".join(f"{n}{v:+.4g}" for n, v in zip(TOLERANCE_KEYS, x) if v != 0.0)
+            return EvalOutcome.failure(out.status, f"robust: deviated design ({where}): {out.reason}",
+                                       {"total": elapsed}, dict(out.extra))
+        mean, std = float(est.mean[0]), float(est.std[0])
+        value = float(robust_objective(mean, std, self.k))
+        extra = {**nominal.extra, "f1_nominal": float(nominal.f1), "f1_mean": mean, "f1_std": std,
+                 "robust_objective": value, "robust_evaluations": len(outcomes)}
+        label = (f"robust objective ({self.method}, k={self.k:g}) in column f1: mean + k*std of f1 = {value:.6g} "
+                 f"(mean {mean:.6g}, std {std:.6g}); nominal f1 = {float(nominal.f1):.6g}")
+        return EvalOutcome("ok", value, label, {"total": elapsed, "nominal": nominal.timings.get("total", 0.0)},
+                           extra)
 
 
 def with_preset(cfg: WhiskerConfig, preset: str) -> WhiskerConfig:

@@ -1,5 +1,5 @@
 """The jobs a user runs, as library functions: mesh a design, simulate scenes, evaluate a genome,
-run and resume the GA, verify and compensate.
+run and resume the GA, verify (compensation: :mod:`whisker_opt.compensation`).
 
 The command line (:mod:`whisker_opt.cli`) and the public API (:mod:`whisker_opt`) call these; each
 takes a validated config (:func:`whisker_opt.config.model.load_config`) and writes into a results
@@ -14,7 +14,7 @@ import logging
 import math
 import shutil
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterator, Mapping
 
@@ -466,7 +466,15 @@ def run(cfg: WhiskerConfig, run_dir: Path, progress: bool = True):
         summary = run_optimisation(opt, run_dir, ev, opt.resolve_seed(cfg.seed), progress=progress,
                                    fidelity=fidelity)
         finish_best(run_dir, cfg, summary)
+        _verify_front(run_dir, cfg)
     return summary
+
+
+def _verify_front(run_dir: Path, cfg: WhiskerConfig) -> None:
+    """A multi-objective run's front re-evaluated at the next finer preset (``pareto.csv``, ``pareto.png``)."""
+    from whisker_opt.optimise.nsga2 import verify_run_front
+
+    verify_run_front(run_dir, lambda preset: wiring.evaluator(wiring.with_preset(cfg, preset)), cfg.fidelity.preset)
 
 
 def run_config(run_dir: Path) -> WhiskerConfig:
@@ -515,173 +523,6 @@ def resume(run_dir: Path, progress: bool = True, max_generations: int | None = N
         if missing:
             logger.info("rebuilding the best design's outputs (missing: %s)", ", ".join(missing))
             finish_best(run_dir, cfg, summary)
+        _verify_front(run_dir, cfg)
     return summary
 
-
-# ----------------------------------------------------------------------------- compensate
-def scene_response(cfg: WhiskerConfig, runner):
-    """``response(design, Q, deltas) -> ε(δ)``: the config's scene at ``cfg.scene.contact_ratio``.
-
-    ``runner`` is a :class:`whisker_opt.experiment.scene.SceneRunner` (its memo shares scenes between calls).
-    """
-    def response(d, Q, deltas):
-        res = runner.run(wiring.scene_spec(cfg, d, float(Q)))
-        return res.curve(np.asarray(deltas, dtype=float), cfg.scene.gauge_variant)
-
-    return response
-
-
-def scene_sensitivity(cfg: WhiskerConfig, runner, delta_ref: float = 1.0):
-    """``sensitivity(design, a, Q) -> ε(δ_ref)/δ_ref`` [1/mm] from the config's scene at contact ratio a.
-
-    The scene pushes at x = a·L_Q of the pressurised whisker; for a < 1 it places the
-    contact node ring there itself (:func:`whisker_opt.experiment.scene.run_scene`, swept meshes).
-    """
-    import dataclasses
-
-    def sensitivity(d, a, Q):
-        spec = dataclasses.replace(wiring.scene_spec(cfg, d, float(Q)), contact_ratio=float(a))
-        eps = runner.run(spec).curve(np.array([delta_ref]), cfg.scene.gauge_variant)
-        return float(eps[0]) / delta_ref
-
-    return sensitivity
-
-
-@dataclass
-class Compensation:
-    """What :func:`compensate` computed and wrote."""
-
-    design: Any
-    table: Any
-    paths: dict
-    table_seconds: float
-    comparison: Any = None
-    comparison_seconds: float = float("nan")
-    extra: dict = field(default_factory=dict)
-
-
-class _TableProgress:
-    """Progress of a compensation table, seen through its response function: a row per trim.
-
-    The table solves the intact response first, then each trim's responses in increasing
-    trim order (the Δ = 0 row needs none); a call at a new trim means the rows before it are done.
-    """
-
-    def __init__(self, response, trims: list[float], enabled: bool) -> None:
-        from whisker_opt.optimise.runner import progress_bar
-
-        self.response, self.trims = response, trims
-        self.current: float | None = None
-        self.done = 0
-        self.bar = progress_bar(len(trims), "compensate: table", "trim", enabled)
-
-    def _advance(self, done: int) -> None:
-        self.bar.update(max(done - self.done, 0))
-        self.done = max(done, self.done)
-
-    def __call__(self, d, Q, deltas):
-        tr = float(d.trim)
-        if tr > 0.0 and tr != self.current:
-            self.current = tr
-            self._advance(sum(1 for t in self.trims if t < tr - 1e-9))
-            logger.info("compensate: row %d/%d, trim Δ = %g mm", self.done + 1, len(self.trims), tr)
-        return self.response(d, Q, deltas)
-
-    def close(self, finished: bool) -> None:
-        if finished:
-            self._advance(len(self.trims))
-        self.bar.close()
-
-
-def _table_trims(trim_max: float, step: float) -> list[float]:
-    """The trims of :func:`whisker_opt.analysis.compensation.compensation_table`: 0, step, …, trim_max."""
-    n = int(math.floor(trim_max / step + 1e-9))
-    trims = [i * step for i in range(n + 1)]
-    return trims + [trim_max] if trim_max - trims[-1] > 1e-9 else trims
-
-
-def compensate(cfg: WhiskerConfig, out: Path, step: float = 1.0, delta_ref: float = 1.0,
-               compare_a=(0.5, 0.75, 1.0), compare_Q=(0.0, 0.1, 0.2), compare: bool = True,
-               source: str = "config", progress: bool = True) -> Compensation:
-    """FE compensation table Δ → vent pressure Q (with the beam model's Q beside it) and the
-    beam-vs-FE sensitivity comparison.
-
-    Writes ``compensation_table.{csv,json,png}`` and, when ``compare``,
-    ``sensitivity_comparison.{csv,png}``. The FE deflection samples are δ_max/10 … δ_max
-    (10 points), with ``delta_ref`` added if missing. Plot titles name the fidelity preset.
-    A tqdm bar per phase (rows of the table, cells of the comparison) shows on a terminal
-    unless ``progress`` is False; a log line per row and per cell is written either way.
-
-    Raises
-    ------
-    ConfigError
-        ``scene.Q_i`` is not positive, or an argument is out of range; the
-        message starts with ``source``.
-    """
-    from whisker_opt.analysis.beam import BeamModel
-    from whisker_opt.analysis.compensation import compare_sensitivity, compensation_table
-    from whisker_opt.output.compensation import write_comparison, write_table
-    from whisker_opt.experiment.scene import SceneRunner
-
-    opt = wiring.optimiser_of(cfg)
-    if cfg.scene.Q_i <= 0:
-        raise ConfigError(f"{source}: scene.Q_i: the intact pressure Q_i must be > 0 for compensation (got {cfg.scene.Q_i})")
-    dref = float(delta_ref)
-    if not 0.0 < dref <= cfg.scene.deflection:
-        raise ConfigError(f"--delta-ref {dref:g}: must lie in (0, scene.deflection = {cfg.scene.deflection:g}] mm")
-    bad_a = [a for a in compare_a if not 0.0 < a <= 1.0]
-    bad_q = [q for q in compare_Q if q < 0.0]
-    if bad_a or bad_q:
-        raise ConfigError(f"--compare-a must lie in (0, 1] (got {bad_a}), --compare-Q must be >= 0 (got {bad_q})")
-    runner = SceneRunner()
-    design = wiring.design_from_config(cfg, 0.0)
-    model = BeamModel(calibration=cfg.scene.calibration)
-    deltas = np.linspace(cfg.scene.deflection / 10, cfg.scene.deflection, 10)
-    if not np.any(np.abs(deltas - dref) <= 1e-9):
-        deltas = np.sort(np.append(deltas, dref))
-    out = Path(out)
-    fidelity = fidelity_of(cfg)
-    t0 = time.perf_counter()
-    rows = _TableProgress(scene_response(cfg, runner), _table_trims(float(opt.trim), float(step)), progress)
-    finished = False
-    try:
-        table = compensation_table(design, cfg.scene.Q_i, opt.trim, rows, step=step, deltas=deltas, method="root",
-                                   analytic_model=model)
-        finished = True
-    finally:
-        rows.close(finished)
-    for r in table.rows:
-        logger.info("compensate: trim Δ = %g mm: Q = %.6g MPa%s, recovery %.4g %%, analytic Q = %.6g MPa", r.trim,
-                    r.Q, f" (at its bound, {'0' if r.at_bound == 'lower' else 'Q_i'})" if r.at_bound and r.trim > 0
-                    else "", r.recovery_rate, r.Q_analytic)
-    paths = write_table(out, table, delta_ref=dref, fidelity=fidelity)
-    result = Compensation(design, table, paths, time.perf_counter() - t0)
-    if compare:
-        t0 = time.perf_counter()
-        cells = _CellProgress(scene_sensitivity(cfg, runner, dref), len(compare_a) * len(compare_Q), progress)
-        try:
-            result.comparison = compare_sensitivity(design, cells, a_values=compare_a, Q_values=compare_Q, model=model)
-        finally:
-            cells.bar.close()
-        cpaths = write_comparison(out, result.comparison, fidelity=fidelity, delta_ref=dref)
-        paths.update({f"comparison_{k}": v for k, v in cpaths.items()})
-        result.comparison_seconds = time.perf_counter() - t0
-    return result
-
-
-class _CellProgress:
-    """``sensitivity`` with a tqdm bar over the ``n_cells`` cells (a × Q) and a log line per cell."""
-
-    def __init__(self, sensitivity, n_cells: int, enabled: bool) -> None:
-        from whisker_opt.optimise.runner import progress_bar
-
-        self.sensitivity, self.n_cells, self.done = sensitivity, n_cells, 0
-        self.bar = progress_bar(n_cells, "compensate: beam vs FE", "cell", enabled)
-
-    def __call__(self, d, a, Q):
-        value = self.sensitivity(d, a, Q)
-        self.done += 1
-        self.bar.update(1)
-        logger.info("compensate: sensitivity cell %d/%d, a = %g, Q = %g MPa: FE ε/δ = %.6g 1/mm", self.done,
-                    self.n_cells, a, Q, value)
-        return value

@@ -30,6 +30,7 @@ from whisker_opt.cli.arguments import (
     setting,
 )
 from whisker_opt.cli.failures import ComputationFailed, computation_errors, describe_failure
+from whisker_opt.cli import robustness as _robustness
 from whisker_opt.cli.rundir import check_run_dir
 from whisker_opt.config.model import ConfigError, load_config
 from whisker_opt.experiment.fidelity import PRESET_NAMES
@@ -284,7 +285,7 @@ def _report_run(args: argparse.Namespace) -> int:
 def _compensate_args(p: argparse.ArgumentParser) -> None:
     _config_args(p, "YAML run file (design, scene.Q_i, optimiser.trim = largest trim)")
     p.add_argument("--step", type=positive_float(100.0, "mm"), default=1.0,
-                   help="trim step of the table [mm], (0, 100]")
+                   help="trim step of the table or the map [mm], (0, 100]")
     p.add_argument("--delta-ref", type=positive_float(30.0, "mm"), default=1.0,
                    help="deflection of the point measures and of the sensitivity ε(δ)/δ [mm], "
                         "(0, scene.deflection] (docs/physics.md: 1)")
@@ -293,13 +294,48 @@ def _compensate_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--compare-Q", type=finite_float_in(0.0, 1.0, "MPa"), nargs="+", default=[0.0, 0.1, 0.2],
                    metavar="Q", help="pressures [MPa] of the beam-vs-FE sensitivity comparison, [0, 1]")
     p.add_argument("--no-compare", action="store_true", help="skip the beam-vs-FE sensitivity comparison")
+    p.add_argument("--map", action="store_true",
+                   help="the full map Q(Δ, a) over trims 0, STEP, …, optimiser.trim and the contact ratios of --a "
+                        "(default 0.45 0.55 0.7 0.85 1) instead of the table: compensation_map.{csv,json,png} "
+                        "(--delta-ref and --compare-* do not apply)")
+    p.add_argument("--a", type=finite_float_in(0.0, 1.0, lo_open=True), nargs="+", default=None, metavar="A",
+                   help="contact ratios of the map, (0, 1], at least two distinct (implies --map)")
     _progress_arg(p)
     p.add_argument("--out", type=nonempty_path, default=None, help="output directory")
 
 
+def _compensate_map_run(args: argparse.Namespace, cfg) -> int:
+    """The map Q(Δ, a) (``--map``/``--a``): solve, write, print the Q table."""
+    from whisker_opt import compensation
+
+    a_values = compensation.MAP_CONTACT_RATIOS if args.a is None else args.a
+    if len(set(a_values)) < 2:
+        raise ArgumentError(f"--a: {' '.join(f'{x:g}' for x in a_values)}: give at least two distinct contact "
+                            f"ratios in (0, 1]")
+    _check_output(args, cfg)
+    out = _out_dir(args, cfg, "compensate")
+    try:
+        res = compensation.compensate_map(cfg, out, step=args.step, a_values=a_values, source=str(args.config),
+                                          progress=not args.no_progress)
+    except computation_errors() as exc:
+        raise _failed(exc, "compensate", out) from exc
+    m = res.map
+    print(f"compensation map of {m.design_text}, Q_i = {m.Q_i:g} MPa: {m.trims.size} trims x "
+          f"{m.a.size} contact ratios ({res.seconds:.0f} s)")
+    print("vent pressure Q [MPa] (* at a bound: 0 = vent fully, Q_i), recovery rate [%] in brackets")
+    print("trim_mm  " + "  ".join(f"{'a=' + format(x, 'g'):>16}" for x in m.a))
+    for i, t in enumerate(m.trims):
+        cells = "  ".join(f"{m.Q[i, j]:8.4f}{'*' if m.at_bound[i, j] and t > 0 else ' '}"
+                          f"({m.recovery_rate[i, j]:5.1f})" for j in range(m.a.size))
+        print(f"{t:7g}  {cells}")
+    print(f"written to {out} ({', '.join(str(p) for p in res.paths.values())})")
+    return 0
+
+
 def _compensate_run(args: argparse.Namespace) -> int:
-    """Δ → Q table (FE, with the analytic Q beside it) and the beam-vs-FE sensitivity comparison; prints both."""
-    from whisker_opt import wiring, workflows
+    """Δ → Q table (FE, with the analytic Q beside it) and the beam-vs-FE sensitivity comparison; prints both.
+    With ``--map`` (or ``--a``) the map Q(Δ, a) instead (:func:`_compensate_map_run`)."""
+    from whisker_opt import compensation, wiring
 
     cfg = _read(args)
     # the workflow checks these again; here before a directory is made
@@ -310,12 +346,14 @@ def _compensate_run(args: argparse.Namespace) -> int:
         raise ArgumentError(f"--delta-ref: {args.delta_ref:g} is outside the allowed range (0, scene.deflection = "
                             f"{cfg.scene.deflection:g}] mm of {args.config}")
     wiring.design_from_config(cfg, wiring.optimiser_of(cfg).trim)  # the largest trim must leave a whisker
+    if args.map or args.a is not None:
+        return _compensate_map_run(args, cfg)
     _check_output(args, cfg)
     out = _out_dir(args, cfg, "compensate")
     try:
-        res = workflows.compensate(cfg, out, step=args.step, delta_ref=args.delta_ref, compare_a=args.compare_a,
-                                   compare_Q=args.compare_Q, compare=not args.no_compare, source=str(args.config),
-                                   progress=not args.no_progress)
+        res = compensation.compensate(cfg, out, step=args.step, delta_ref=args.delta_ref, compare_a=args.compare_a,
+                                      compare_Q=args.compare_Q, compare=not args.no_compare, source=str(args.config),
+                                      progress=not args.no_progress)
     except computation_errors() as exc:
         raise _failed(exc, "compensate", out) from exc
     print(f"compensation table of {res.design.describe()}, Q_i = {cfg.scene.Q_i:g} MPa ({res.table_seconds:.0f} s)")
@@ -408,4 +446,6 @@ REGISTRY: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None], Callab
                _verify_args, _verify_run),
     "compensate": ("FE compensation table: vent pressure per trim, recovery rates, plot", _compensate_args, _compensate_run),
     "view": ("view result meshes with pyvista (or save a screenshot off-screen)", _view_args, _view_run),
+    "calibrate": __import__("whisker_opt.cli.calibrate", fromlist=["COMMAND"]).COMMAND,
+    "robustness": (_robustness.HELP, _robustness.add_arguments, _robustness.run),
 }

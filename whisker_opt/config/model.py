@@ -15,7 +15,9 @@ A YAML file has these top-level sections, each optional (an empty file is refuse
     scene:      the simulated experiment (pressurise, deflect, read the gauge)
     fidelity:   preset name and optional overrides of mesh size / increments
     optimiser:  genes, penalties, GA, stopping, executor, see whisker_opt.config.optimiser
+    robustness: fabrication tolerances, see whisker_opt.config.robustness
     output:     where results go
+    calibration: model parameters fitted to measurements, see whisker_opt.config.calibration
 """
 
 from __future__ import annotations
@@ -28,9 +30,11 @@ from pydantic import BaseModel, Field, ValidationError, create_model
 
 from geometry.design import WhiskerDesign, user_parameters
 from whisker_opt.config.base import StrictModel
+from whisker_opt.config.calibration import CalibrationConfig
 from whisker_opt.config.fields import is_model, item_model, strip_optional
 from whisker_opt.config.messages import describe_errors, show
 from whisker_opt.config.optimiser import OptimiserConfig
+from whisker_opt.config.robustness import RobustnessConfig
 from whisker_opt.experiment.fidelity import PRESET_NAMES
 from whisker_opt.experiment.spec import SceneSpec
 
@@ -72,8 +76,9 @@ DesignConfig = create_model(
 #: The ``material`` section: the rubber constants :class:`whisker_opt.experiment.spec.SceneSpec` declares.
 MaterialConfig = create_model(
     "MaterialConfig", __base__=StrictModel, __module__=__name__,
-    __doc__="Neo-Hookean rubber, W = C10 (Ī1 − 3) + (1/D1)(J − 1)²; D1 = 0 is fully incompressible.",
-    **declared_fields(SceneSpec, ("c10", "d1")),
+    __doc__="Rubber: neo-Hookean W = C10 (Ī1 − 3) + (1/D1)(J − 1)² by default (D1 = 0 is fully incompressible), "
+    "or a named Yeoh fit of a published silicone (docs/physics.md, model form); the cap may be of another rubber.",
+    **declared_fields(SceneSpec, ("c10", "d1", "rubber", "cap_rubber")),
 )
 
 
@@ -99,9 +104,10 @@ _SCENE_OWN: dict[str, Any] = {
     "pair": (bool, Field(
         True, description="`simulate` runs the intact (at Q_i) / trimmed (vented) pair instead of one scene")),
 }
-_SCENE_SHARED = declared_fields(SceneSpec, ("contact_ratio", "contact_at", "deflection", "calibration", "band_width"))
+_SCENE_SHARED = declared_fields(SceneSpec, ("contact_ratio", "contact_at", "deflection", "calibration", "band_width",
+                                            "base_support"))
 _SCENE_ORDER = ("Q_i", "trim", "contact_ratio", "contact_at", "deflection", "delta_step", "calibration", "band_width",
-                "gauge_variant", "pair")
+                "base_support", "gauge_variant", "pair")
 
 #: The ``scene`` section: its own keys plus the experiment settings :class:`whisker_opt.experiment.spec.SceneSpec`
 #: declares (contact, deflection, gauge factor, contact band).
@@ -155,7 +161,10 @@ class WhiskerConfig(StrictModel):
     fidelity: FidelityConfig = FidelityConfig()
     optimiser: OptimiserConfig | None = Field(None, description="GA section (whisker_opt.config.optimiser); null = "
                                                 "its defaults")
+    robustness: RobustnessConfig = RobustnessConfig()
     output: OutputConfig = OutputConfig()
+    calibration: CalibrationConfig | None = Field(None, description="what `whisker-opt calibrate` fits "
+                                                  "(whisker_opt.config.calibration); other commands ignore it")
     seed: int = Field(0, ge=0, le=2**32 - 1, description="master random seed", json_schema_extra={"unit": "-"})
 
 
@@ -268,16 +277,30 @@ def apply_settings(data: dict, settings: Sequence[str]) -> dict:
             value = yaml.safe_load(text) if text.strip() else ""
         except yaml.YAMLError as exc:
             raise ConfigError(f"--set {item!r}: VALUE is not readable: {str(exc).splitlines()[0]}") from None
-        node = out
-        for depth, k in enumerate(parts[:-1]):
-            child = node.get(k)
-            if child is None:
-                child = {}
-            elif not isinstance(child, dict):
-                raise ConfigError(f"--set {item!r}: {'.'.join(parts[:depth + 1])} is a value, not a section")
-            node[k] = child = dict(child)
-            node = child
-        node[parts[-1]] = value
+        out = with_key(out, parts, value, f"--set {item!r}")
+    return out
+
+
+def with_key(data: dict, parts: Sequence[str], value: Any, where: str) -> dict:
+    """A copy of ``data`` with the key at the path ``parts`` (sections, then the key) set to ``value``;
+    missing sections are created, the sections on the path copied.
+
+    Raises
+    ------
+    ConfigError
+        A section on the path is a value (``where`` starts the message).
+    """
+    out = dict(data)
+    node = out
+    for depth, k in enumerate(parts[:-1]):
+        child = node.get(k)
+        if child is None:
+            child = {}
+        elif not isinstance(child, dict):
+            raise ConfigError(f"{where}: {'.'.join(parts[:depth + 1])} is a value, not a section")
+        node[k] = child = dict(child)
+        node = child
+    node[parts[-1]] = value
     return out
 
 

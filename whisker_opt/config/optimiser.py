@@ -30,6 +30,7 @@ from typing import Any, Literal
 from pydantic import Field, field_validator, model_validator
 
 from whisker_opt.config.base import StrictModel
+from whisker_opt.config.robustness import RobustObjectiveConfig
 from whisker_opt.genes import GENE_NAMES, GeneName
 
 
@@ -119,6 +120,50 @@ _DEFAULT_PENALTIES = (
 )
 
 
+class ObjectiveConfig(StrictModel):
+    """One objective of the multi-objective mode (``algorithm: nsga2``), minimised.
+
+    ``f1`` is the compensation error (docs/physics.md §4); a gene (``alpha``, ``l``, ``t``,
+    ``Q_i``) is an objective towards its preferred end of the range, measured by the same
+    normalised distance d_j as the penalty terms. Written ``{name: t, prefer: high}`` or as
+    the bare name (preferring the low end).
+    """
+
+    name: str = Field(description="f1 or a gene name")
+    prefer: Literal["low", "high"] = Field("low", description="preferred end (f1: low only)")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _from_name(cls, data: Any) -> Any:
+        return {"name": data} if isinstance(data, str) else data
+
+    @field_validator("name")
+    @classmethod
+    def _known(cls, v: str) -> str:
+        allowed = ("f1", *GENE_NAMES)
+        if v not in allowed:
+            raise ValueError(f"name={v!r} is not one of {', '.join(map(repr, allowed))}")
+        return v
+
+    @model_validator(mode="after")
+    def _f1_is_minimised(self) -> "ObjectiveConfig":
+        if self.name == "f1" and self.prefer != "low":
+            raise ValueError(f"objective f1: prefer={self.prefer!r} not allowed, f1 is minimised (prefer 'low')")
+        return self
+
+
+_DEFAULT_OBJECTIVES = (ObjectiveConfig(name="f1"), ObjectiveConfig(name="Q_i", prefer="low"))
+
+
+class ParetoConfig(StrictModel):
+    """Outputs of the multi-objective mode: the Pareto front and its verification at a finer preset."""
+
+    verify: bool = Field(True, description="re-evaluate the front at the next finer fidelity preset after the run "
+                         "(coarse -> default, default -> fine)")
+    verify_max: int = Field(200, ge=1, le=10_000, description="most front designs re-evaluated (spread along the "
+                            "front when it holds more)", json_schema_extra={"unit": "designs"})
+
+
 class GAConfig(StrictModel):
     """Selection, variation and elitism of the generational GA; n_elite < population, tournament ≤ population."""
 
@@ -160,8 +205,10 @@ class StoppingConfig(StrictModel):
         json_schema_extra={"unit": "generations"},
     )
     target_fp: float = Field(1e-3, ge=0, le=1e9, description="stop when the best design is feasible and its F_p <= "
-                             "this (units of f1: calibrated strain unless scene.calibration = 1)",
-                             json_schema_extra={"unit": "-"})
+                             "this, in the strain named by target_strain", json_schema_extra={"unit": "-"})
+    target_strain: Literal["uncalibrated", "calibrated"] = Field(
+        "uncalibrated", description="strain unit of target_fp: 'uncalibrated' compares F_p / scene.calibration (the "
+        "simulated strain of the thesis' F_p <= 1e-3 rule), 'calibrated' compares F_p as the gauge reads it")
     stall_generations: int = Field(
         20, ge=1, le=100_000, description="window N of the stall rule", json_schema_extra={"unit": "generations"}
     )
@@ -230,10 +277,19 @@ class OptimiserConfig(StrictModel):
         description="base B of the F_p of a failed evaluation; a grade by failure kind and violation is added",
         json_schema_extra={"unit": "-"},
     )
+    algorithm: Literal["ga", "nsga2"] = Field(
+        "ga", description="ga: one penalised score F_p; nsga2: a Pareto front of the objectives (NSGA-II)")
+    objectives: tuple[ObjectiveConfig, ...] = Field(
+        _DEFAULT_OBJECTIVES,
+        description="objectives of nsga2 (2..5 items), all minimised; f1 and at least one gene, each once")
+    pareto: ParetoConfig = ParetoConfig()
     ga: GAConfig = GAConfig()
     stopping: StoppingConfig = StoppingConfig()
     executor: ExecutorConfig = ExecutorConfig()
     cache: CacheConfig = CacheConfig()
+    robust: RobustObjectiveConfig | None = Field(
+        None, description="minimise mean + k·std of f1 over the tolerances of the robustness section instead of f1 "
+        "(docs/physics.md §10); null = f1 itself")
     seed: int | None = Field(
         None, ge=0, le=2**32 - 1, description="GA seed; null = the run file's top-level seed",
         json_schema_extra={"unit": "-"},
@@ -246,6 +302,19 @@ class OptimiserConfig(StrictModel):
         dup = sorted({g for g in seen if seen.count(g) > 1})
         if dup:
             raise ValueError(f"one penalty per gene; repeated: {dup}")
+        return v
+
+    @field_validator("objectives")
+    @classmethod
+    def _objectives_distinct(cls, v: tuple[ObjectiveConfig, ...]) -> tuple[ObjectiveConfig, ...]:
+        names = [o.name for o in v]
+        if not 2 <= len(names) <= 5:
+            raise ValueError(f"{len(names)} objective(s) {names}; allowed 2..5 items")
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise ValueError(f"each objective once; repeated: {dup}")
+        if "f1" not in names:
+            raise ValueError(f"objectives {names} must include f1")
         return v
 
     def resolve_seed(self, top_level_seed: int) -> int:

@@ -166,11 +166,13 @@ def describe(cfg, calibration: float = RESOLUTION_CALIBRATION) -> dict:
     Returns
     -------
     dict
-        ``{"preset": name, "f1_resolution": float}``, plus ``"overrides"`` (the overridden
-        keys and values) when the preset is overridden: the resolution is then the named
-        preset's, an approximation.
+        ``{"preset": name, "f1_resolution": float, "calibration": ξ}``, plus ``"overrides"``
+        (the overridden keys and values) when the preset is overridden: the resolution is then
+        the named preset's, an approximation. ``calibration`` is the gauge factor of the
+        calibrated f1 and F_p; dividing by it gives them in simulated (uncalibrated) strain.
     """
-    out: dict = {"preset": cfg.preset, "f1_resolution": f1_resolution(cfg.preset, calibration)}
+    out: dict = {"preset": cfg.preset, "f1_resolution": f1_resolution(cfg.preset, calibration),
+                 "calibration": float(calibration)}
     keys = ("h_wall", "h_body", "n_pressure_steps", "n_deflection_steps")
     overrides = {k: getattr(cfg, k) for k in keys if getattr(cfg, k, None) is not None}
     if overrides:

@@ -4,8 +4,10 @@
 (a mesh with its gauge located in it when it is built):
 
 1. :func:`pressurise`
-    Base face fixed (all components), follower pressure Q on every cavity face, fibres
-    embedded as trusses. Skipped when Q = 0 (the state is then the reference state).
+    Base face fixed (all components; ``base_support='sliding'`` holds it axially and only its
+    inner half radially, :func:`base_dirichlet`), follower pressure Q on every cavity face, fibres
+    embedded as trusses; the rubber is :func:`scene_material` (one law, or a cap of another).
+    Skipped when Q = 0 (the state is then the reference state).
     Outputs the axial extension Δl(Q) (mean axial displacement of the tip face), the new
     length L_Q = L + Δl and the radial growth at mid-chamber (mean radial displacement of
     the outer surface nodes within ±0.5 mm of x = (c + l)/2).
@@ -42,14 +44,14 @@ from scipy.interpolate import CubicSpline
 
 from fem.loadpath import solve_path
 from fem.loads import LoadState
-from fem.material import NeoHookean
+from fem.material import ElementwiseMaterial, IsochoricI1Material, NeoHookean, Yeoh
 from fem.problem import Dirichlet, EmbeddedTrusses, FollowerPressure, Problem
 from fem.state import State
 from geometry.design import WhiskerDesign
 from geometry.mesh import MeshSizing, WhiskerMesh, build_mesh
 from whisker_opt.experiment.contact import Contact, contact_band, place_contact_ring
 from whisker_opt.experiment.gauge import GaugedMesh, GaugeReader
-from whisker_opt.experiment.spec import SceneSpec
+from whisker_opt.experiment.spec import RUBBER_LAWS, SceneSpec
 
 logger = logging.getLogger(__name__)
 
@@ -117,10 +119,58 @@ class SceneResult:
         return np.interp(delta, self.delta, y)
 
 
+def rubber_law(name: str, spec: SceneSpec) -> IsochoricI1Material:
+    """The isochoric law called ``name`` (:data:`whisker_opt.experiment.spec.RUBBERS`): the
+    neo-Hookean law of ``spec.c10``, or the Yeoh fit of :data:`~whisker_opt.experiment.spec.RUBBER_LAWS`;
+    D1 = ``spec.d1`` for every law."""
+    if name == "neo_hookean":
+        return NeoHookean(spec.c10, spec.d1)
+    return Yeoh(RUBBER_LAWS[name], spec.d1)
+
+
+def cap_elements(wm: WhiskerMesh) -> np.ndarray:
+    """Mask (n_el,) of the cap's elements: those whose centroid (mean of the four corner
+    nodes) lies at x < c."""
+    return _cap_mask(wm.mesh, wm.design.c)
+
+
+def _cap_mask(mesh, c: float) -> np.ndarray:
+    corners = mesh.points[mesh.cells[:, :4]]  # (n_el, 4, 3)
+    return corners[:, :, 0].mean(axis=1) < c
+
+
+def scene_material(wm: WhiskerMesh, spec: SceneSpec) -> IsochoricI1Material:
+    """The rubber of the scene (:attr:`SceneSpec.rubber`, :attr:`SceneSpec.cap_rubber`): one law, or
+    the cap's law on :func:`cap_elements` and the body's elsewhere (:class:`fem.material.ElementwiseMaterial`)."""
+    return material_on(wm.mesh, spec)
+
+
+def material_on(mesh, spec: SceneSpec) -> IsochoricI1Material:
+    """:func:`scene_material` on a bare mesh (``points``, ``cells``) of the design ``spec.design``."""
+    body = rubber_law(spec.rubber, spec)
+    if spec.cap_rubber in ("same", spec.rubber):
+        return body
+    return ElementwiseMaterial((body, rubber_law(spec.cap_rubber, spec)),
+                               _cap_mask(mesh, spec.design.c).astype(np.int64))
+
+
+def base_dirichlet(wm: WhiskerMesh, spec: SceneSpec) -> list[Dirichlet]:
+    """The base's supports (:attr:`SceneSpec.base_support`), all prescribed to zero.
+
+    'clamped': one set, every base node in x, y, z. 'sliding': every base node in x, and the
+    nodes with r ≤ D/4 in y and z (the first set's values have shape (n_base, 1)).
+    """
+    base = wm.node_sets["base"]
+    if spec.base_support == "clamped":
+        return [Dirichlet(base, (0, 1, 2))]
+    r = np.linalg.norm(wm.mesh.points[base, 1:], axis=1)  # (n_base,)
+    return [Dirichlet(base, (0,)), Dirichlet(base[r <= 0.25 * spec.design.D + 1e-9], (1, 2))]
+
+
 def make_problem(wm: WhiskerMesh, spec: SceneSpec, band_nodes: np.ndarray | None) -> Problem:
-    """FE problem of the scene: fixed base, cavity pressure (if Q > 0), fibres, contact band."""
+    """FE problem of the scene: supported base, cavity pressure (if Q > 0), fibres, contact band."""
     d = spec.design
-    dirichlet = [Dirichlet(wm.node_sets["base"], (0, 1, 2))]
+    dirichlet = base_dirichlet(wm, spec)
     if band_nodes is not None:
         dirichlet.append(Dirichlet(band_nodes, (1,)))
     pressures = (FollowerPressure(wm.face_sets["cavity"]),) if spec.Q > 0 else ()
@@ -130,7 +180,7 @@ def make_problem(wm: WhiskerMesh, spec: SceneSpec, band_nodes: np.ndarray | None
     )
     return Problem(
         mesh=wm.mesh,
-        material=NeoHookean(spec.c10, spec.d1),
+        material=scene_material(wm, spec),
         dirichlet=tuple(dirichlet),
         pressures=pressures,
         trusses=trusses,
@@ -172,11 +222,16 @@ class SceneRunner:
         Passed to :func:`geometry.mesh.build_mesh` (on-disk mesh cache).
     memo_size : int
         Maximum number of memoised results (oldest dropped first).
+    pressurise_with : callable, optional
+        ``pressurise_with(spec, wm) -> Pressurised`` in place of :func:`pressurise` (passed to
+        :func:`run_scene`); e.g. a warm start of the Newton solve from a neighbouring pressure
+        (:class:`whisker_opt.compensation.WarmPressurise`). Default: :func:`pressurise`.
     """
 
-    def __init__(self, mesh_cache_dir=None, memo_size: int = 256) -> None:
+    def __init__(self, mesh_cache_dir=None, memo_size: int = 256, pressurise_with=None) -> None:
         self.mesh_cache_dir = mesh_cache_dir
         self.memo_size = memo_size
+        self.pressurise_with = pressurise_with
         self._memo: dict[SceneSpec, SceneResult] = {}
         self._meshes: dict[tuple, GaugedMesh] = {}
         self.memo_hits = 0
@@ -204,7 +259,8 @@ class SceneRunner:
             self.memo_hits += 1
             return hit
         gm = self.gauged_mesh(spec.design, spec.sizing, spec.mesh_method)
-        res = run_scene(spec, gm, keep_states=keep_states, mesh_for=self.gauged_mesh)
+        res = run_scene(spec, gm, keep_states=keep_states, mesh_for=self.gauged_mesh,
+                        pressurise_with=self.pressurise_with)
         if len(self._memo) >= self.memo_size:
             self._memo.pop(next(iter(self._memo)))
         self._memo[spec] = res
@@ -221,31 +277,47 @@ class Pressurised:
         The pressurise problem (fixed base, cavity pressure, fibres); the deflection
         problem shares its topology cache.
     zeros_base : ndarray, shape (n_base, 3)
-        The base's prescribed (zero) displacements.
+        The base's prescribed (zero) displacements (shape (n_base, 1) with
+        ``base_support='sliding'``).
     state : State
         Pressurised state; the reference state when Q = 0.
     reports : list of fem.loadpath.StepReport
+    extra_base : tuple of ndarray
+        The zero values of any further base set (``base_support='sliding'``); empty when
+        clamped. Load states list ``zeros_base``, then these, then the contact band.
     """
 
     problem: Problem
     zeros_base: np.ndarray
     state: State
     reports: list
+    extra_base: tuple = ()
 
 
-def pressurise(spec: SceneSpec, wm: WhiskerMesh) -> Pressurised:
-    """Step 1 on ``wm``: fixed base, cavity pressure raised from 0 to Q (skipped when Q = 0)."""
+def pressurise(spec: SceneSpec, wm: WhiskerMesh, start: tuple[float, State] | None = None) -> Pressurised:
+    """Step 1 on ``wm``: fixed base, cavity pressure raised from 0 to Q (skipped when Q = 0).
+
+    ``start = (Q0, state)``: a warm start, the pressure raised from Q0 to Q in one requested
+    step from ``state``, a converged state at Q0 of this mesh or of one with the same nodes
+    and elements (Newton removes the difference); the result equals the cold path's within
+    the solver tolerances (measured in benchmarks/compensation_map.py). Default: from the
+    reference state at 0 in ``spec.n_pressure_steps`` steps.
+    """
     prob1 = make_problem(wm, spec, None)
-    zeros_base = np.zeros((len(wm.node_sets["base"]), 3))
+    zeros_base, *extra = (np.zeros(dr.shape) for dr in prob1.dirichlet)
+    extra = tuple(extra)
     state = State.zero(prob1)
     if spec.Q <= 0:
-        return Pressurised(prob1, zeros_base, state, [])
+        return Pressurised(prob1, zeros_base, state, [], extra)
     fr = tuple(np.linspace(0, 1, spec.n_pressure_steps + 1)[1:])
+    q0, step = 0.0, 0.34
+    if start is not None:
+        q0, state, fr, step = float(start[0]), start[1], (1.0,), 1.0
     states, rep = solve_path(
         prob1,
         state,
-        LoadState((0.0,), (zeros_base,)),
-        LoadState((spec.Q,), (zeros_base,)),
+        LoadState((q0,), (zeros_base, *extra)),
+        LoadState((spec.Q,), (zeros_base, *extra)),
         fractions=fr,
         # full Newton: pressurising a fibre-wound chamber is strongly nonlinear, where
         # a reused tangent converges slowly (reuse ratio 0.05-0.2: 48-54 iterations
@@ -253,10 +325,10 @@ def pressurise(spec: SceneSpec, wm: WhiskerMesh) -> Pressurised:
         # predictor: 19 iterations to 0.2 MPa, against 21 with quarters, 22 with
         # halves and 20 in one step (default design and mesh, measured 2026-11-23)
         options=replace(spec.solve_options, reuse_tangent=0.0,
-                        initial_step=min(spec.solve_options.initial_step, 0.34),
-                        max_step=min(spec.solve_options.max_step, 0.34)),
+                        initial_step=min(spec.solve_options.initial_step, step),
+                        max_step=min(spec.solve_options.max_step, step)),
     )
-    return Pressurised(prob1, zeros_base, states[-1], list(rep))
+    return Pressurised(prob1, zeros_base, states[-1], list(rep), extra)
 
 
 def scene_contact(spec: SceneSpec) -> Contact:
@@ -307,8 +379,8 @@ def deflect_and_read(spec: SceneSpec, gm: GaugedMesh, pre: Pressurised, contact:
     prob2 = replace(pre.problem, dirichlet=make_problem(wm, spec, band).dirichlet)
     uy0 = u1[band, 1:2]  # (k, 1)
     pq = (spec.Q,) if spec.Q > 0 else ()
-    load0 = LoadState(pq, (pre.zeros_base, uy0))
-    load1 = LoadState(pq, (pre.zeros_base, uy0 - spec.deflection))
+    load0 = LoadState(pq, (pre.zeros_base, *pre.extra_base, uy0))
+    load1 = LoadState(pq, (pre.zeros_base, *pre.extra_base, uy0 - spec.deflection))
     reader.zero(u1)
     fractions = tuple(np.linspace(0, 1, spec.n_deflection_steps + 1)[1:])
     readings = [(0.0, 0.0)]
@@ -350,7 +422,7 @@ def _step(spec: SceneSpec, step: str) -> Iterator[None]:
 
 
 def run_scene(spec: SceneSpec, wm: WhiskerMesh | GaugedMesh | None = None, keep_states: bool = False,
-              mesh_for=None) -> SceneResult:
+              mesh_for=None, pressurise_with=None) -> SceneResult:
     """Pressurise-then-deflect one whisker and read its gauge.
 
     The steps: :func:`pressurise`; for off-tip contact on a structured mesh, place a
@@ -372,6 +444,9 @@ def run_scene(spec: SceneSpec, wm: WhiskerMesh | GaugedMesh | None = None, keep_
         ``mesh_for(design, sizing, method) -> WhiskerMesh`` (or ``GaugedMesh``) for the
         mesh and the contact placement's meshes (e.g. a cache); default
         :func:`geometry.mesh.build_mesh`.
+    pressurise_with : callable, optional
+        ``pressurise_with(spec, wm) -> Pressurised`` for every pressurisation of the scene (its
+        mesh's and the contact placement's); default :func:`pressurise`.
 
     Raises
     ------
@@ -397,7 +472,7 @@ def run_scene(spec: SceneSpec, wm: WhiskerMesh | GaugedMesh | None = None, keep_
 
     def pressurised(g: GaugedMesh) -> Pressurised:
         with _step(spec, "pressurising"):
-            return pressurise(spec, g.wm)
+            return (pressurise if pressurise_with is None else pressurise_with)(spec, g.wm)
 
     gm = remesh(spec.sizing, spec.mesh_method) if wm is None else _gauged(wm, design)
     timings["mesh"] = time.perf_counter() - t0

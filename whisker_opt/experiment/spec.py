@@ -10,6 +10,7 @@ can read it cheaply.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import TYPE_CHECKING
 
 from geometry.design import WhiskerDesign, parameter
@@ -20,6 +21,24 @@ if TYPE_CHECKING:  # pragma: no cover
 
 #: Where the contact is placed (:attr:`SceneSpec.contact_at`).
 CONTACT_AT: tuple[str, ...] = ("pressurised", "reference")
+
+#: Two-term Yeoh laws of named silicones, ``{name: (C10, C20)}`` [MPa], W = C10 (Ī1 − 3) + C20 (Ī1 − 3)²
+#: (Yeoh 1993). Each pair passes exactly through the two uniaxial points of the manufacturer's technical
+#: bulletin (Smooth-On, ASTM D412): the 100 % modulus at λ = 2 and the tensile strength at the elongation
+#: at break; fitted by ``benchmarks/fit_rubber_tds.py`` (which prints these numbers), from
+#: Dragon Skin 30: σ100 = 86 psi, 500 psi at 364 %; Dragon Skin 10 Medium: 22 psi, 475 psi at 1000 %;
+#: Ecoflex 00-30 (the Shore 00-30 grade): 10 psi, 200 psi at 900 %. Read-only.
+RUBBER_LAWS = MappingProxyType({
+    "yeoh_dragon_skin_30": (0.14514, 6.0678e-3),
+    "yeoh_dragon_skin_10": (0.041520, 4.5462e-4),
+    "yeoh_ecoflex_00_30": (0.018663, 2.5902e-4),
+})
+
+#: The rubber laws of :attr:`SceneSpec.rubber`: the neo-Hookean law of ``c10``/``d1``, or a named Yeoh fit.
+RUBBERS: tuple[str, ...] = ("neo_hookean",) + tuple(RUBBER_LAWS)
+
+#: How the base face is held (:attr:`SceneSpec.base_support`).
+BASE_SUPPORTS: tuple[str, ...] = ("clamped", "sliding")
 
 
 def _default_solve_options():
@@ -66,6 +85,17 @@ class SceneSpec:
         default) or 'displacement' (C3D10-like, needs D1 > 0; for cross-checks with
         CalculiX; it locks on coarse meshes: +12 % on ε(5 mm) of the default preset mesh
         at K/μ = 1000, benchmarks/README.md).
+    rubber : str
+        Rubber law of the body (every element, or every element outside the cap when
+        ``cap_rubber`` differs): 'neo_hookean' (C10 = ``c10``, the default) or a key of
+        :data:`RUBBER_LAWS` (a two-term Yeoh fit of a named silicone). D1 = ``d1`` for all.
+    cap_rubber : str
+        'same' (default: the cap is of the body's rubber) or one of :data:`RUBBERS` for the
+        elements of the cap, those whose centroid lies at x < c, bonded to the body.
+    base_support : {'clamped', 'sliding'}
+        'clamped' (default): every node of the base face fixed in x, y and z. 'sliding':
+        every base node held axially, only the nodes within r ≤ D/4 also held in y and z,
+        so the outer half of the base may slide radially (a softer mount).
     """
 
     design: WhiskerDesign
@@ -89,6 +119,15 @@ class SceneSpec:
     mesh_method: str = "auto"
     solve_options: SolveOptions = field(default_factory=_default_solve_options)
     formulation: str = "mixed"
+    rubber: str = parameter(
+        "neo_hookean", "", "rubber law of the body: 'neo_hookean' (C10, D1 of the material section) or a "
+        "two-term Yeoh fit of a named silicone's published uniaxial data (docs/physics.md §1)", choices=RUBBERS)
+    cap_rubber: str = parameter(
+        "same", "", "rubber of the cap (elements at x < c), bonded to the body: 'same' as the body, or one of "
+        "the rubber laws", choices=("same",) + RUBBERS)
+    base_support: str = parameter(
+        "clamped", "", "'clamped': every base node fixed; 'sliding': the base held axially, only its inner "
+        "half (r ≤ D/4) also held radially", choices=BASE_SUPPORTS)
 
     def __post_init__(self) -> None:
         checks = [
@@ -101,6 +140,11 @@ class SceneSpec:
             ("band_width", self.band_width, self.band_width > 0, "> 0 mm"),
             ("n_pressure_steps", self.n_pressure_steps, self.n_pressure_steps >= 1, ">= 1"),
             ("n_deflection_steps", self.n_deflection_steps, self.n_deflection_steps >= 1, ">= 1"),
+            ("rubber", self.rubber, self.rubber in RUBBERS, " or ".join(map(repr, RUBBERS))),
+            ("cap_rubber", self.cap_rubber, self.cap_rubber in ("same",) + RUBBERS,
+             " or ".join(map(repr, ("same",) + RUBBERS))),
+            ("base_support", self.base_support, self.base_support in BASE_SUPPORTS,
+             " or ".join(map(repr, BASE_SUPPORTS))),
         ]
         for name, value, ok, allowed in checks:
             if not ok:

@@ -27,7 +27,9 @@ Fitness
     designs rank by F_p (:mod:`whisker_opt.optimise.penalty`).
 
 Stopping rules (checked after every generation, first match wins)
-    ``target_fp``: the best design is feasible and its F_p <= ``target_fp``;
+    ``target_fp``: the best design is feasible and its F_p <= ``target_fp``, F_p taken in the
+    strain ``target_strain`` names: divided by the run's gauge factor ξ for 'uncalibrated' (the
+    default: the unit of the thesis' F_p <= 1e-3 rule), as read for 'calibrated';
     ``stall``: with b_g the best F_p after generation g and N = ``stall_generations``,
     mean_{k=g−N+1..g} (b_{k−1} − b_k)/|b_{k−1}| <= ``stall_tol`` (needs g >= N);
     ``max_generations``: g = ``max_generations`` (generation 0 is the initial population).
@@ -72,6 +74,14 @@ if not hasattr(creator, "WhiskerIndividual"):
     creator.create("WhiskerIndividual", list, fitness=creator.WhiskerFitness, info=None)
 
 Individual = creator.WhiskerIndividual
+
+#: Multi-objective individuals of m = 2..5 minimised objectives (:mod:`whisker_opt.optimise.nsga2`), created
+#: here with the others so that every checkpoint loads wherever this module is imported.
+for _m in range(2, 6):
+    if not hasattr(creator, f"WhiskerMOFitness{_m}"):
+        creator.create(f"WhiskerMOFitness{_m}", base.Fitness, weights=(-1.0,) * _m)
+    if not hasattr(creator, f"WhiskerMOIndividual{_m}"):
+        creator.create(f"WhiskerMOIndividual{_m}", list, fitness=getattr(creator, f"WhiskerMOFitness{_m}"), info=None)
 
 #: Names of the stopping rules, in order of precedence.
 STOP_RULES: tuple[str, ...] = ("target_fp", "stall", "max_generations")
@@ -156,6 +166,25 @@ def _ga_rng(state: GAState) -> Iterator[None]:
         state.rng_np = np.random.get_state()
         random.setstate(outer_py)
         np.random.set_state(outer_np)
+
+
+def gauge_factor(state: GAState) -> float | None:
+    """The gauge factor ξ of a run's calibrated f1 (stored with its fidelity), or None when unknown
+    (a run started without a fidelity, e.g. on an analytic test fitness)."""
+    xi = (state.extra.get("fidelity") or {}).get("calibration")
+    return float(xi) if xi else None
+
+
+def uncalibrated(value: float | None, xi: float | None) -> float | None:
+    """A calibrated f1 or F_p in simulated (uncalibrated) strain: value / ξ (both are proportional
+    to every reading, docs/physics.md); None when ξ is unknown."""
+    return None if value is None or xi is None else float(value) / xi
+
+
+def target_value(best_fp: float, target_strain: str, xi: float | None) -> float:
+    """The best F_p in the unit of ``stopping.target_fp``: F_p / ξ for 'uncalibrated' (F_p itself
+    when ξ is unknown, i.e. the readings are taken as they come), F_p for 'calibrated'."""
+    return best_fp / xi if target_strain == "uncalibrated" and xi else best_fp
 
 
 def _invalidate(ind) -> None:
@@ -274,6 +303,18 @@ class GeneticAlgorithm:
         return elites + offspring
 
     # ------------------------------------------------------------------ evaluation
+    def fitness_of(self, pen, genes: dict[str, float]) -> tuple[float, ...]:
+        """DEAP fitness values of a penalised outcome: (infeasible, F_p) (:func:`fitness_values`)."""
+        return fitness_values(pen)
+
+    def write_outputs(self, run_dir, state: GAState) -> list:
+        """Algorithm-specific files written at the end of a run (none for the GA)."""
+        return []
+
+    def report_lines(self, run_dir, state: GAState) -> list[str]:
+        """Algorithm-specific lines of ``whisker-opt report`` (none for the GA)."""
+        return []
+
     def evaluate(self, state: GAState, individuals: list, executor, generation: int,
                  progress: EvaluationProgress | None = None) -> dict[str, int]:
         """Give every individual with an invalid fitness its fitness, recording each one.
@@ -306,6 +347,7 @@ class GeneticAlgorithm:
 
             outcomes = executor.map(batch, seeds, on_result=on_result) if run_keys else []
         fresh = dict(zip(run_keys, outcomes))
+        xi = gauge_factor(state)
         for k, out in fresh.items():
             cache.put(k, out)
         first_use = set(fresh)
@@ -320,7 +362,7 @@ class GeneticAlgorithm:
                 n_hits += 1
             genes = self.genes_of(ind)
             pen = penalise(out, genes, self.terms, self.cfg.failure_penalty)
-            ind.fitness.values = fitness_values(pen)
+            ind.fitness.values = self.fitness_of(pen, genes)
             eval_id = len(state.records)
             if not pen.feasible:
                 n_fail += 1
@@ -338,6 +380,8 @@ class GeneticAlgorithm:
                 rec[t.column] = pen.kappas.get(t.gene)
             rec.update(
                 F_p=pen.fp,
+                f1_uncalibrated=uncalibrated(pen.f1, xi) if pen.feasible else None,
+                F_p_uncalibrated=uncalibrated(pen.fp, xi) if pen.feasible else None,
                 status=out.status,
                 reason=out.reason,
                 time_s=0.0 if hit else float(out.timings.get("eval_s", 0.0)),
@@ -350,11 +394,14 @@ class GeneticAlgorithm:
         return {"evals": len(run_keys), "cache_hits": n_hits, "n_failures": n_fail, "n_invalid": len(invalid)}
 
     # ------------------------------------------------------------------ statistics / stopping
+    def population_fps(self, pop: list) -> tuple[list[float], list[float]]:
+        """F_p of the feasible individuals of ``pop``, and of all of them (fitness = (infeasible, F_p))."""
+        return ([ind.fitness.values[1] for ind in pop if ind.fitness.values[0] == 0.0],
+                [ind.fitness.values[1] for ind in pop])
+
     def generation_stats(self, state: GAState, generation: int, counts: dict[str, int], wall_s: float) -> dict:
         """Statistics row of one generation (best = hall of fame best, mean over feasible)."""
-        pop = state.population
-        feas = [ind.fitness.values[1] for ind in pop if ind.fitness.values[0] == 0.0]
-        all_fp = [ind.fitness.values[1] for ind in pop]
+        feas, all_fp = self.population_fps(state.population)
         best = state.hof[0]
         row: dict[str, Any] = {
             "generation": generation,
@@ -363,6 +410,8 @@ class GeneticAlgorithm:
             "n_failures": counts["n_failures"],
             "n_feasible": len(feas),
             "best_fp": best.fitness.values[1],
+            "best_fp_uncalibrated": (uncalibrated(best.fitness.values[1], gauge_factor(state))
+                                     if best.fitness.values[0] == 0.0 else None),
             "best_feasible": best.fitness.values[0] == 0.0,
             "best_f1": best.info["f1"] if best.info else None,
             "min_fp": min(feas) if feas else min(all_fp),
@@ -377,7 +426,7 @@ class GeneticAlgorithm:
         """The first stopping rule that fires after the last generation, or None."""
         st = self.cfg.stopping
         last = state.logbook[-1]
-        if last["best_feasible"] and last["best_fp"] <= st.target_fp:
+        if last["best_feasible"] and target_value(last["best_fp"], st.target_strain, gauge_factor(state)) <= st.target_fp:
             return "target_fp"
         n = st.stall_generations
         hist = [row["best_fp"] for row in state.logbook]
@@ -426,14 +475,18 @@ class GeneticAlgorithm:
 
 
 def best_design(state: GAState) -> dict[str, Any]:
-    """The best design so far: genes, f1, κ_j, F_p, status and where it was found."""
+    """The best design so far: genes, f1, κ_j, F_p (calibrated, and divided by ξ when the run knows
+    its gauge factor), status and where it was found."""
     best = state.hof[0]
     info = dict(best.info or {})
+    feasible = best.fitness.values[0] == 0.0
     return {
         "genes": genes_dict(best),
-        "feasible": best.fitness.values[0] == 0.0,
+        "feasible": feasible,
         "F_p": best.fitness.values[1],
         "f1": info.get("f1"),
+        "F_p_uncalibrated": uncalibrated(best.fitness.values[1], gauge_factor(state)) if feasible else None,
+        "f1_uncalibrated": uncalibrated(info.get("f1"), gauge_factor(state)),
         "kappas": info.get("kappas", {}),
         "status": info.get("status"),
         "reason": info.get("reason", ""),

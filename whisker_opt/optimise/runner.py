@@ -39,6 +39,7 @@ from whisker_opt.output import storage
 from whisker_opt.optimise.checkpoint import has_checkpoint, load_checkpoint, remove_stale_temporaries, save_checkpoint
 from whisker_opt.optimise.backend import make_executor
 from whisker_opt.optimise.ga import EvaluationProgress, GAState, GeneticAlgorithm, best_design
+from whisker_opt.optimise.nsga2 import make_algorithm
 from whisker_opt.config.optimiser import ExecutorConfig, OptimiserConfig
 from whisker_opt.experiment.outcome import EvalOutcome
 from whisker_opt.output.plots import design_label, plot_convergence, plot_curves, short_float, write_best_curves
@@ -113,7 +114,7 @@ class _RunWriter:
         self.ga = ga
         self.config = config
         self.eval_cols = storage.evaluation_columns(ga.names, [t.column for t in ga.terms])
-        self.gen_cols = storage.generation_columns(ga.names)
+        self.gen_cols = storage.generation_columns(ga.names) + list(getattr(ga, "EXTRA_GENERATION_COLUMNS", ()))
 
     def __call__(self, state: GAState, row: dict | None = None) -> None:
         save_checkpoint(self.run_dir, state, self.config)
@@ -127,6 +128,7 @@ class _RunWriter:
     def finish(self, state: GAState) -> None:
         self.write_tables(state)
         write_plots(self.run_dir, state, self.ga.cfg)
+        self.ga.write_outputs(self.run_dir, state)  # the multi-objective mode's front
 
 
 def _best_json(state: GAState) -> dict[str, Any]:
@@ -214,6 +216,7 @@ def write_plots(run_dir: Path, state: GAState, cfg: OptimiserConfig) -> list[Pat
             cfg.stopping.target_fp,
             title=f"GA convergence ({stop}, generation {state.generation}, {state.n_evaluations} evaluations)",
             fidelity=fidelity,
+            target_strain=cfg.stopping.target_strain,
         )
     )
     best_out = _best_outcome(state)
@@ -275,7 +278,7 @@ class _Progress(EvaluationProgress):
 
     def __init__(self, cfg: OptimiserConfig, state: GAState, enabled: bool) -> None:
         self.cfg = cfg
-        self.per_generation = max(cfg.ga.population - cfg.ga.n_elite, 0)
+        self.per_generation = max(cfg.ga.population - (cfg.ga.n_elite if cfg.algorithm == "ga" else 0), 0)
         self.done = state.n_evaluations
         self.failures = state.n_failures
         self.hits = state.n_cache_hits
@@ -411,7 +414,7 @@ def run_optimisation(
     check_new_run_dir(run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
     config = write_run_metadata(run_dir, cfg_opt, seed)
-    ga = GeneticAlgorithm(cfg_opt, seed)
+    ga = make_algorithm(cfg_opt, seed)
     state = ga.new_state()
     if fidelity:
         state.extra["fidelity"] = dict(fidelity)
@@ -558,7 +561,7 @@ def resume_optimisation(
         config = cfg.model_dump(mode="json")
         storage.write_json(run_dir / storage.OPTIMISER_JSON, {"seed": int(seed), "optimiser": config})
     _complete_metadata(run_dir, config, seed)
-    ga = GeneticAlgorithm(cfg, seed)
+    ga = make_algorithm(cfg, seed)
     if state is None:
         state = ga.new_state()
     elif max_generations is not None and state.logbook:
@@ -604,7 +607,8 @@ def report(run_dir: Path, max_rows: int = 60) -> str:
     if state is None or state.generation < 0:
         return f"{run_dir}: no generation completed yet"
     write_plots(run_dir, state, cfg)
-    ga = GeneticAlgorithm(cfg, seed)
+    ga = make_algorithm(cfg, seed)
+    ga.write_outputs(run_dir, state)
     b = best_design(state)
     statuses = Counter(r["status"] for r in state.records if r["status"] != "ok")
     rate = state.n_evaluations / state.elapsed_s if state.elapsed_s > 0 else math.nan
@@ -631,10 +635,15 @@ def report(run_dir: Path, max_rows: int = 60) -> str:
     ]
     for name in ga.names:
         lines.append(f"  {name:<6} {b['genes'][name]:.6g}")
-    lines.append(f"  f1     {_fmt(b['f1'])}")
+    xi = (fidelity or {}).get("calibration")
+    uncal = f"  ({_fmt(b['f1_uncalibrated'])} uncalibrated, / ξ = {xi:g})" if b.get("f1_uncalibrated") is not None \
+        and xi else ""
+    lines.append(f"  f1     {_fmt(b['f1'])}{uncal}")
     for t in ga.terms:
         lines.append(f"  κ_{t.gene:<4} {_fmt(b['kappas'].get(t.gene))}  (C = {t.weight:g}, prefer {t.prefer})")
-    lines.append(f"  F_p    {_fmt(b['F_p'])}  ({b['status']}, generation {b['generation_found']}, eval {b['eval_id']})")
+    uncal = f", {_fmt(b['F_p_uncalibrated'])} uncalibrated" if b.get("F_p_uncalibrated") is not None else ""
+    lines.append(f"  F_p    {_fmt(b['F_p'])}  ({b['status']}{uncal}, generation {b['generation_found']}, "
+                 f"eval {b['eval_id']}; target_fp {cfg.stopping.target_fp:g} {cfg.stopping.target_strain})")
     if warning:
         lines.append(f"  WARNING {warning}")
     lines += ["", "hall of fame", "  rank " + "".join(f"{n:>11}" for n in ga.names) + f"{'f1':>13}{'F_p':>13}  status"]
@@ -659,4 +668,4 @@ def report(run_dir: Path, max_rows: int = 60) -> str:
             f"  {r['generation']:>4}{r['evals']:>7}{r['cache_hits']:>6}{r['n_failures']:>6}"
             f"{r['best_fp']:>13.5g}{_fmt(r['mean_fp'], '.5g'):>13}{r['time_s']:>9.2f}"
         )
-    return "\n".join(lines)
+    return "\n".join(lines + ga.report_lines(run_dir, state))

@@ -260,3 +260,100 @@ def write_comparison(path_dir, comparison, fidelity: Mapping[str, Any] | None = 
     comparison_figure(comparison, fidelity, delta_ref).savefig(paths["png"], dpi=120)
     logger.info("wrote sensitivity comparison to %s", out)
     return paths
+
+
+# ----------------------------------------------------------------------------- the map Q(Δ, a)
+_MAP_COLUMNS = ("trim_mm", "a", "Q_MPa", "recovery_rate_pct", "compensation_error_pct", "gap_before", "gap_after",
+                "at_bound", "n_responses")
+
+
+def _edges(x: np.ndarray) -> np.ndarray:
+    """Cell edges half-way between the grid values (the end cells as wide as their neighbours)."""
+    mid = 0.5 * (x[1:] + x[:-1])
+    return np.concatenate([[x[0] - (mid[0] - x[0])], mid, [x[-1] + (x[-1] - mid[-1])]])
+
+
+def map_figure(cmap) -> Figure:
+    """The figure of :func:`write_map`: heatmaps of Q [MPa] and of the recovery rate [%] over Δ × a.
+
+    Cells at a bound (trims > 0) are marked: ▼ Q = 0 (vent fully), ▲ Q = Q_i; each cell carries
+    its value. ``cmap`` is a :class:`whisker_opt.analysis.compensation_map.CompensationMap`.
+    """
+    fig = Figure(figsize=(11.0, 4.8), layout="constrained")
+    axes = fig.subplots(1, 2, sharey=True)
+    tr, a = cmap.trims, cmap.a
+    bound = (cmap.at_bound != "") & (tr[:, None] > 0)  # (n_t, n_a)
+    panels = ((cmap.Q, "viridis", "vent pressure Q [MPa]", (0.0, cmap.Q_i), "{:.3f}"),
+              (cmap.recovery_rate, "magma", "recovery rate [%]", (min(0.0, float(np.nanmin(cmap.recovery_rate)))
+                                                                 if np.isfinite(cmap.recovery_rate).any() else 0.0,
+                                                                 100.0), "{:.0f}"))
+    for ax, (z, cm, label, (lo, hi), fmt) in zip(axes, panels):
+        mesh = ax.pcolormesh(_edges(tr), _edges(a), np.ma.masked_invalid(z).T, cmap=cm, vmin=lo, vmax=hi,
+                             shading="flat")
+        fig.colorbar(mesh, ax=ax, label=label)
+        for i, ti in enumerate(tr):
+            for j, aj in enumerate(a):
+                if np.isfinite(z[i, j]):
+                    frac = (z[i, j] - lo) / (hi - lo) if hi > lo else 0.5
+                    ax.text(ti, aj, fmt.format(z[i, j]), ha="center", va="center", fontsize=6,
+                            color="white" if frac < 0.55 else "black")
+        for kind, marker, text in (("lower", "v", "at its bound: Q = 0 (vent fully)"),
+                                   ("upper", "^", f"at its bound: Q = Q_i = {cmap.Q_i:g} MPa")):
+            m = bound & (cmap.at_bound == kind)
+            if m.any():
+                ii, jj = np.nonzero(m)
+                ax.plot(tr[ii], a[jj] + 0.3 * np.min(np.diff(a)), marker, ms=5, mfc="none", mec="C3", mew=1.0,
+                        ls="none", label=text)
+        ax.set_xlabel("trim Δ [mm]")
+        ax.set_xticks(tr)
+        ax.tick_params(axis="x", labelsize=7)
+        ax.set_yticks(a)
+    if tr[0] == 0.0 and np.isnan(cmap.recovery_rate[0]).all():
+        axes[1].text(0.0, float(np.mean(a)), "Δ = 0: intact, nothing to recover", rotation=90, ha="center",
+                     va="center", fontsize=7, color="0.3")
+    axes[0].set_ylabel("contact ratio a [-]")
+    axes[0].set_title("vent pressure Q(Δ, a)", fontsize=9)
+    axes[1].set_title("recovery rate on the curve mean (100 % = intact restored)", fontsize=9)
+    handles, labels = axes[0].get_legend_handles_labels()
+    if handles:
+        fig.legend(handles, labels, loc="outside lower center", ncol=2, fontsize=7)
+    fig.suptitle(f"Compensation map: {cmap.design_text}, intact at Q_i = {cmap.Q_i:g} MPa at the same a\n"
+                 f"{_preset_text(cmap.fidelity)}; Brent on [0, Q_i], xatol = {cmap.xatol:g} MPa", fontsize=10)
+    return fig
+
+
+def write_map(path_dir, cmap) -> dict[str, Path]:
+    """Write a compensation map: ``compensation_map.csv`` (a row per cell), ``.json`` (the whole map,
+    read back by :meth:`~whisker_opt.analysis.compensation_map.CompensationMap.load`) and ``.png``
+    (:func:`map_figure`), each atomically.
+
+    CSV columns: trim_mm, a, Q_MPa, recovery_rate_pct, compensation_error_pct, gap_before,
+    gap_after, at_bound ('lower'/'upper'/''; 'upper' on the row Δ = 0, trivially), n_responses.
+
+    Returns
+    -------
+    dict
+        ``{'csv': Path, 'json': Path, 'png': Path}``.
+    """
+    import io
+
+    from whisker_opt.output.storage import atomic_write_bytes, atomic_write_text, write_json
+
+    out = Path(path_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = {kind: out / name for kind, name in cmap.FILES.items()}
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(_MAP_COLUMNS)
+    for i, ti in enumerate(cmap.trims):
+        for j, aj in enumerate(cmap.a):
+            w.writerow([_fmt(v) for v in (ti, aj, cmap.Q[i, j], cmap.recovery_rate[i, j],
+                                          cmap.compensation_error[i, j], cmap.gap_before[i, j],
+                                          cmap.gap_after[i, j], str(cmap.at_bound[i, j]), cmap.n_responses[i, j])])
+    atomic_write_text(paths["csv"], buf.getvalue())
+    write_json(paths["json"], cmap.as_dict())
+    png = io.BytesIO()
+    map_figure(cmap).savefig(png, format="png", dpi=120)
+    atomic_write_bytes(paths["png"], png.getvalue())
+    logger.info("wrote compensation map to %s", out)
+    return paths

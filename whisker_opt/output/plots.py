@@ -87,6 +87,7 @@ def convergence_figure(
     target_fp: float | None = None,
     title: str = "GA convergence",
     fidelity: Mapping[str, Any] | None = None,
+    target_strain: str = "calibrated",
 ) -> Figure:
     """The convergence figure of :func:`plot_convergence` (integer generation ticks)."""
     g = np.asarray(generations, dtype=float)
@@ -100,8 +101,13 @@ def convergence_figure(
         bad = ~np.asarray(best_feasible, dtype=bool)
         if bad.any():
             ax.plot(g[bad], best[bad], "rx", label="best is a failure")
+    xi = float((fidelity or {}).get("calibration") or 0.0)
     if target_fp is not None and target_fp > 0:
-        ax.axhline(target_fp, color="0.4", lw=0.8, ls=":", label=f"target_fp {short_float(target_fp)}")
+        if target_strain == "uncalibrated" and xi > 0:
+            ax.axhline(target_fp * xi, color="0.4", lw=0.8, ls=":",
+                       label=f"target_fp {short_float(target_fp)} uncalibrated (× ξ = {short_float(target_fp * xi)})")
+        else:
+            ax.axhline(target_fp, color="0.4", lw=0.8, ls=":", label=f"target_fp {short_float(target_fp)}")
     vals = np.concatenate([best, mean])
     if np.any(np.isfinite(vals) & (vals > 0)):
         ax.set_yscale("log", nonpositive="mask")
@@ -117,6 +123,9 @@ def convergence_figure(
         ax.set_xlim(float(np.nanmin(g)) - 0.5, float(np.nanmax(g)) + 0.5)
     ax.set_xlabel("generation (0 = initial population)")
     ax.set_ylabel(f"F_p {STRAIN_UNIT}")
+    if xi > 0:  # the same numbers in simulated strain: F_p / ξ
+        right = ax.secondary_yaxis("right", functions=(lambda y: y / xi, lambda y: y * xi))
+        right.set_ylabel(f"F_p / ξ [-] (uncalibrated strain, ξ = {xi:g})")
     ax.set_title(f"{title}\n{fidelity_label(fidelity)}", fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7, loc="best")
@@ -132,6 +141,7 @@ def plot_convergence(
     target_fp: float | None = None,
     title: str = "GA convergence",
     fidelity: Mapping[str, Any] | None = None,
+    target_strain: str = "calibrated",
 ) -> Path:
     """Best and mean F_p per generation, log y (non-positive values are not drawn).
 
@@ -145,18 +155,23 @@ def plot_convergence(
     best_feasible : sequence of bool, optional
         Generations whose best is a failure are marked with crosses.
     target_fp : float, optional
-        Drawn as a horizontal line.
+        Drawn as a horizontal line (× ξ when ``target_strain`` is 'uncalibrated' and the
+        fidelity holds the gauge factor ξ).
     title : str
         First title line; the second names the fidelity.
     fidelity : mapping, optional
-        ``{"preset", "f1_resolution"}`` of the run: named in the title, the resolution drawn
-        as a line with the unresolved range below it shaded.
+        ``{"preset", "f1_resolution", "calibration"}`` of the run: named in the title, the
+        resolution drawn as a line with the unresolved range below it shaded; with ξ a right
+        axis gives F_p / ξ in uncalibrated strain.
+    target_strain : {'calibrated', 'uncalibrated'}
+        The strain ``target_fp`` is given in (``stopping.target_strain``).
 
     Returns
     -------
     Path
     """
-    fig = convergence_figure(generations, best_fp, mean_fp, best_feasible, target_fp, title, fidelity)
+    fig = convergence_figure(generations, best_fp, mean_fp, best_feasible, target_fp, title, fidelity,
+                             target_strain)
     return _save(fig, path)
 
 

@@ -197,8 +197,8 @@ def state_fields(mesh, state, spec=None) -> tuple[dict, dict]:
     Point arrays: ``displacement`` u [mm] (n, 3); ``displacement_magnitude`` |u| [mm];
     ``log_strain``, the Eulerian log strain ln V = ½ ln(F Fᵀ) (n, 6) in VTK's order XX, YY,
     ZZ, XY, YZ, XZ; ``log_strain_axial`` its XX [-]; ``cauchy_stress`` σ [MPa] (n, 6), same
-    order, of the neo-Hookean law with the mixed pressure
-    (:func:`fem.post.cauchy_stress_neo_hookean`); ``von_mises`` [MPa]. Nodal values: F
+    order, of the scene's rubber law with the mixed pressure (:func:`fem.post.cauchy_stress_i1`;
+    neo-Hookean by default); ``von_mises`` [MPa]. Nodal values: F
     averaged over the elements sharing a node, the element pressures likewise
     (:func:`fem.post.nodal_strain_stress`). Cell array ``mixed_pressure`` [MPa]: the element
     pressure unknown p of the u–p formulation, the mean stress tr σ / 3, positive in tension
@@ -223,7 +223,10 @@ def state_fields(mesh, state, spec=None) -> tuple[dict, dict]:
     if formulation == "mixed":
         cdata["mixed_pressure"] = np.asarray(state.p, dtype=float)
     if spec is not None:
-        le, sigma = post.nodal_strain_stress(mesh.points, mesh.cells, u, state.p, spec.c10, spec.d1, formulation)
+        from whisker_opt.experiment.scene import material_on
+
+        le, sigma = post.nodal_strain_stress(mesh.points, mesh.cells, u, state.p, spec.c10, spec.d1, formulation,
+                                             material=material_on(mesh, spec))
         pdata["log_strain"] = post.symmetric_components(le)
         pdata["log_strain_axial"] = le[:, 0, 0]
         pdata["cauchy_stress"] = post.symmetric_components(sigma)

@@ -172,14 +172,16 @@ def read_csv(path: Path) -> list[dict[str, str]]:
 def evaluation_columns(gene_names: Sequence[str], kappa_columns: Sequence[str]) -> list[str]:
     """Columns of ``evaluations.csv``."""
     return (
-        ["eval_id", "generation", *gene_names, "f1", *kappa_columns, "F_p", "status", "reason", "time_s", "cache_hit"]
+        ["eval_id", "generation", *gene_names, "f1", *kappa_columns, "F_p", "f1_uncalibrated", "F_p_uncalibrated",
+         "status", "reason", "time_s", "cache_hit"]
     )
 
 
 def generation_columns(gene_names: Sequence[str]) -> list[str]:
     """Columns of ``generations.csv``."""
     return [
-        "generation", "evals", "cache_hits", "n_failures", "n_feasible", "best_fp", "best_feasible", "best_f1",
+        "generation", "evals", "cache_hits", "n_failures", "n_feasible", "best_fp", "best_fp_uncalibrated",
+        "best_feasible", "best_f1",
         "min_fp", "mean_fp", *[f"best_{g}" for g in gene_names], "total_evals", "time_s", "elapsed_s",
     ]
 

@@ -1,0 +1,333 @@
+"""The weighted least-squares fit of model parameters to observations, and its uncertainties.
+
+With parameters θ (run-file keys, :mod:`~whisker_opt.calibration.parameters`), observations y_k of
+stated uncertainty σ_k and file weight w_k, and the model's values m_k(θ)
+(:func:`~whisker_opt.calibration.forward.predict`), the fit minimises
+
+    C(θ) = ½ Σ_k r_k²,   r_k = w_k (m_k(θ) − y_k) / σ_k,   lower ≤ θ ≤ upper,
+
+by ``scipy.optimize.least_squares`` (trust-region reflective, bounds) over the normalised parameters
+u = (θ − lower)/(upper − lower) ∈ [0, 1]^n, with a forward-difference Jacobian of step h = ``diff_step``
+in u (a fixed fraction of each range; backward where u + h would leave [0, 1]),
+∂r/∂u_i ≈ (r(u + h e_i) − r(u))/h (:meth:`Problem.jacobian`). A restore observation's residual is in
+MPa: m_k is the matching pressure the model predicts (a root search), so its σ_k is an uncertainty of
+pressure.
+
+Uncertainties (linearised at the optimum; Press et al., Numerical Recipes, §15.4–15.5): with J the
+Jacobian of r in θ and J = U S Vᵀ its singular value decomposition,
+
+    Cov(θ) = (JᵀJ)⁻¹ = V S⁻² Vᵀ,   std_i = √Cov_ii,   corr_ij = Cov_ij/(std_i std_j),
+
+valid when the stated σ_k are the measurements' standard deviations (``std``). ``std_scaled`` multiplies
+by √(χ²/ν), χ² = 2C, ν = m − n, as when the σ_k only fix relative weights. A singular value below
+1e-8 of the largest marks a direction the data do not determine: a parameter with a component along
+it has an infinite std (``null`` in JSON), stated as "not determined by these observations".
+
+Held-out observations take no part in C; they are predicted with the start and the fitted values and
+their miss m_k(θ̂) − y_k reported.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import numpy as np
+from scipy import optimize
+
+from whisker_opt.calibration.forward import Prediction, RestoreSearch, Simulator, predict
+from whisker_opt.calibration.measurements import Observation
+from whisker_opt.calibration.parameters import ModelParameter, configure
+from whisker_opt.config.model import WhiskerConfig
+
+logger = logging.getLogger(__name__)
+
+#: Singular values of J below this fraction of the largest are taken as zero (undetermined directions).
+RCOND = 1e-8
+
+
+@dataclass(frozen=True)
+class Weighted:
+    """An observation with the weight of its file."""
+
+    observation: Observation
+    weight: float = 1.0
+
+
+@dataclass(frozen=True)
+class ObservationResult:
+    """One observation beside the model's value at the start and at the fitted parameters.
+
+    ``residual`` is w (m − y)/σ at the fitted values; ``miss`` is m − y in the observation's unit.
+    """
+
+    name: str
+    kind: str
+    where: str
+    unit: str
+    measured: float
+    sigma: float
+    weight: float
+    held_out: bool
+    start: Prediction
+    fitted: Prediction
+
+    @property
+    def miss(self) -> float:
+        return self.fitted.value - self.measured
+
+    @property
+    def start_miss(self) -> float:
+        return self.start.value - self.measured
+
+    @property
+    def residual(self) -> float:
+        return self.weight * self.miss / self.sigma
+
+
+@dataclass(frozen=True)
+class FitOutcome:
+    """What :func:`fit` found.
+
+    Attributes
+    ----------
+    parameters : tuple of ModelParameter
+    values : ndarray, shape (n,)
+        Fitted values θ̂.
+    std, std_scaled : ndarray, shape (n,)
+        Standard uncertainties from the Jacobian (inf where undetermined; see the module docstring).
+    correlation : ndarray, shape (n, n)
+    at_bound : tuple of str or None
+        'lower' / 'upper' where θ̂ is on a bound (within 1e-6 of the range), else None.
+    cost_start, cost : float
+        C at the start and at θ̂.
+    chi2, dof : float, int
+        χ² = 2C and ν = m − n.
+    observations : tuple of ObservationResult
+        The fitted ones, then the held-out ones, each in the order given.
+    evaluations : int
+        Model evaluations (each predicts every fitted observation), the Jacobian's included.
+    scenes : int
+        Scenes solved (or beam evaluations).
+    status : int
+    message : str
+        ``least_squares``' status and message.
+    seconds : float
+    singular_values : ndarray
+    """
+
+    parameters: tuple[ModelParameter, ...]
+    values: np.ndarray
+    std: np.ndarray
+    std_scaled: np.ndarray
+    correlation: np.ndarray
+    at_bound: tuple
+    cost_start: float
+    cost: float
+    chi2: float
+    dof: int
+    observations: tuple[ObservationResult, ...]
+    evaluations: int
+    scenes: int
+    status: int
+    message: str
+    seconds: float
+    singular_values: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    @property
+    def start(self) -> np.ndarray:
+        return np.array([p.start for p in self.parameters])
+
+    @property
+    def fitted(self) -> tuple[ObservationResult, ...]:
+        return tuple(o for o in self.observations if not o.held_out)
+
+    @property
+    def held_out(self) -> tuple[ObservationResult, ...]:
+        return tuple(o for o in self.observations if o.held_out)
+
+
+class Problem:
+    """The residual function of a calibration: run file + parameters + observations + a simulator.
+
+    Parameters
+    ----------
+    data : dict
+        The run file's content (the parameters are set over it, :func:`configure`).
+    parameters : sequence of ModelParameter
+    observations : sequence of Weighted
+        Those to fit (held-out ones are predicted apart, :func:`fit`).
+    sim : Simulator
+    search : RestoreSearch
+    source : str
+        Names the run file in messages.
+    """
+
+    def __init__(self, data: dict, parameters: Sequence[ModelParameter], observations: Sequence[Weighted],
+                 sim: Simulator, search: RestoreSearch = RestoreSearch(), source: str = "calibration") -> None:
+        if not parameters:
+            raise ValueError("a fit needs at least one parameter")
+        if not observations:
+            raise ValueError("a fit needs at least one observation that is not held out")
+        self.data, self.parameters, self.observations = data, tuple(parameters), tuple(observations)
+        self.sim, self.search, self.source = sim, search, source
+        self.lower = np.array([p.lower for p in self.parameters])
+        self.width = np.array([p.upper - p.lower for p in self.parameters])
+        self.evaluations = 0
+        self._memo: dict[tuple, np.ndarray] = {}
+
+    def theta(self, u) -> np.ndarray:
+        """θ = lower + u·(upper − lower)."""
+        return self.lower + np.asarray(u, dtype=float) * self.width
+
+    def u(self, theta) -> np.ndarray:
+        return (np.asarray(theta, dtype=float) - self.lower) / self.width
+
+    def config(self, theta) -> WhiskerConfig:
+        """The run file at parameter values θ."""
+        return configure(self.data, self.parameters, theta, self.source)
+
+    def predictions(self, theta, observations: Sequence[Weighted] | None = None) -> list[Prediction]:
+        cfg = self.config(theta)
+        obs = self.observations if observations is None else observations
+        return [predict(w.observation, cfg, self.sim, self.search) for w in obs]
+
+    def residuals_at(self, theta) -> np.ndarray:
+        """r(θ), shape (m,): w (m − y)/σ of every fitted observation."""
+        key = tuple(np.round(np.asarray(theta, dtype=float), 15))
+        hit = self._memo.get(key)
+        if hit is not None:
+            return hit
+        self.evaluations += 1
+        preds = self.predictions(theta)
+        r = np.array([w.weight * (p.value - w.observation.value) / w.observation.sigma
+                      for w, p in zip(self.observations, preds)])  # (m,)
+        if not np.all(np.isfinite(r)):
+            bad = [w.observation.name for w, v in zip(self.observations, r) if not math.isfinite(v)]
+            raise FloatingPointError(f"the model gives no value for {', '.join(bad)} at {self._describe(theta)}")
+        logger.info("calibration: evaluation %d at %s: cost %.6g", self.evaluations, self._describe(theta),
+                    0.5 * float(r @ r))
+        self._memo[key] = r
+        return r
+
+    def _describe(self, theta) -> str:
+        return ", ".join(f"{p.path} = {v:.6g}" for p, v in zip(self.parameters, np.asarray(theta, dtype=float)))
+
+    def residuals(self, u) -> np.ndarray:
+        """r as a function of the normalised parameters u (what ``least_squares`` sees)."""
+        return self.residuals_at(self.theta(np.clip(u, 0.0, 1.0)))
+
+    def jacobian(self, u, step: float) -> np.ndarray:
+        """∂r/∂u by forward differences of step ``step`` in u (backward near the upper end), shape (m, n)."""
+        u = np.clip(np.asarray(u, dtype=float), 0.0, 1.0)
+        r0 = self.residuals(u)
+        jac = np.empty((r0.size, u.size))  # (m, n)
+        for i in range(u.size):
+            h = step if u[i] + step <= 1.0 else -step
+            v = u.copy()
+            v[i] += h
+            jac[:, i] = (self.residuals(v) - r0) / h
+        return jac
+
+
+def covariance(jac: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(JᵀJ)⁻¹ by the SVD of J, with undetermined directions as infinite variances; and the singular values.
+
+    Parameters
+    ----------
+    jac : ndarray, shape (m, n)
+        Jacobian of the weighted residuals in the parameters.
+
+    Returns
+    -------
+    cov : ndarray, shape (n, n)
+    s : ndarray, shape (min(m, n),)
+    """
+    _, s, vt = np.linalg.svd(jac, full_matrices=False)  # (m, k), (k,), (k, n)
+    n = jac.shape[1]
+    keep = s > RCOND * (s[0] if s.size and s[0] > 0 else 1.0)
+    v = vt[keep].T  # (n, k_kept)
+    cov = (v / s[keep] ** 2) @ v.T  # (n, n)
+    # directions the data do not reach: the null space of J (with its rank-deficient part)
+    null = np.eye(n) - v @ v.T  # (n, n) projector onto them
+    undetermined = np.diag(null) > 1e-6
+    cov[undetermined, :] = np.inf
+    cov[:, undetermined] = np.inf
+    return cov, s
+
+
+def fit(problem: Problem, held_out: Sequence[Weighted] = (), *, max_evaluations: int = 40, diff_step: float = 0.02,
+        tolerance: float = 1e-3) -> FitOutcome:
+    """Fit the problem's parameters (see the module docstring) and predict the held-out observations.
+
+    Parameters
+    ----------
+    problem : Problem
+    held_out : sequence of Weighted
+        Observations left out of the fit, predicted at the start and at the fitted values.
+    max_evaluations : int
+        Budget of model evaluations, the finite-difference Jacobian's included: ``least_squares`` gets
+        ``max_nfev = max(1, max_evaluations // (n + 1))`` (each of its evaluations costs n more for the
+        Jacobian; a Jacobian at a point already evaluated reuses it).
+    diff_step : float
+        Finite-difference step h in the normalised parameters (a fraction of each range).
+    tolerance : float
+        ``ftol`` and ``xtol`` of ``least_squares``.
+
+    Returns
+    -------
+    FitOutcome
+    """
+    t0 = time.perf_counter()
+    params = problem.parameters
+    n = len(params)
+    theta0 = np.array([p.start for p in params])
+    u0 = problem.u(theta0)
+    r0 = problem.residuals(u0)
+    start_preds = problem.predictions(theta0)  # memoised scenes: no new solves
+    res = optimize.least_squares(problem.residuals, u0, jac=lambda u: problem.jacobian(u, diff_step),
+                                 bounds=(np.zeros(n), np.ones(n)), method="trf", x_scale=1.0, ftol=tolerance,
+                                 xtol=tolerance, gtol=1e-10, max_nfev=max(1, max_evaluations // (n + 1)))
+    theta = problem.theta(np.clip(res.x, 0.0, 1.0))
+    r = problem.residuals(res.x)
+    jac_theta = np.asarray(res.jac, dtype=float) / problem.width  # (m, n): dr/dθ = dr/du / (upper - lower)
+    cov, s = covariance(jac_theta)
+    with np.errstate(invalid="ignore"):
+        std = np.sqrt(np.diag(cov))
+        finite = np.isfinite(std) & (std > 0)
+        corr = np.full((n, n), np.nan)
+        corr[np.ix_(finite, finite)] = cov[np.ix_(finite, finite)] / np.outer(std[finite], std[finite])
+    m = r.size
+    chi2 = float(r @ r)
+    dof = m - n
+    std_scaled = std * math.sqrt(chi2 / dof) if dof > 0 else np.full(n, np.nan)
+    span = problem.width
+    at_bound = tuple("lower" if v - p.lower <= 1e-6 * w else ("upper" if p.upper - v <= 1e-6 * w else None)
+                     for v, p, w in zip(theta, params, span))
+    fitted_preds = problem.predictions(theta)
+    held_start = problem.predictions(theta0, held_out) if held_out else []
+    held_fit = problem.predictions(theta, held_out) if held_out else []
+    results = []
+    for w, p0, p1 in zip(problem.observations, start_preds, fitted_preds):
+        results.append(_result(w, p0, p1, False))
+    for w, p0, p1 in zip(held_out, held_start, held_fit):
+        results.append(_result(w, p0, p1, True))
+    outcome = FitOutcome(
+        parameters=params, values=theta, std=std, std_scaled=std_scaled, correlation=corr, at_bound=at_bound,
+        cost_start=0.5 * float(r0 @ r0), cost=0.5 * chi2, chi2=chi2, dof=dof, observations=tuple(results),
+        evaluations=problem.evaluations, scenes=int(getattr(problem.sim, "solved", 0)), status=int(res.status),
+        message=str(res.message), seconds=time.perf_counter() - t0, singular_values=s,
+    )
+    logger.info("calibration: %s after %d evaluations: cost %.6g -> %.6g", res.message, problem.evaluations,
+                outcome.cost_start, outcome.cost)
+    return outcome
+
+
+def _result(w: Weighted, start: Prediction, fitted: Prediction, held_out: bool) -> ObservationResult:
+    ob = w.observation
+    return ObservationResult(name=ob.name, kind=ob.kind, where=ob.where, unit=ob.unit, measured=float(ob.value),
+                             sigma=float(ob.sigma), weight=float(w.weight), held_out=held_out, start=start,
+                             fitted=fitted)

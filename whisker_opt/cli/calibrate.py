@@ -1,0 +1,63 @@
+"""``whisker-opt calibrate CONFIG``: fit model parameters to a prototype's measurements (docs/calibration.md).
+
+:data:`COMMAND` is the (help text, argument adder, runner) entry of
+:data:`whisker_opt.cli.commands.REGISTRY`. The run file, its ``calibration`` section, the parameters,
+every measurement file and the held-out names are checked before the results folder is made (a bad
+one exits with status 2 and one line naming the file, row and column, or the key); a scene that does
+not converge during the fit exits with status 3. A fit that cannot reach the observations is not a
+failure: the summary and ``calibration.json`` say which observation is missed and by how much.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from whisker_opt.cli.arguments import ensure_writable_dir, nonempty_path, preset_setting, setting
+from whisker_opt.cli.failures import ComputationFailed, computation_errors, describe_failure
+from whisker_opt.config.model import load_config
+from whisker_opt.experiment.fidelity import PRESET_NAMES
+
+HELP = "fit model parameters to measurements of a prototype; write calibration.json and a calibrated run file"
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """CONFIG, ``--set``/``--preset``/``--defaults`` as for the other commands, and ``--out``."""
+    p.add_argument("config", type=Path, help="YAML run file with a `calibration` section (docs/calibration.md)")
+    p.add_argument("--set", dest="settings", action="append", type=setting, default=[], metavar="KEY=VALUE",
+                   help="set a run-file key over the file, e.g. --set calibration.max_evaluations=10 (repeatable; "
+                        "the value is read as YAML)")
+    p.add_argument("--preset", dest="settings", action="append", type=preset_setting(PRESET_NAMES),
+                   metavar="{" + ",".join(PRESET_NAMES) + "}", help="fidelity preset: --set fidelity.preset=NAME")
+    p.add_argument("--defaults", action="store_true", help="accept an empty run file (it then has no calibration "
+                   "section, which is refused)")
+    p.add_argument("--out", type=nonempty_path, default=None,
+                   help="output folder (default: a new one under output.results_dir)")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Check everything, fit, write ``calibration.json``, ``calibrated.yaml``, ``calibration.png``; print a summary."""
+    from whisker_opt.calibration.job import calibrate, prepare
+    from whisker_opt.workflows import new_run_dir
+
+    cfg = load_config(args.config, allow_empty=args.defaults, settings=tuple(args.settings))
+    prepared = prepare(cfg, args.config)  # every input checked before a folder is made
+    if args.out is not None:
+        ensure_writable_dir(args.out, "--out")
+    else:
+        ensure_writable_dir(cfg.output.results_dir, f"{args.config}: output.results_dir")
+    out = args.out or new_run_dir(cfg, args.config, "calibrate")
+    Path(out).mkdir(parents=True, exist_ok=True)
+    try:
+        result = calibrate(prepared, out)
+    except computation_errors() as exc:
+        raise ComputationFailed(describe_failure(exc, "calibrate", Path(out))) from exc
+    except FloatingPointError as exc:
+        raise ComputationFailed(f"calibrate: {exc}") from exc
+    print(result.summary)
+    print(f"written to {out} ({', '.join(p.name for p in result.paths.values())})")
+    return 0
+
+
+#: The entry of :data:`whisker_opt.cli.commands.REGISTRY`.
+COMMAND = (HELP, add_arguments, run)

@@ -1,0 +1,462 @@
+"""Multi-objective mode (``optimiser.algorithm: nsga2``): NSGA-II on DEAP, its archive and hypervolume.
+
+Objectives (all minimised; ``optimiser.objectives``, docs/physics.md "Multi-objective mode")
+    ``f1`` itself, and for a gene g_j its normalised distance from the preferred end of its range,
+    d_j = (x − lo)/(hi − lo) (prefer low) or (hi − x)/(hi − lo) (prefer high): the same d_j as the
+    penalty terms (:meth:`whisker_opt.optimise.penalty.PenaltyTerm.distance`), here an objective
+    of its own instead of a factor of F_p. A failed evaluation gets (F_p of the failure, 2, ..., 2):
+    every feasible design dominates it (its graded F_p, >= ``failure_penalty``, exceeds any
+    feasible f1, and d_j <= 1), and failures rank among themselves by their graded F_p.
+
+Loop (one generation; Deb et al. 2002)
+    g = 0:  the initial population, drawn exactly as the GA draws it (Latin hypercube or uniform)
+    g > 0:  parents  = N binary tournaments on (non-domination rank, then larger crowding distance;
+                       DEAP's ``sortNondominated`` and ``assignCrowdingDist``)
+            children = the GA's bounded operators: pairwise SBX with probability cx_prob, polynomial
+                       mutation with probability mut_prob (per-gene indpb), genes clamped to their bounds
+            population = ``tools.selNSGA2`` (fronts, then crowding distance) of parents ∪ children,
+                       exact genome duplicates removed first while N distinct ones remain
+    Evaluation, cache, executors, progress, checkpoints and RNG handling are the GA's
+    (:class:`whisker_opt.optimise.ga.GeneticAlgorithm`); so is the hall of fame, which here
+    ranks every evaluated design by the penalised F_p of the same config: its best is the design
+    the single-objective GA's score would pick, written to ``best.json`` as usual.
+
+Archive and hypervolume
+    The archive (``state.extra["archive"]``: eval ids) is the non-dominated subset of every
+    feasible design evaluated so far, one per genome. Its hypervolume (:func:`pareto.hypervolume`)
+    is taken in normalised objectives z = (f1 / f1_ref, d_j, ...) against the reference point
+    r = (1.1, ..., 1.1), with f1_ref the largest f1 of the feasible designs of generation 0
+    (``state.extra["f1_ref"]``, fixed for the run). Every d_j <= 1 < 1.1, so the archive's
+    hypervolume never decreases.
+
+Stopping rules (after every generation, first match wins)
+    ``stall``: with h_g the hypervolume after generation g and N = ``stall_generations``,
+    mean_{k=g−N+1..g} (h_k − h_{k−1})/|h_{k−1}| <= ``stall_tol`` (needs g >= N; a zero h counts
+    as no improvement); ``max_generations``. ``target_fp`` does not apply: no single score is
+    driven to a target.
+"""
+
+from __future__ import annotations
+
+import logging
+import random
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Mapping, Sequence
+
+from deap import creator, tools
+
+from whisker_opt.config.optimiser import ExecutorConfig, OptimiserConfig
+from whisker_opt.optimise.ga import EvaluationProgress, GAState, GeneticAlgorithm, Individual, _ga_rng
+from whisker_opt.optimise.pareto import hypervolume, non_dominated
+from whisker_opt.optimise.penalty import PenaltyTerm, dynamic_penalty
+from whisker_opt.output import pareto_plots
+
+logger = logging.getLogger(__name__)
+
+#: Stopping rules of the multi-objective mode, in order of precedence.
+STOP_RULES: tuple[str, ...] = ("stall", "max_generations")
+#: Normalised coordinate of the hypervolume's reference point in every objective.
+HV_REFERENCE = 1.1
+#: d_j given to the gene objectives of a failed design (every feasible d_j is <= 1).
+FAILED_DISTANCE = 2.0
+
+
+@dataclass(frozen=True)
+class Objective:
+    """One minimised objective: ``f1``, or a gene's normalised distance from its preferred end.
+
+    Parameters
+    ----------
+    name : str
+        ``f1`` or a gene name.
+    prefer : {"low", "high"}
+        Preferred end of a gene's range (``low`` for f1).
+    lo, hi : float
+        The gene's bounds (unused for f1).
+    """
+
+    name: str
+    prefer: str
+    lo: float = 0.0
+    hi: float = 1.0
+
+    def value(self, f1: float, genes: Mapping[str, float]) -> float:
+        """The minimised value: f1, or d_j ∈ [0, 1] (:meth:`PenaltyTerm.distance`)."""
+        if self.name == "f1":
+            return float(f1)
+        return PenaltyTerm(self.name, self.prefer, 0.0, self.lo, self.hi).distance(float(genes[self.name]))
+
+    @property
+    def label(self) -> str:
+        """Axis / column label, e.g. ``f1`` or ``Q_i (prefer low)``."""
+        return self.name if self.name == "f1" else f"{self.name} (prefer {self.prefer})"
+
+
+def objective_terms(cfg: OptimiserConfig) -> tuple[Objective, ...]:
+    """The configured objectives with the bounds of their genes."""
+    out = []
+    for o in cfg.objectives:
+        if o.name == "f1":
+            out.append(Objective("f1", "low"))
+        else:
+            b = getattr(cfg.genes, o.name)
+            out.append(Objective(o.name, o.prefer, float(b.lo), float(b.hi)))
+    return tuple(out)
+
+
+def make_algorithm(cfg: OptimiserConfig, seed: int) -> GeneticAlgorithm:
+    """The optimiser ``cfg.algorithm`` names: :class:`GeneticAlgorithm` or :class:`NSGA2`."""
+    return NSGA2(cfg, seed) if cfg.algorithm == "nsga2" else GeneticAlgorithm(cfg, seed)
+
+
+def spread(items: Sequence[Any], k: int) -> list[Any]:
+    """``k`` of ``items`` (k >= 1) evenly spaced by position, both ends included when k >= 2: item
+    round(q (n − 1)/(k − 1)) for q = 0..k−1 (all of them when k >= n)."""
+    n = len(items)
+    if k >= n:
+        return list(items)
+    return [items[i] for i in sorted({round(q * (n - 1) / max(k - 1, 1)) for q in range(k)})]
+
+
+def finer_preset(preset: str | None) -> str | None:
+    """The next finer fidelity preset (coarse -> default -> fine), None for the finest or an unknown one."""
+    from whisker_opt.experiment.fidelity import PRESET_NAMES
+
+    if preset not in PRESET_NAMES:
+        return None
+    i = PRESET_NAMES.index(preset)
+    return PRESET_NAMES[i + 1] if i + 1 < len(PRESET_NAMES) else None
+
+
+class NSGA2(GeneticAlgorithm):
+    """NSGA-II on the genes [α, l, t, Q_i] (module docstring).
+
+    Parameters
+    ----------
+    cfg : OptimiserConfig
+        ``algorithm: nsga2``; ``objectives`` as in the module docstring, ``ga`` for the population
+        and the variation operators (``tournament``, ``n_elite`` unused), ``stopping`` for the rules.
+    seed : int
+        Master seed.
+    """
+
+    EXTRA_GENERATION_COLUMNS = ("hypervolume", "front_size")
+
+    def __init__(self, cfg: OptimiserConfig, seed: int) -> None:
+        super().__init__(cfg, seed)
+        self.objectives = objective_terms(cfg)
+        self.n_obj = len(self.objectives)
+        self.mo_class = getattr(creator, f"WhiskerMOIndividual{self.n_obj}")
+        self.toolbox.register("select", tools.selNSGA2)
+
+    # ------------------------------------------------------------------ objectives
+    def fitness_of(self, pen, genes: dict[str, float]) -> tuple[float, ...]:
+        """Objective vector of a penalised outcome (failures: (F_p, 2, ..., 2))."""
+        if not pen.feasible:
+            return tuple(float(pen.fp) if o.name == "f1" else FAILED_DISTANCE for o in self.objectives)
+        return tuple(o.value(pen.f1, genes) for o in self.objectives)
+
+    def record_objectives(self, rec: Mapping[str, Any]) -> tuple[float, ...]:
+        """Objective vector of a feasible evaluation record."""
+        return tuple(o.value(float(rec["f1"]), rec) for o in self.objectives)
+
+    def normalised(self, vec: Sequence[float], f1_ref: float) -> tuple[float, ...]:
+        """z = (f1 / f1_ref, d_j, ...): the coordinates of the hypervolume."""
+        return tuple(v / f1_ref if o.name == "f1" else v for o, v in zip(self.objectives, vec))
+
+    # ------------------------------------------------------------------ breeding
+    def initial_population(self) -> list:
+        """The GA's initial draw (same random stream), as multi-objective individuals."""
+        return [self.mo_class(list(ind)) for ind in super().initial_population()]
+
+    def _crowded_tournament(self, population: list) -> list:
+        """N binary tournaments on (rank, −crowding distance); call inside :func:`_ga_rng`."""
+        rank: dict[int, int] = {}
+        crowd: dict[int, float] = {}
+        for r, front in enumerate(tools.sortNondominated(population, len(population))):
+            tools.emo.assignCrowdingDist(front)
+            for ind in front:
+                rank[id(ind)] = r
+                crowd[id(ind)] = ind.fitness.crowding_dist
+        n = len(population)
+        chosen = []
+        for _ in range(n):
+            a, b = population[random.randrange(n)], population[random.randrange(n)]
+            ka, kb = (rank[id(a)], -crowd[id(a)]), (rank[id(b)], -crowd[id(b)])
+            chosen.append(b if kb < ka else a)
+        return chosen
+
+    def breed(self, population: list) -> list:
+        """N children of crowded-tournament parents (no elites: selection keeps the best)."""
+        ga = self.cfg.ga
+        tb = self.toolbox
+        offspring = [tb.clone(ind) for ind in self._crowded_tournament(population)]
+        for i in range(1, len(offspring), 2):
+            if random.random() < ga.cx_prob:
+                a, b = offspring[i - 1], offspring[i]
+                self.clamp(a)
+                self.clamp(b)
+                tb.mate(a, b)
+                del a.fitness.values, b.fitness.values
+                a.info = b.info = None
+        for ind in offspring:
+            if random.random() < ga.mut_prob:
+                self.clamp(ind)
+                tb.mutate(ind)
+                del ind.fitness.values
+                ind.info = None
+        for ind in offspring:
+            if self.clamp(ind) and ind.fitness.valid:  # pragma: no cover - operators clip already
+                del ind.fitness.values
+                ind.info = None
+        return offspring
+
+    def survivors(self, population: list, offspring: list) -> list:
+        """``selNSGA2`` of parents ∪ children, distinct genomes when N of them exist."""
+        pool = population + offspring
+        seen, distinct = set(), []
+        for ind in pool:
+            key = tuple(ind)
+            if key not in seen:
+                seen.add(key)
+                distinct.append(ind)
+        n = self.cfg.ga.population
+        return tools.selNSGA2(distinct if len(distinct) >= n else pool, n)
+
+    # ------------------------------------------------------------------ archive / hall of fame
+    @staticmethod
+    def penalised(ind) -> Any:
+        """A single-objective copy of an evaluated individual, fitness (infeasible, F_p), for the hall of fame."""
+        c = Individual(list(ind))
+        info = ind.info or {}
+        c.fitness.values = (0.0 if info.get("f1") is not None else 1.0, float(info["fp"]))
+        c.info = dict(info)
+        return c
+
+    def update_archive(self, state: GAState, first: int) -> None:
+        """Fold the records from index ``first`` on into the archive (module docstring)."""
+        recs = state.records
+        archive = list(state.extra.get("archive", []))
+        keys = {state.cache.key([recs[i][g] for g in self.names]) for i in archive}
+        for i in range(first, len(recs)):
+            r = recs[i]
+            if r["f1"] is None or r["status"] != "ok":
+                continue
+            key = state.cache.key([r[g] for g in self.names])
+            if key not in keys:
+                keys.add(key)
+                archive.append(i)
+        keep = non_dominated([self.record_objectives(recs[i]) for i in archive]) if archive else []
+        state.extra["archive"] = [archive[k] for k in keep]
+        if state.extra.get("f1_ref") is None:
+            feas = [float(recs[i]["f1"]) for i in range(first, len(recs)) if recs[i]["f1"] is not None]
+            if feas:
+                state.extra["f1_ref"] = max(feas) if max(feas) > 0 else 1.0
+
+    def hypervolume(self, state: GAState) -> float:
+        """Hypervolume of the archive in normalised objectives (0 before a feasible design exists)."""
+        f1_ref = state.extra.get("f1_ref")
+        arch = state.extra.get("archive", [])
+        if not f1_ref or not arch:
+            return 0.0
+        pts = [self.normalised(self.record_objectives(state.records[i]), f1_ref) for i in arch]
+        return hypervolume(pts, [HV_REFERENCE] * self.n_obj)
+
+    # ------------------------------------------------------------------ statistics / stopping
+    def population_fps(self, pop: list) -> tuple[list[float], list[float]]:
+        """F_p of the feasible individuals and of all (the fitness holds the objectives, the info F_p)."""
+        return ([ind.info["fp"] for ind in pop if ind.info and ind.info.get("f1") is not None],
+                [ind.info["fp"] for ind in pop])
+
+    def generation_stats(self, state: GAState, generation: int, counts: dict[str, int], wall_s: float) -> dict:
+        """The GA's statistics row (best = the penalised hall of fame's) plus hypervolume and front size."""
+        row = super().generation_stats(state, generation, counts, wall_s)
+        row["hypervolume"] = self.hypervolume(state)
+        row["front_size"] = len(state.extra.get("archive", []))
+        return row
+
+    def stop_reason(self, state: GAState) -> str | None:
+        """``stall`` on the hypervolume, else ``max_generations`` (module docstring)."""
+        st = self.cfg.stopping
+        n = st.stall_generations
+        hist = [row["hypervolume"] for row in state.logbook]
+        if len(hist) > n:
+            window = hist[-(n + 1):]
+            rel = [(b - a) / abs(a) if a != 0 else 0.0 for a, b in zip(window[:-1], window[1:])]
+            if sum(rel) / len(rel) <= st.stall_tol:
+                return "stall"
+        if state.generation >= st.max_generations:
+            return "max_generations"
+        return None
+
+    # ------------------------------------------------------------------ loop
+    def run_generation(self, state: GAState, executor, progress: EvaluationProgress | None = None) -> dict:
+        """Breed (or draw), evaluate, select survivors; returns the statistics row."""
+        t0 = time.perf_counter()
+        gen = state.generation + 1
+        with _ga_rng(state):
+            offspring = self.initial_population() if gen == 0 else self.breed(state.population)
+        first = len(state.records)
+        counts = self.evaluate(state, offspring, executor, gen, progress)
+        with _ga_rng(state):
+            state.population = offspring if gen == 0 else self.survivors(state.population, offspring)
+        state.hof.update([self.penalised(ind) for ind in offspring])
+        self.update_archive(state, first)
+        state.generation = gen
+        wall = time.perf_counter() - t0
+        state.elapsed_s += wall
+        row = self.generation_stats(state, gen, counts, wall)
+        row["elapsed_s"] = state.elapsed_s
+        state.logbook.append(row)
+        state.stop_reason = self.stop_reason(state)
+        logger.info(
+            "generation %d: hypervolume %.6g, front of %d, best F_p=%.6g, %d evals, %d cache hits, %d failures%s",
+            gen, row["hypervolume"], row["front_size"], row["best_fp"], counts["evals"], counts["cache_hits"],
+            counts["n_failures"], f", stop: {state.stop_reason}" if state.stop_reason else "",
+        )
+        return row
+
+    # ------------------------------------------------------------------ the front on disk
+    def front_rows(self, state: GAState) -> list[dict[str, Any]]:
+        """The archive's designs (sorted by f1) and, when off it, the penalised optimum: genes, f1, F_p, flags."""
+        recs = state.records
+        arch = sorted(state.extra.get("archive", []), key=lambda i: (recs[i]["f1"], i))
+        best = state.hof[0] if state.hof and state.hof[0].fitness.values[0] == 0.0 else None
+        best_key = state.cache.key(best) if best is not None else None
+        rows = []
+        for i in arch:
+            r = recs[i]
+            rows.append({"eval_id": r["eval_id"], "generation": r["generation"], **{g: r[g] for g in self.names},
+                         "f1": r["f1"], "F_p": r["F_p"], "on_front": True,
+                         "penalised_optimum": state.cache.key([r[g] for g in self.names]) == best_key})
+        if best is not None and not any(r["penalised_optimum"] for r in rows):
+            info = best.info or {}
+            rows.append({"eval_id": info.get("eval_id"), "generation": info.get("generation"),
+                         **{g: float(x) for g, x in zip(self.names, best)}, "f1": info.get("f1"),
+                         "F_p": best.fitness.values[1], "on_front": False, "penalised_optimum": True})
+        return rows
+
+    def write_outputs(self, run_dir, state: GAState) -> list[Path]:
+        """``pareto.csv`` (keeping verified values already in it), ``pareto.png`` and ``hypervolume.png``."""
+        if state.generation < 0:
+            return []
+        fidelity = (state.extra or {}).get("fidelity") or {}
+        rows = pareto_plots.merge_verified(self.front_rows(state), pareto_plots.read_front(run_dir), self.names)
+        self._verified_front(rows)
+        return pareto_plots.write_front_outputs(
+            run_dir, rows, self.names, [o.name for o in self.objectives], [o.label for o in self.objectives],
+            self._all_points(state), state.logbook, fidelity, state.stop_reason)
+
+    def _all_points(self, state: GAState) -> list[dict[str, float]]:
+        """f1 and genes of every distinct feasible design evaluated (cache hits once)."""
+        return [{"f1": r["f1"], **{g: r[g] for g in self.names}} for r in state.records
+                if r["f1"] is not None and not r.get("cache_hit")]
+
+    def _verified_front(self, rows: list[dict[str, Any]]) -> None:
+        """``on_front_verified``: non-domination recomputed on the verified f1 among the verified rows."""
+        ok = [r for r in rows if r.get("status_verified") == "ok"]
+        keep = set(non_dominated([tuple(o.value(float(r["f1_verified"]), r) for o in self.objectives) for r in ok]))
+        for j, r in enumerate(ok):
+            r["on_front_verified"] = j in keep
+        for r in rows:
+            r.setdefault("on_front_verified", None)
+
+    def verify_front(self, run_dir, state: GAState, evaluator: Callable, preset: str,
+                     executor_cfg: ExecutorConfig | None = None) -> list[dict[str, Any]]:
+        """Re-evaluate the front (and the penalised optimum) at fidelity ``preset``; rewrite the outputs.
+
+        Rows already verified at ``preset`` in ``pareto.csv`` are kept; at most
+        ``pareto.verify_max`` designs are verified, spread evenly along the front (sorted by f1)
+        with both ends and the penalised optimum always included. F_p at ``preset`` uses the
+        run's penalty terms (F_p = f1 + Σ_j C_j κ_j, :func:`dynamic_penalty`).
+
+        Parameters
+        ----------
+        run_dir : Path
+            The run directory (``pareto.csv`` is read from and written to it).
+        state : GAState
+            The run's state (archive, records, hall of fame).
+        evaluator : callable
+            Picklable ``evaluate(genes) -> EvalOutcome`` at fidelity ``preset``.
+        preset : str
+            Name of the verification preset, written to ``verified_preset``.
+        executor_cfg : ExecutorConfig, optional
+            Where to evaluate (default: the run's executor).
+
+        Returns
+        -------
+        list of dict
+            The rows of ``pareto.csv``.
+        """
+        from whisker_opt.optimise.backend import make_executor
+        from whisker_opt.optimise.evalcache import evaluation_seed
+
+        rows = pareto_plots.merge_verified(self.front_rows(state), pareto_plots.read_front(run_dir), self.names)
+        todo = [j for j, r in enumerate(rows) if r.get("verified_preset") != preset]
+        cap = self.cfg.pareto.verify_max
+        if len(todo) > cap:
+            must = [j for j in todo if rows[j]["penalised_optimum"]]
+            todo = sorted(set(must) | set(spread([j for j in todo if j not in must], max(cap - len(must), 1))))
+        if todo:
+            genes = [{g: float(rows[j][g]) for g in self.names} for j in todo]
+            seeds = [evaluation_seed(self.seed, state.cache.key(gs.values())) for gs in genes]
+            logger.info("verifying %d front design(s) at preset %s", len(todo), preset)
+            t0 = time.perf_counter()
+            with make_executor(executor_cfg or self.cfg.executor, evaluator) as ex:
+                outs = ex.map(genes, seeds)
+            for j, gs, out in zip(todo, genes, outs):
+                ok = out.ok
+                rows[j].update(verified_preset=preset, status_verified=out.status,
+                               f1_verified=float(out.f1) if ok else None,
+                               F_p_verified=dynamic_penalty(float(out.f1), gs, self.terms)[1] if ok else None)
+            logger.info("front verified at preset %s in %.1f s", preset, time.perf_counter() - t0)
+        self._verified_front(rows)
+        fidelity = (state.extra or {}).get("fidelity") or {}
+        pareto_plots.write_front_outputs(
+            run_dir, rows, self.names, [o.name for o in self.objectives], [o.label for o in self.objectives],
+            self._all_points(state), state.logbook, fidelity, state.stop_reason)
+        return rows
+
+    def report_lines(self, run_dir, state: GAState) -> list[str]:
+        """The front as ``whisker-opt report`` shows it (from ``pareto.csv`` when verified)."""
+        rows = pareto_plots.merge_verified(self.front_rows(state), pareto_plots.read_front(run_dir), self.names)
+        self._verified_front(rows)
+        hv = state.logbook[-1]["hypervolume"] if state.logbook else 0.0
+        return pareto_plots.front_table(rows, [o.label for o in self.objectives], self.names, hv)
+
+
+def verify_run_front(run_dir: Path, evaluator_at: Callable[[str], Callable],
+                     run_preset: str | None) -> list[dict[str, Any]] | None:
+    """Verify a finished multi-objective run's front at the preset after ``run_preset`` (pareto.csv, pareto.png).
+
+    Parameters
+    ----------
+    run_dir : Path
+        A run directory with a checkpoint.
+    evaluator_at : callable
+        ``evaluator_at(preset)`` -> the run's evaluator at that fidelity preset.
+    run_preset : str or None
+        The run's own preset.
+
+    Returns
+    -------
+    list of dict or None
+        The rows of ``pareto.csv``; None for a GA run, a run without checkpoint, ``pareto.verify: false``
+        or a run at the finest preset (logged).
+    """
+    from whisker_opt.optimise.checkpoint import has_checkpoint, load_checkpoint
+
+    if not has_checkpoint(run_dir):
+        return None
+    state, config = load_checkpoint(run_dir)
+    cfg = OptimiserConfig.model_validate(config)
+    if cfg.algorithm != "nsga2" or not cfg.pareto.verify or state.generation < 0:
+        return None
+    preset = finer_preset(run_preset)
+    if preset is None:
+        logger.warning("the run's preset %s has no finer preset: the front is not verified", run_preset)
+        return None
+    return NSGA2(cfg, state.seed).verify_front(run_dir, state, evaluator_at(preset), preset)
+
