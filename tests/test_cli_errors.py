@@ -317,3 +317,16 @@ def test_mesher_failure_is_one_line_with_status_3(ws, tmp_path, capsys, monkeypa
     monkeypatch.setattr("geometry.mesh.build_mesh", build_mesh)
     line = _one_line(capsys, cli.main(["mesh", str(ws.good), "--out", str(tmp_path / "m")]), "mesh", expect=3)
     assert "meshing failed (MeshingError: fTetWild returned no tetrahedra)" in line, line
+
+
+def test_a_contact_that_finds_no_node_is_one_line_with_status_3(ws, tmp_path, capsys, monkeypatch):
+    from whisker_opt.experiment.contact import ContactPlacementError
+
+    def contact_band(*args, **kwargs):
+        raise ContactPlacementError("contact band of width 1 mm at x = 70.000 mm holds no node "
+                                    "(nearest node at x = 70.907 mm)")
+
+    monkeypatch.setattr("whisker_opt.experiment.scene.contact_band", contact_band)
+    line = _one_line(capsys, cli.main(["simulate", str(ws.good), "--out", str(tmp_path / "sim")]), "simulate",
+                     expect=3)
+    assert "holds no node" in line and "nearest node at x = 70.907 mm" in line, line

@@ -26,7 +26,8 @@ def computation_errors() -> tuple[type[BaseException], ...]:
     -------
     tuple of type
         :class:`fem.newton.SolveFailed`, :class:`fem.linsolve.LinearSolverError`,
-        :class:`fem.mesh.MeshError` and the mesher's errors of :mod:`geometry`.
+        :class:`fem.mesh.MeshError`, the mesher's errors of :mod:`geometry` and a contact that
+        finds no node (:class:`whisker_opt.experiment.contact.ContactPlacementError`).
     """
     from fem.linsolve import LinearSolverError
     from fem.mesh import MeshError
@@ -34,8 +35,10 @@ def computation_errors() -> tuple[type[BaseException], ...]:
     from geometry.mesh import TemplateError
     from geometry.tagging import FibreLocationError
     from geometry.tetrahedralize import MeshingError
+    from whisker_opt.experiment.contact import ContactPlacementError
 
-    return (SolveFailed, LinearSolverError, MeshError, MeshingError, TemplateError, FibreLocationError)
+    return (SolveFailed, LinearSolverError, MeshError, MeshingError, TemplateError, FibreLocationError,
+            ContactPlacementError)
 
 
 def _context(exc: BaseException) -> dict[str, Any]:

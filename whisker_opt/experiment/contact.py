@@ -69,11 +69,16 @@ class Contact:
         return self.a * (self.length + float(u[wm.node_sets["tip"], 0].mean()))
 
 
+class ContactPlacementError(ValueError):
+    """No node lies where the contact pushes (e.g. a held pusher less than a ring spacing from the
+    extended tip, where the swept mesher places no ring): the scene cannot be set up."""
+
+
 def contact_band(wm: WhiskerMesh, u: np.ndarray, x_contact: float, width: float, at_tip: bool) -> np.ndarray:
     """Nodes whose current axial position lies within ``width``/2 of ``x_contact``.
 
-    For ``at_tip`` the nodes of the tip face. Raises ValueError when the band holds no
-    node; the scene places a node ring at the contact first (:func:`place_contact_ring`).
+    For ``at_tip`` the nodes of the tip face. Raises :class:`ContactPlacementError` when the
+    band holds no node; the scene places a node ring at the contact first (:func:`place_contact_ring`).
     """
     if at_tip:
         # the tip face only: a slab of finite width would hold every node of the slab at the
@@ -84,7 +89,7 @@ def contact_band(wm: WhiskerMesh, u: np.ndarray, x_contact: float, width: float,
     nodes = np.nonzero(np.abs(xc - x_contact) <= 0.5 * width)[0]
     if len(nodes) == 0:
         nearest = float(xc[np.argmin(np.abs(xc - x_contact))])
-        raise ValueError(f"contact band of width {width} mm at x = {x_contact:.3f} mm holds no node "
+        raise ContactPlacementError(f"contact band of width {width} mm at x = {x_contact:.3f} mm holds no node "
                          f"(nearest node at x = {nearest:.3f} mm)")
     return nodes
 
