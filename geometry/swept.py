@@ -157,11 +157,18 @@ def core_radius(d: WhiskerDesign, x: np.ndarray) -> np.ndarray:
     return np.where(x < d.c, rho_c * ro, np.where(x > d.l, rho_b * ro, ro - d.t))
 
 
+#: Closest a contact ring may come to the tip face [mm]: a pusher held in the rig sits this close to the tip
+#: of a whisker that the chamber has extended by less than a millimetre (the slab of elements between the
+#: ring and the tip face is then this thin; it carries only the contact load).
+TIP_KNOT_GAP = 0.25
+
+
 def axial_knots(d: WhiskerDesign, contact_fractions: tuple[float, ...] = ()) -> list[float]:
     """``[0, c, x_ss, x_ss + e, l, f_1 L', f_2 L', ..., L']``.
 
     The gauge knots only when strictly inside (c, l); a contact knot ``f L'`` only when
-    it lies in the body more than 1 mm from both ``l`` and the tip.
+    it lies in the body more than 1 mm from ``l`` and the previous knot, and more than
+    :data:`TIP_KNOT_GAP` from the tip.
     """
     k = [0.0, d.c]
     if d.c < d.x_ss and d.x_ss + d.e < d.l:
@@ -169,7 +176,7 @@ def axial_knots(d: WhiskerDesign, contact_fractions: tuple[float, ...] = ()) -> 
     k.append(d.l)
     for f in sorted(set(float(f) for f in contact_fractions)):
         x = f * d.length
-        if d.l + 1.0 < x < d.length - 1.0 and x > k[-1] + 1.0:
+        if d.l + 1.0 < x < d.length - TIP_KNOT_GAP and x > k[-1] + 1.0:
             k.append(x)
     return k + [d.length]
 

@@ -243,3 +243,44 @@ def test_compensable_trim_root_of_the_study():
     assert model_form.compensable_trim(trims, eps, 1.35) == pytest.approx(3.5, abs=1e-9)
     assert model_form.compensable_trim(trims, eps, 0.99) == 0.0
     assert model_form.compensable_trim(trims, eps, 2.5) == float("inf")
+
+
+def test_a_contact_ring_may_sit_close_to_the_tip():
+    from geometry.swept import TIP_KNOT_GAP, axial_knots
+
+    d = WhiskerDesign()
+    L = d.length
+    assert (L - 0.3) in axial_knots(d, ((L - 0.3) / L,))
+    assert (L - 0.2) not in axial_knots(d, ((L - 0.2) / L,)) and TIP_KNOT_GAP == 0.25
+
+
+def test_a_held_pusher_near_the_extended_tip_pushes_one_ring():
+    """Pressures that extend the whisker by less than the band width put the held pusher's ring
+    within 1 mm of the tip face: the band is that ring alone (not the face), and the reading
+    continues the trend of the pressures whose ring lies farther from the tip (rising with Q,
+    nearly linear over 0 ... 0.08 MPa)."""
+    from whisker_opt import wiring
+    from whisker_opt.config.model import WhiskerConfig
+    from whisker_opt.experiment import contact
+    from whisker_opt.experiment import scene as sc
+
+    cfg = WhiskerConfig.model_validate({"fidelity": {"preset": "coarse"},
+                                        "scene": {"contact_at": "reference", "deflection": 1.0}})
+    seen = []
+
+    def spy(wm, u, x, width, at_tip):
+        nodes = contact.contact_band(wm, u, x, width, at_tip)
+        seen.append(np.ptp(wm.mesh.points[nodes, 0]))
+        return nodes
+
+    eps, dl = [], []
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(sc, "contact_band", spy)
+        for Q in (0.0, 0.04, 0.08):
+            r = sc.run_scene(wiring.scene_spec(cfg, WhiskerDesign(), Q))
+            eps.append(float(r.curve(np.array([1.0]), "line")[0]))
+            dl.append(r.delta_l)
+    assert 0.3 < dl[1] < 0.9 < 1.0 < dl[2]  # the middle pressure's ring is within 1 mm of the tip
+    assert max(seen) < 1e-9  # one station each
+    assert eps[0] < eps[1] < eps[2]
+    assert eps[1] == pytest.approx(0.5 * (eps[0] + eps[2]), rel=0.01)

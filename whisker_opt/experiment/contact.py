@@ -77,8 +77,10 @@ class ContactPlacementError(ValueError):
 def contact_band(wm: WhiskerMesh, u: np.ndarray, x_contact: float, width: float, at_tip: bool) -> np.ndarray:
     """Nodes whose current axial position lies within ``width``/2 of ``x_contact``.
 
-    For ``at_tip`` the nodes of the tip face. Raises :class:`ContactPlacementError` when the
-    band holds no node; the scene places a node ring at the contact first (:func:`place_contact_ring`).
+    For ``at_tip`` the nodes of the tip face. On a structured (swept or template) mesh, of the
+    node stations in the band only the one nearest ``x_contact`` (the ring
+    :func:`place_contact_ring` put there). Raises :class:`ContactPlacementError` when the band
+    holds no node.
     """
     if at_tip:
         # the tip face only: a slab of finite width would hold every node of the slab at the
@@ -90,7 +92,17 @@ def contact_band(wm: WhiskerMesh, u: np.ndarray, x_contact: float, width: float,
     if len(nodes) == 0:
         nearest = float(xc[np.argmin(np.abs(xc - x_contact))])
         raise ContactPlacementError(f"contact band of width {width} mm at x = {x_contact:.3f} mm holds no node "
-                         f"(nearest node at x = {nearest:.3f} mm)")
+                                    f"(nearest node at x = {nearest:.3f} mm)")
+    if not wm.report.method.startswith("fresh"):
+        # a structured mesh pushes one node ring, the station nearest the contact: a ring placed
+        # less than a band width from the tip face (a held pusher on a slightly extended whisker)
+        # must not take the face with it, which would clamp the tip's rotation (see above)
+        X = wm.mesh.points[nodes, 0]
+        key = np.round(X / (1e-9 * max(float(wm.mesh.points[:, 0].max()), 1.0))).astype(np.int64)
+        levels, inv = np.unique(key, return_inverse=True)
+        if len(levels) > 1:
+            gap = np.abs(np.bincount(inv, xc[nodes]) / np.bincount(inv) - x_contact)  # (n_levels,)
+            nodes = nodes[inv == int(np.argmin(gap))]
     return nodes
 
 
