@@ -444,7 +444,8 @@ REGISTRY: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None], Callab
     "report": ("print a run's summary table and rebuild its plots", _run_dir_args, _report_run),
     "verify": ("re-evaluate a run's best designs at a finer fidelity preset (is the optimum real?)",
                _verify_args, _verify_run),
-    "compensate": ("FE compensation table: vent pressure per trim, recovery rates, plot", _compensate_args, _compensate_run),
+    "compensate": ("FE compensation table (vent pressure per trim, recovery rates, plot), or with --map the map "
+                   "over trims x contact ratios", _compensate_args, _compensate_run),
     "view": ("view result meshes with pyvista (or save a screenshot off-screen)", _view_args, _view_run),
     "calibrate": __import__("whisker_opt.cli.calibrate", fromlist=["COMMAND"]).COMMAND,
     "robustness": (_robustness.HELP, _robustness.add_arguments, _robustness.run),

@@ -144,5 +144,5 @@ def describe_failure(exc: BaseException, command: str, out: Path | None = None,
         else:
             line += f"; no scene was solved before it, nothing kept in {out}"
     elif command == "compensate":
-        line += "; the compensation table was not written"
+        line += "; the compensation table (or map) was not written"
     return line
