@@ -247,6 +247,9 @@ def test_a_ga_run_records_the_robust_objective_and_the_nominal_f1(tmp_path):
         assert r["reason"].startswith("robust objective (expansion, k=1) in column f1")
         assert f"nominal f1 = {out.extra['f1_nominal']:.6g}" in r["reason"]
         assert float(r["f1"]) > out.extra["f1_nominal"]
+        # the nominal f1 and the moments have their own columns: f1 = mean + k·std
+        assert float(r["f1_nominal"]) == out.extra["f1_nominal"]
+        assert float(r["f1"]) == pytest.approx(float(r["f1_mean"]) + 1.0 * float(r["f1_std"]), rel=1e-12)
 
 
 def test_without_the_robust_option_the_evaluator_is_the_plain_one():

@@ -65,6 +65,7 @@ from whisker_opt.config.optimiser import OptimiserConfig
 from whisker_opt.genes import GENE_NAMES, genes_dict
 from whisker_opt.experiment.outcome import EvalOutcome
 from whisker_opt.optimise.penalty import PenaltyTerm, dynamic_penalty, fitness_values, penalise, penalty_terms
+from whisker_opt.output.storage import ROBUST_COLUMNS
 
 logger = logging.getLogger(__name__)
 
@@ -376,6 +377,8 @@ class GeneticAlgorithm:
                 "reason": out.reason,
             }
             rec: dict[str, Any] = {"eval_id": eval_id, "generation": generation, **genes, "f1": pen.f1}
+            if self.cfg.robust is not None:  # f1 is mean + k·std; the nominal f1 and the moments beside it
+                rec.update({k: out.extra.get(k) for k in ROBUST_COLUMNS})
             for t in self.terms:
                 rec[t.column] = pen.kappas.get(t.gene)
             rec.update(

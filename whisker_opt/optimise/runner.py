@@ -113,7 +113,8 @@ class _RunWriter:
         self.run_dir = Path(run_dir)
         self.ga = ga
         self.config = config
-        self.eval_cols = storage.evaluation_columns(ga.names, [t.column for t in ga.terms])
+        self.eval_cols = storage.evaluation_columns(ga.names, [t.column for t in ga.terms],
+                                                    robust=ga.cfg.robust is not None)
         self.gen_cols = storage.generation_columns(ga.names) + list(getattr(ga, "EXTRA_GENERATION_COLUMNS", ()))
 
     def __call__(self, state: GAState, row: dict | None = None) -> None:
