@@ -429,6 +429,54 @@ def build_cases(w: Workspace) -> list[Case]:
     cfail = w.config("compensate_fails.yaml", COMPENSATE_FAILS)
     add("compensate solve fails", ["compensate", cfail, "--no-compare", "--out", out / "comp_fails"], expect=3,
         words=("Q",), slow=True)
+    # the map
+    for v in ("0", "1.5", "nan", "abc"):
+        add(f"compensate --a {v!r}", ["compensate", comp, "--a", "0.5", v, "--out", out / "map"], absent=[out / "map"],
+            words=("--a",))
+    add("compensate --a one ratio", ["compensate", comp, "--a", "0.5", "--out", out / "map"], absent=[out / "map"],
+        words=("--a",))
+
+    # ------------------------------------------------------------------ multi-objective, rubber options
+    for key, value, word in (("optimiser.algorithm", "nsga3", "optimiser.algorithm"),
+                             ("optimiser.objectives", "[f1, E]", "optimiser.objectives"),
+                             ("optimiser.objectives", "[]", "optimiser.objectives"),
+                             ("optimiser.pareto.verify_max", "0", "verify_max"),
+                             ("material.rubber", "rubber", "material.rubber"),
+                             ("material.cap_rubber", "steel", "material.cap_rubber"),
+                             ("scene.base_support", "glued", "scene.base_support"),
+                             ("optimiser.stopping.target_strain", "raw", "target_strain")):
+        add(f"run --set {key}={value}", ["run", good, "--set", f"{key}={value}", "--out", out / "bad_set"],
+            absent=[out / "bad_set"], words=(word,))
+
+    # ------------------------------------------------------------------ robustness
+    for opt, v in (("--samples", "1"), ("--samples", "abc"), ("--method", "guess"), ("--top", "0"),
+                   ("--genes", "1,2"), ("--genes", "a,b,c,d")):
+        add(f"robustness {opt} {v!r}", ["robustness", good, opt, v, "--out", out / "rob"], absent=[out / "rob"],
+            words=(opt,))
+    rob_bad = w.config("rob_bad.yaml", "robustness:\n  tolerances:\n    t: -0.1\n")
+    add("robustness negative tolerance", ["robustness", rob_bad, "--out", out / "rob"], absent=[out / "rob"],
+        words=("robustness.tolerances.t",))
+    add("robustness not a run directory", ["robustness", w.root / "configs", "--out", out / "rob"],
+        absent=[out / "rob"], words=("config.yaml",))
+
+    # ------------------------------------------------------------------ calibrate
+    add("calibrate without a calibration section", ["calibrate", good, "--out", out / "cal"], absent=[out / "cal"],
+        words=("calibration",))
+    bad_csv = w._write("cal_bad.csv", "name,trim_ref,Q_ref,trim,Q,a,delta,sigma\nx,0,0.1,5,abc,1,1,0.005\n")
+    cal_base = ("calibration:\n  source: test\n  parameters:\n    - {path: material.C10, lower: 0.1, upper: 0.3, "
+                "start: 0.14}\n  measurements:\n    - {file: %s, kind: restore}\n")
+    cal_bad = w.config("cal_bad.yaml", cal_base % bad_csv)
+    add("calibrate malformed measurement", ["calibrate", cal_bad, "--out", out / "cal"], absent=[out / "cal"],
+        words=("row 1", "column Q"))
+    cal_missing = w.config("cal_missing.yaml", cal_base % (w.root / "no_such.csv"))
+    add("calibrate missing measurement file", ["calibrate", cal_missing, "--out", out / "cal"], absent=[out / "cal"],
+        words=("no_such.csv",))
+    cal_key = w.config("cal_key.yaml", (cal_base % bad_csv).replace("material.C10", "scene.nope"))
+    add("calibrate unknown parameter key", ["calibrate", cal_key, "--out", out / "cal"], absent=[out / "cal"],
+        words=("scene.nope",))
+    cal_bounds = w.config("cal_bounds.yaml", (cal_base % bad_csv).replace("upper: 0.3", "upper: 0.05"))
+    add("calibrate inverted bounds", ["calibrate", cal_bounds, "--out", out / "cal"], absent=[out / "cal"],
+        words=("bounds",))
 
     # ------------------------------------------------------------------ view
     shot = out / "view.png"
