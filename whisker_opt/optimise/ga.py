@@ -188,6 +188,19 @@ def target_value(best_fp: float, target_strain: str, xi: float | None) -> float:
     return best_fp / xi if target_strain == "uncalibrated" and xi else best_fp
 
 
+def stalled(history: Sequence[float], n: int, tol: float, higher_is_better: bool = False) -> bool:
+    """The stall rule (module docstring): over the last ``n`` generations of ``history`` (one value
+    per generation), the mean relative gain h_k = (b_{k−1} − b_k)/|b_{k−1}| (for a value minimised;
+    (b_k − b_{k−1})/|b_{k−1}| with ``higher_is_better``, e.g. a hypervolume) is <= ``tol``; a term
+    with b_{k−1} = 0 counts as 0. False before ``n`` + 1 values."""
+    if len(history) <= n:
+        return False
+    window = history[-(n + 1):]
+    sign = 1.0 if higher_is_better else -1.0
+    rel = [sign * (b - a) / abs(a) if a != 0 else 0.0 for a, b in zip(window[:-1], window[1:])]
+    return float(np.mean(rel)) <= tol
+
+
 def _invalidate(ind) -> None:
     del ind.fitness.values
     ind.info = None
@@ -431,13 +444,8 @@ class GeneticAlgorithm:
         last = state.logbook[-1]
         if last["best_feasible"] and target_value(last["best_fp"], st.target_strain, gauge_factor(state)) <= st.target_fp:
             return "target_fp"
-        n = st.stall_generations
-        hist = [row["best_fp"] for row in state.logbook]
-        if len(hist) > n:
-            window = hist[-(n + 1):]
-            rel = [(a - b) / abs(a) if a != 0 else 0.0 for a, b in zip(window[:-1], window[1:])]
-            if float(np.mean(rel)) <= st.stall_tol:
-                return "stall"
+        if stalled([row["best_fp"] for row in state.logbook], st.stall_generations, st.stall_tol):
+            return "stall"
         if state.generation >= st.max_generations:
             return "max_generations"
         return None

@@ -48,7 +48,7 @@ from typing import Any, Callable, Mapping, Sequence
 from deap import creator, tools
 
 from whisker_opt.config.optimiser import ExecutorConfig, OptimiserConfig
-from whisker_opt.optimise.ga import EvaluationProgress, GAState, GeneticAlgorithm, Individual, _ga_rng
+from whisker_opt.optimise.ga import EvaluationProgress, GAState, GeneticAlgorithm, Individual, _ga_rng, stalled
 from whisker_opt.optimise.pareto import hypervolume, non_dominated
 from whisker_opt.optimise.penalty import PenaltyTerm, dynamic_penalty
 from whisker_opt.output import pareto_plots
@@ -280,13 +280,9 @@ class NSGA2(GeneticAlgorithm):
     def stop_reason(self, state: GAState) -> str | None:
         """``stall`` on the hypervolume, else ``max_generations`` (module docstring)."""
         st = self.cfg.stopping
-        n = st.stall_generations
-        hist = [row["hypervolume"] for row in state.logbook]
-        if len(hist) > n:
-            window = hist[-(n + 1):]
-            rel = [(b - a) / abs(a) if a != 0 else 0.0 for a, b in zip(window[:-1], window[1:])]
-            if sum(rel) / len(rel) <= st.stall_tol:
-                return "stall"
+        if stalled([row["hypervolume"] for row in state.logbook], st.stall_generations, st.stall_tol,
+                   higher_is_better=True):
+            return "stall"
         if state.generation >= st.max_generations:
             return "max_generations"
         return None
