@@ -321,7 +321,7 @@ def nodal_law_slope(F: np.ndarray, material, cells: np.ndarray, used: np.ndarray
     n_nodes = int(cells.max()) + 1
     node_group = np.full(n_nodes, np.iinfo(np.int64).max)
     np.minimum.at(node_group, cells.ravel(), np.repeat(np.asarray(groups, dtype=np.int64), cells.shape[1]))
-    ng = node_group[np.nonzero(used)[0]] if used.dtype == bool else node_group[used]  # (k,)
+    ng = node_group[np.flatnonzero(used)]  # (k,) used: the (n_nodes,) mask of nodal_deformation_gradient
     out = np.empty_like(i1bar)
     for k, law in enumerate(material.materials):
         sel = ng == k

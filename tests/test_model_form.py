@@ -171,7 +171,7 @@ def test_default_options_are_todays_model(wm):
     """Defaults: one neo-Hookean law of C10/D1 and the fully clamped base."""
     spec = SceneSpec(WhiskerDesign())
     assert (spec.rubber, spec.cap_rubber, spec.base_support) == ("neo_hookean", "same", "clamped")
-    assert scene_material(wm, spec) == NeoHookean(spec.c10, spec.d1)
+    assert scene_material(wm.mesh, spec) == NeoHookean(spec.c10, spec.d1)
     (base,) = base_dirichlet(wm, spec)
     assert base.components == (0, 1, 2)
     np.testing.assert_array_equal(base.nodes, wm.node_sets["base"])
@@ -182,18 +182,18 @@ def test_cap_law_goes_to_exactly_the_elements_below_c(wm):
     (judged by all ten nodes, independently of the centroid rule of cap_elements)."""
     d = wm.design
     spec = SceneSpec(d, rubber="yeoh_dragon_skin_10", cap_rubber="yeoh_dragon_skin_30")
-    mat = scene_material(wm, spec)
+    mat = scene_material(wm.mesh, spec)
     assert isinstance(mat, ElementwiseMaterial)
     xn = wm.mesh.points[wm.mesh.cells, 0]  # (n_el, 10)
     tol = 1e-9 * d.L
     below, above = np.all(xn <= d.c + tol, axis=1), np.all(xn >= d.c - tol, axis=1)
     assert np.all(below | above)
     np.testing.assert_array_equal(mat.element_material == 1, below)
-    np.testing.assert_array_equal(cap_elements(wm), below)
+    np.testing.assert_array_equal(cap_elements(wm.mesh, wm.design.c), below)
     assert 0 < below.sum() < len(below)
     assert mat.materials == (Yeoh(RUBBER_LAWS["yeoh_dragon_skin_10"]), Yeoh(RUBBER_LAWS["yeoh_dragon_skin_30"]))
     # a cap of the body's own law is one law
-    assert scene_material(wm, SceneSpec(d, rubber="yeoh_dragon_skin_30", cap_rubber="yeoh_dragon_skin_30")) == \
+    assert scene_material(wm.mesh, SceneSpec(d, rubber="yeoh_dragon_skin_30", cap_rubber="yeoh_dragon_skin_30")) == \
         Yeoh(RUBBER_LAWS["yeoh_dragon_skin_30"])
 
 

@@ -97,13 +97,18 @@ def contact_band(wm: WhiskerMesh, u: np.ndarray, x_contact: float, width: float,
         # a structured mesh pushes one node ring, the station nearest the contact: a ring placed
         # less than a band width from the tip face (a held pusher on a slightly extended whisker)
         # must not take the face with it, which would clamp the tip's rotation (see above)
-        X = wm.mesh.points[nodes, 0]
-        key = np.round(X / (1e-9 * max(float(wm.mesh.points[:, 0].max()), 1.0))).astype(np.int64)
-        levels, inv = np.unique(key, return_inverse=True)
-        if len(levels) > 1:
+        inv = _station_index(wm.mesh.points[nodes, 0], float(wm.mesh.points[:, 0].max()))
+        if inv.max() > 0:
             gap = np.abs(np.bincount(inv, xc[nodes]) / np.bincount(inv) - x_contact)  # (n_levels,)
             nodes = nodes[inv == int(np.argmin(gap))]
     return nodes
+
+
+def _station_index(X: np.ndarray, length: float) -> np.ndarray:
+    """Index (n,) of the axial station of each reference x in ``X``: equal x rounded to 1e-9 of the
+    length share a station, numbered in increasing x."""
+    key = np.round(X / (1e-9 * max(length, 1.0))).astype(np.int64)
+    return np.unique(key, return_inverse=True)[1].ravel()
 
 
 def station_positions(wm: WhiskerMesh, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -113,8 +118,7 @@ def station_positions(wm: WhiskerMesh, u: np.ndarray) -> tuple[np.ndarray, np.nd
     with ū_x the mean axial displacement of the station's nodes.
     """
     X = wm.mesh.points[:, 0]
-    key = np.round(X / (1e-9 * max(float(X.max()), 1.0))).astype(np.int64)
-    _, inv = np.unique(key, return_inverse=True)
+    inv = _station_index(X, float(X.max()))
     cnt = np.bincount(inv).astype(float)
     Xk = np.bincount(inv, X) / cnt  # (n_stations,)
     xk = Xk + np.bincount(inv, u[:, 0]) / cnt  # (n_stations,)

@@ -128,30 +128,22 @@ def rubber_law(name: str, spec: SceneSpec) -> IsochoricI1Material:
     return Yeoh(RUBBER_LAWS[name], spec.d1)
 
 
-def cap_elements(wm: WhiskerMesh) -> np.ndarray:
-    """Mask (n_el,) of the cap's elements: those whose centroid (mean of the four corner
-    nodes) lies at x < c."""
-    return _cap_mask(wm.mesh, wm.design.c)
-
-
-def _cap_mask(mesh, c: float) -> np.ndarray:
+def cap_elements(mesh, c: float) -> np.ndarray:
+    """Mask (n_el,) of the cap's elements of ``mesh`` (``points``, ``cells``): those whose centroid
+    (mean of the four corner nodes) lies at x < c."""
     corners = mesh.points[mesh.cells[:, :4]]  # (n_el, 4, 3)
     return corners[:, :, 0].mean(axis=1) < c
 
 
-def scene_material(wm: WhiskerMesh, spec: SceneSpec) -> IsochoricI1Material:
-    """The rubber of the scene (:attr:`SceneSpec.rubber`, :attr:`SceneSpec.cap_rubber`): one law, or
-    the cap's law on :func:`cap_elements` and the body's elsewhere (:class:`fem.material.ElementwiseMaterial`)."""
-    return material_on(wm.mesh, spec)
-
-
-def material_on(mesh, spec: SceneSpec) -> IsochoricI1Material:
-    """:func:`scene_material` on a bare mesh (``points``, ``cells``) of the design ``spec.design``."""
+def scene_material(mesh, spec: SceneSpec) -> IsochoricI1Material:
+    """The rubber of the scene on ``mesh`` (:attr:`SceneSpec.rubber`, :attr:`SceneSpec.cap_rubber`): one
+    law, or the cap's law on :func:`cap_elements` and the body's elsewhere
+    (:class:`fem.material.ElementwiseMaterial`)."""
     body = rubber_law(spec.rubber, spec)
     if spec.cap_rubber in ("same", spec.rubber):
         return body
     return ElementwiseMaterial((body, rubber_law(spec.cap_rubber, spec)),
-                               _cap_mask(mesh, spec.design.c).astype(np.int64))
+                               cap_elements(mesh, spec.design.c).astype(np.int64))
 
 
 def base_dirichlet(wm: WhiskerMesh, spec: SceneSpec) -> list[Dirichlet]:
@@ -180,7 +172,7 @@ def make_problem(wm: WhiskerMesh, spec: SceneSpec, band_nodes: np.ndarray | None
     )
     return Problem(
         mesh=wm.mesh,
-        material=scene_material(wm, spec),
+        material=scene_material(wm.mesh, spec),
         dirichlet=tuple(dirichlet),
         pressures=pressures,
         trusses=trusses,

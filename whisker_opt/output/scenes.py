@@ -223,10 +223,10 @@ def state_fields(mesh, state, spec=None) -> tuple[dict, dict]:
     if formulation == "mixed":
         cdata["mixed_pressure"] = np.asarray(state.p, dtype=float)
     if spec is not None:
-        from whisker_opt.experiment.scene import material_on
+        from whisker_opt.experiment.scene import scene_material
 
         le, sigma = post.nodal_strain_stress(mesh.points, mesh.cells, u, state.p, spec.c10, spec.d1, formulation,
-                                             material=material_on(mesh, spec))
+                                             material=scene_material(mesh, spec))
         pdata["log_strain"] = post.symmetric_components(le)
         pdata["log_strain_axial"] = le[:, 0, 0]
         pdata["cauchy_stress"] = post.symmetric_components(sigma)
