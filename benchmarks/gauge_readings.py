@@ -62,11 +62,12 @@ def _curve(delta_solved, y, delta):
     return CubicSpline(delta_solved, y)(delta) if len(delta_solved) >= 4 else np.interp(delta, delta_solved, y)
 
 
-def measure(design_name: str, level: int) -> dict:
+def measure(design_name: str, level: int, fibre_model: str = "embedded") -> dict:
     """One evaluation of a design on mesh level ``level``: Δl, and f1, ε_i(5), ε_c(5) per reading."""
     alpha, l, t = tv.DESIGNS[design_name]
     cfg = tv.mesh_level(level)
-    ev = SceneEvaluator(preset_spec(design_from_genes(alpha, l, t), cfg.preset, **cfg.overrides), trim=tv.TRIM)
+    ev = SceneEvaluator(preset_spec(design_from_genes(alpha, l, t), cfg.preset, fibre_model=fibre_model,
+                                   **cfg.overrides), trim=tv.TRIM)
     specs = dict(zip(("i", "c"), ev.specs({"alpha": alpha, "l": l, "t": t, "Q_i": tv.Q_I})))
     t0 = time.perf_counter()
     res = {k: run_scene(s, keep_states=True) for k, s in specs.items()}
@@ -88,8 +89,10 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--designs", default=",".join(tv.DESIGNS), help="comma-separated names of time_vs_error.DESIGNS")
     ap.add_argument("--levels", default="1,2,3", help="swept mesh levels (4 takes 500-800 s per evaluation)")
+    ap.add_argument("--fibre-model", default="embedded", choices=("embedded", "smeared"),
+                    help="SceneSpec.fibre_model of every scene")
     args = ap.parse_args()
-    rows = [measure(d, int(k)) for d in args.designs.split(",") for k in args.levels.split(",")]
+    rows = [measure(d, int(k), args.fibre_model) for d in args.designs.split(",") for k in args.levels.split(",")]
     cols = ["design", "level", "elements", "time_s", "dl_mm"] + [f"{q}_{v}" for v in VARIANTS for q in
                                                                 ("f1", "eps_i", "eps_c")]
     print(markdown_table(rows, cols))

@@ -3,11 +3,11 @@
 Discrete potential (P2 displacement, P0 element pressure p_e)::
 
     Π(u, p) = Σ_e [ ∫_e W_iso(F) dV + p_e ∫_e (J − 1) dV − (D1/4) p_e² V_e ]
-              + Ψ_fibres(u) − W_ext(u)
+              + Ψ_fibres(u) + Σ_q w ψ_f(F) − W_ext(u)
 
 Stationarity gives (G = F⁻¹, ∂J/∂F = J Gᵀ)::
 
-    R_u = ∫ (P_iso + p J G^T) : ∇_X δu dV + R_fibres + R_pressure
+    R_u = ∫ (P_iso + p J G^T) : ∇_X δu dV + R_fibres + R_smeared + R_pressure
     R_p = ∫_e (J − 1) dV − (D1/2) p_e V_e
 
 For D1 > 0 eliminating p_e gives p_e = 2(J̄_e − 1)/D1 with J̄_e the element mean of
@@ -24,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from fem import element, jit
+from fem.fibre_field import FibreFieldKernel
 from fem.pressure import PressureKernel
 from fem.problem import Problem
 from fem.quadrature import tet_rule, tri_rule
@@ -98,6 +99,8 @@ class Topology:
             for tk in self.truss_kernels
         ]  # each sparse (nnz, 9 n_seg)
         self.truss_dofs = [(3 * tk.nodes[:, :, None] + np.arange(3)).reshape(len(tk.nodes), -1) for tk in self.truss_kernels]
+        self.field_kernels = [FibreFieldKernel(self.dNdX, self.wdet, ff.elements, ff.stiffness, ff.directions)
+                              for ff in problem.fibre_fields]
         self.face_dofs = [(3 * pk.faces[:, :, None] + np.arange(3)).reshape(len(pk.faces), -1) for pk in self.pressure_kernels]
         self.edofs = (3 * mesh.cells[:, :, None] + np.arange(3)).reshape(self.n_el, 30)  # (n_el, 30)
 
@@ -108,6 +111,7 @@ def topology_key(problem: Problem) -> tuple:
         tuple(id(p.faces) for p in problem.pressures),
         tuple(id(t.segments) for t in problem.trusses),
         tuple(id(t.faces) for t in problem.tractions),
+        tuple(id(f.stiffness) for f in problem.fibre_fields),
         problem.quadrature_degree,
         problem.face_quadrature_degree,
     )
@@ -125,7 +129,8 @@ def topology_for(problem: Problem) -> Topology:
         topo = Topology(problem)
         # keep referenced arrays alive so the id()-based key stays valid
         problem._cache[key] = topo
-        problem._cache[key + ("refs",)] = (problem.mesh, problem.pressures, problem.trusses, problem.tractions)
+        problem._cache[key + ("refs",)] = (problem.mesh, problem.pressures, problem.trusses, problem.tractions,
+                                           problem.fibre_fields)
     return topo
 
 
@@ -167,9 +172,11 @@ class Assembler:
             return np.ones(self.topo.n_el)
         return -0.5 * self.problem.material.d1 * self.topo.vol
 
-    def _add_load_tangents(self, data: np.ndarray, pres_out: list, truss_out: list) -> np.ndarray:
+    def _add_load_tangents(self, data: np.ndarray, pres_out: list, truss_out: list, field_out: list) -> np.ndarray:
         """Add the follower-pressure blocks and the fibre tangents to the tangent data (in place)."""
         topo = self.topo
+        for fk, Ke in zip(topo.field_kernels, field_out):
+            data += np.bincount(self.pattern.elem_uu[fk.elements].ravel(), Ke.ravel(), minlength=len(data))
         if pres_out:
             data += np.bincount(topo.pressure_pos_flat, np.concatenate([Kf.ravel() for Kf in pres_out]),
                                 minlength=len(data))
@@ -213,6 +220,8 @@ class Assembler:
         x = self.problem.mesh.points + u
         for tk in self.topo.truss_kernels:
             Pi += tk.energy(x)
+        for fk in self.topo.field_kernels:
+            Pi += fk.energy(F)
         return float(Pi)
 
     # ------------------------------------------------------------------ residual and tangent
@@ -273,12 +282,18 @@ class Assembler:
             Rt, Kt = tk.evaluate(x, need_tangent)
             R[: 3 * topo.n_nodes] += np.bincount(dofs.ravel(), Rt.ravel(), minlength=3 * topo.n_nodes)
             truss_out.append(Kt)
+        field_out = []
+        for fk in topo.field_kernels:
+            Rs, Ks = fk.evaluate(F, need_tangent)
+            R[: 3 * topo.n_nodes] += np.bincount(topo.edofs[fk.elements].ravel(), Rs.ravel(),
+                                                 minlength=3 * topo.n_nodes)
+            field_out.append(Ks)
         min_j = float(J.min())
         if not need_tangent:
             return R, None, min_j
 
         if self.kernel == "numba":
-            return R, self._tangent_numba(F, J, G, coef, pJ, pres_out, truss_out), min_j
+            return R, self._tangent_numba(F, J, G, coef, pJ, pres_out, truss_out, field_out), min_j
 
         # Tangent A_iJkL = ∂P_iJ/∂F_kL (material.stress_coefficients) plus the volumetric part
         # ∂(pJ G_Ji)/∂F_kL = pJ (G_Ji G_Lk − G_Jk G_Li) [+ (2/D1) J² G_Ji G_Lk, displacement form].
@@ -318,9 +333,9 @@ class Assembler:
 
         parts_val = [Ke.reshape(n_el, 30, 30).ravel(), Kup.ravel(), Kup.ravel(), self._kpp()]
         data = np.bincount(self.scatter_index(), np.concatenate(parts_val), minlength=self.pattern.nnz)
-        return R, self._add_load_tangents(data, pres_out, truss_out), min_j
+        return R, self._add_load_tangents(data, pres_out, truss_out, field_out), min_j
 
-    def _tangent_numba(self, F, J, G, coef, pJ, pres_out, truss_out) -> np.ndarray:
+    def _tangent_numba(self, F, J, G, coef, pJ, pres_out, truss_out, field_out) -> np.ndarray:
         """Tangent data (nnz,) with the compiled element kernel (same sums as the numpy path)."""
         topo, pat, mat = self.topo, self.pattern, self.problem.material
         disp = self.problem.formulation == "displacement"
@@ -340,4 +355,4 @@ class Assembler:
                                 arr(coef["a"]), arr(b), arr(coef["g"] - pJ), arr(coef["h"]), d2f, dI, arr(J),
                                 use_d2f, disp, pat.elem_uu, pat.elem_up, pat.elem_pu, data)
         data[pat.elem_pp] += self._kpp()  # one entry per element
-        return self._add_load_tangents(data, pres_out, truss_out)
+        return self._add_load_tangents(data, pres_out, truss_out, field_out)

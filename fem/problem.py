@@ -152,6 +152,43 @@ class EmbeddedTrusses:
 
 
 @dataclass(frozen=True)
+class SmearedFibres:
+    """Fibres smeared over elements as an anisotropic energy term (:mod:`fem.fibre_field`).
+
+    Parameters
+    ----------
+    elements : ndarray (n_sel,) int
+        Reinforced elements (each at most once).
+    stiffness : ndarray (n_sel, n_qp)
+        Fibre stiffness per volume k = E_f A_f ρ_L at each quadrature point [MPa], ≥ 0.
+    directions : ndarray (n_sel, n_qp, 3)
+        Unit reference fibre direction at each quadrature point.
+    """
+
+    elements: np.ndarray
+    stiffness: np.ndarray
+    directions: np.ndarray
+    name: str = "smeared fibres"
+
+    def __post_init__(self) -> None:
+        el = np.ascontiguousarray(self.elements, dtype=np.int64).ravel()
+        k = np.ascontiguousarray(self.stiffness, dtype=np.float64)
+        a = np.ascontiguousarray(self.directions, dtype=np.float64)
+        if k.ndim != 2 or k.shape[0] != len(el) or a.shape != k.shape + (3,):
+            raise ProblemError(f"SmearedFibres({self.name}): stiffness {k.shape} and directions {a.shape} "
+                               f"must be (n_sel, n_qp) and (n_sel, n_qp, 3) with n_sel = {len(el)}")
+        if len(np.unique(el)) != len(el):
+            raise ProblemError(f"SmearedFibres({self.name}).elements: an element is listed twice")
+        if not np.all(np.isfinite(k)) or np.any(k < 0):
+            raise ProblemError(f"SmearedFibres({self.name}).stiffness must be finite and >= 0 MPa")
+        if a.size and not np.allclose(np.linalg.norm(a, axis=-1), 1.0, atol=1e-9):
+            raise ProblemError(f"SmearedFibres({self.name}).directions must be unit vectors")
+        object.__setattr__(self, "elements", el)
+        object.__setattr__(self, "stiffness", k)
+        object.__setattr__(self, "directions", a)
+
+
+@dataclass(frozen=True)
 class Problem:
     """Mesh + material + constraints + load definitions (magnitudes excluded).
 
@@ -164,6 +201,8 @@ class Problem:
     pressures : tuple of FollowerPressure
     trusses : tuple of EmbeddedTrusses
     tractions : tuple of DeadTraction
+    fibre_fields : tuple of SmearedFibres
+        Their arrays have one column per point of the tet rule of ``quadrature_degree``.
     quadrature_degree : int
         Degree of the tet rule (2 → 4 points, as C3D10 in Abaqus/CalculiX).
     face_quadrature_degree : int
@@ -180,6 +219,7 @@ class Problem:
     pressures: tuple[FollowerPressure, ...] = ()
     trusses: tuple[EmbeddedTrusses, ...] = ()
     tractions: tuple[DeadTraction, ...] = ()
+    fibre_fields: tuple[SmearedFibres, ...] = ()
     quadrature_degree: int = 2
     face_quadrature_degree: int = 4
     formulation: str = "mixed"
@@ -199,6 +239,9 @@ class Problem:
         for tr in self.trusses:
             if tr.host_elements.size and (tr.host_elements.min() < 0 or tr.host_elements.max() >= self.mesh.n_elements):
                 raise ProblemError(f"EmbeddedTrusses({tr.name}).host_elements outside [0, {self.mesh.n_elements - 1}]")
+        for ff in self.fibre_fields:
+            if ff.elements.size and (ff.elements.min() < 0 or ff.elements.max() >= self.mesh.n_elements):
+                raise ProblemError(f"SmearedFibres({ff.name}).elements outside [0, {self.mesh.n_elements - 1}]")
         if self.dirichlet:
             all_dofs = np.concatenate([d.dofs().ravel() for d in self.dirichlet])
             if len(np.unique(all_dofs)) != len(all_dofs):

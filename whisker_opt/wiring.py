@@ -168,6 +168,7 @@ def scene_spec(cfg: WhiskerConfig, design, Q: float):
         d1=cfg.material.D1,
         rubber=cfg.material.rubber,
         cap_rubber=cfg.material.cap_rubber,
+        fibre_model=cfg.material.fibre_model,
         base_support=cfg.scene.base_support,
         calibration=cfg.scene.calibration,
         band_width=cfg.scene.band_width,

@@ -77,8 +77,9 @@ DesignConfig = create_model(
 MaterialConfig = create_model(
     "MaterialConfig", __base__=StrictModel, __module__=__name__,
     __doc__="Rubber: neo-Hookean W = C10 (Ī1 − 3) + (1/D1)(J − 1)² by default (D1 = 0 is fully incompressible), "
-    "or a named Yeoh fit of a published silicone (docs/physics.md, model form); the cap may be of another rubber.",
-    **declared_fields(SceneSpec, ("c10", "d1", "rubber", "cap_rubber")),
+    "or a named Yeoh fit of a published silicone (docs/physics.md, model form); the cap may be of another rubber; "
+    "the fibre winding embedded as lines or smeared over the wall.",
+    **declared_fields(SceneSpec, ("c10", "d1", "rubber", "cap_rubber", "fibre_model")),
 )
 
 

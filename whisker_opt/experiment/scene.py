@@ -48,6 +48,7 @@ from fem.material import ElementwiseMaterial, IsochoricI1Material, NeoHookean, Y
 from fem.problem import Dirichlet, EmbeddedTrusses, FollowerPressure, Problem
 from fem.state import State
 from geometry.design import WhiskerDesign
+from geometry.fibre_field import smeared_fibres
 from geometry.mesh import MeshSizing, WhiskerMesh, build_mesh
 from whisker_opt.experiment.contact import Contact, contact_band, place_contact_ring
 from whisker_opt.experiment.gauge import GaugedMesh, GaugeReader
@@ -166,16 +167,18 @@ def make_problem(wm: WhiskerMesh, spec: SceneSpec, band_nodes: np.ndarray | None
     if band_nodes is not None:
         dirichlet.append(Dirichlet(band_nodes, (1,)))
     pressures = (FollowerPressure(wm.face_sets["cavity"]),) if spec.Q > 0 else ()
-    area = np.pi * d.fibre_diameter**2 / 4.0
-    trusses = tuple(
-        EmbeddedTrusses(f.host_elements, f.local_coords, f.segments, d.fibre_E, area) for f in wm.fibres
-    )
+    if spec.fibre_model == "smeared":
+        trusses, fields = (), (smeared_fibres(wm.mesh, d),)
+    else:
+        trusses, fields = tuple(EmbeddedTrusses(f.host_elements, f.local_coords, f.segments, d.fibre_E, d.fibre_area)
+                                for f in wm.fibres), ()
     return Problem(
         mesh=wm.mesh,
         material=scene_material(wm.mesh, spec),
         dirichlet=tuple(dirichlet),
         pressures=pressures,
         trusses=trusses,
+        fibre_fields=fields,
         formulation=spec.formulation,
     )
 
@@ -368,7 +371,7 @@ def deflect_and_read(spec: SceneSpec, gm: GaugedMesh, pre: Pressurised, contact:
     band = contact_band(wm, u1, contact.x(wm, u1), spec.band_width, contact.at_tip)
     # same mesh, faces and fibres: replace() shares the topology cache (sparsity
     # pattern, PARDISO analysis) with the pressurise problem
-    prob2 = replace(pre.problem, dirichlet=make_problem(wm, spec, band).dirichlet)
+    prob2 = replace(pre.problem, dirichlet=(*base_dirichlet(wm, spec), Dirichlet(band, (1,))))
     uy0 = u1[band, 1:2]  # (k, 1)
     pq = (spec.Q,) if spec.Q > 0 else ()
     load0 = LoadState(pq, (pre.zeros_base, *pre.extra_base, uy0))

@@ -39,6 +39,7 @@ RUBBERS: tuple[str, ...] = ("neo_hookean",) + tuple(RUBBER_LAWS)
 
 #: How the base face is held (:attr:`SceneSpec.base_support`).
 BASE_SUPPORTS: tuple[str, ...] = ("clamped", "sliding")
+FIBRE_MODELS: tuple[str, ...] = ("embedded", "smeared")
 
 
 def _default_solve_options():
@@ -96,6 +97,11 @@ class SceneSpec:
         'clamped' (default): every node of the base face fixed in x, y and z. 'sliding':
         every base node held axially, only the nodes within r ≤ D/4 also held in y and z,
         so the outer half of the base may slide radially (a softer mount).
+    fibre_model : {'embedded', 'smeared'}
+        'embedded' (default): each helix a line of trusses in its host elements
+        (:mod:`geometry.fibres`). 'smeared': the winding as an anisotropic term of the wall
+        with the same axial stiffness per length (:mod:`geometry.fibre_field`), which
+        converges under mesh refinement (benchmarks/README.md).
     """
 
     design: WhiskerDesign
@@ -128,6 +134,10 @@ class SceneSpec:
     base_support: str = parameter(
         "clamped", "", "'clamped': every base node fixed; 'sliding': the base held axially, only its inner "
         "half (r ≤ D/4) also held radially", choices=BASE_SUPPORTS)
+    fibre_model: str = parameter(
+        "embedded", "", "'embedded': each helix a line of trusses in the elements that hold it; 'smeared': the "
+        "winding spread over the wall as an anisotropic fibre term of the same stiffness per length "
+        "(docs/physics.md)", choices=FIBRE_MODELS)
 
     def __post_init__(self) -> None:
         checks = [
@@ -145,6 +155,7 @@ class SceneSpec:
              " or ".join(map(repr, ("same",) + RUBBERS))),
             ("base_support", self.base_support, self.base_support in BASE_SUPPORTS,
              " or ".join(map(repr, BASE_SUPPORTS))),
+            ("fibre_model", self.fibre_model, self.fibre_model in FIBRE_MODELS, " or ".join(map(repr, FIBRE_MODELS))),
         ]
         for name, value, ok, allowed in checks:
             if not ok:
