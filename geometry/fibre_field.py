@@ -13,9 +13,12 @@ At a point (x, r, θ) of the wall the fibre direction is the helix tangent::
 
 with a radial profile w of unit integral, so that ∫ k 2πr dr = n s E_f A_f: per unit axial
 length the smeared field stores exactly the axial stiffness of the n discrete fibres. The
-profile is the raised cosine ``w(ρ) = (1 + cos(πρ/h)) / (2h)`` for |ρ| < h, with the
-half-width h = min(frac, 1 − frac)·t, so it peaks at the fibre radius and vanishes at the
-nearer wall surface (frac = ½: the whole wall).
+profile is uniform over the band centred on the fibre radius that reaches the nearer wall
+surface, ``w(ρ) = 1/(2h)`` for |ρ| < h, h = min(frac, 1 − frac)·t (frac = ½: the whole
+wall). A uniform band is represented exactly by the element layers of a structured wall
+mesh at frac = ½ on every mesh level; a profile peaked at r_f is not (its element means
+alternate between odd and even numbers of wall layers, which made Δl non-monotone under
+refinement: benchmarks/README.md).
 
 k (times the window c ≤ x ≤ l) is replaced by its element mean, integrated with a
 degree-8 rule over each curved element, so that every element carries exactly its share
@@ -60,7 +63,7 @@ def _stiffness(design: WhiskerDesign, X: np.ndarray) -> np.ndarray:
     r = np.hypot(X[..., 1], X[..., 2])
     h = profile_half_width(design)
     rho = r - design.r_fibre(x)
-    w = np.where(np.abs(rho) < h, (1.0 + np.cos(np.pi * rho / h)) / (2.0 * h), 0.0)
+    w = np.where(np.abs(rho) < h, 0.5 / h, 0.0)
     s = np.sqrt(1.0 + design.tan_alpha**2 + _hoop(design, x) ** 2)
     k = design.fibre_E * design.fibre_area * design.n_fibres * s / (2.0 * math.pi * np.maximum(r, 1e-12)) * w
     return np.where((x >= design.c) & (x <= design.l), k, 0.0)
