@@ -84,7 +84,8 @@ def main() -> None:
                 r = measure(d, int(k), m)
                 r["model"] = m
                 rows.append(r)
-                print(f"# {d} {m} level {k}: {r['elements']} elements, {r['time_s']} s", flush=True)
+                print(f"# {d} {m} level {k}: {r['elements']} elements, {r['time_s']} s, Δl {r['dl_mm']:.5g} mm, "
+                      f"ε_i {r['eps_i_line']:.5g}, ε_c {r['eps_c_line']:.5g}, f1 {r['f1_line']:.5g}", flush=True)
     print(markdown_table(rows, ["design", "model", "level", "elements", "time_s", "dl_mm", "eps_i_line",
                                 "eps_c_line", "f1_line"]))
     print()
