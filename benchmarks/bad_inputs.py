@@ -443,6 +443,7 @@ def build_cases(w: Workspace) -> list[Case]:
                              ("optimiser.pareto.verify_max", "0", "verify_max"),
                              ("material.rubber", "rubber", "material.rubber"),
                              ("material.cap_rubber", "steel", "material.cap_rubber"),
+                             ("material.fibre_model", "lines", "material.fibre_model"),
                              ("scene.base_support", "glued", "scene.base_support"),
                              ("optimiser.stopping.target_strain", "raw", "target_strain")):
         add(f"run --set {key}={value}", ["run", good, "--set", f"{key}={value}", "--out", out / "bad_set"],

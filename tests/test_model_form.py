@@ -220,10 +220,35 @@ def test_sliding_base_lets_the_rim_move_and_clamped_does_not(wm):
     assert out["clamped"][2] > 0.1 and out["sliding"][2] > 0.1  # the chamber extends either way
 
 
-@pytest.mark.parametrize("field, value", [("rubber", "rubber"), ("cap_rubber", "steel"), ("base_support", "glued")])
+@pytest.mark.parametrize("field, value", [("rubber", "rubber"), ("cap_rubber", "steel"), ("base_support", "glued"),
+                                          ("fibre_model", "lines")])
 def test_scene_spec_refuses_unknown_options(field, value):
     with pytest.raises(ValueError, match=rf"SceneSpec\.{field}='{value}': must be"):
         SceneSpec(WhiskerDesign(), **{field: value})
+
+
+def test_fibre_model_key_chooses_trusses_or_the_smeared_field():
+    """material.fibre_model reaches the FE problem: 'embedded' gives one truss chain per helix and no field,
+    'smeared' one field over the chamber wall holding the same E_f A_f × helix length (within 1 %) and no truss."""
+    from fem.assembly import topology_for
+    from whisker_opt import wiring
+    from whisker_opt.config.model import WhiskerConfig
+    from whisker_opt.experiment.scene import make_problem
+
+    d = WhiskerDesign()
+    wm = build_mesh(d, PRESETS["coarse"].sizing, method="swept")
+    probs = {}
+    for model in ("embedded", "smeared"):
+        cfg = WhiskerConfig.model_validate({"fidelity": {"preset": "coarse"}, "material": {"fibre_model": model}})
+        spec = wiring.scene_spec(cfg, d, 0.2)
+        assert spec.fibre_model == model
+        probs[model] = make_problem(wm, spec, None)
+    emb, sm = probs["embedded"], probs["smeared"]
+    assert len(emb.trusses) == d.n_fibres and emb.fibre_fields == ()
+    assert sm.trusses == () and len(sm.fibre_fields) == 1
+    line = d.fibre_E * d.fibre_area * sum(f.length for f in wm.fibres)
+    stored = float(topology_for(sm).field_kernels[0].wk.sum())
+    assert stored == pytest.approx(line, rel=0.01)
 
 
 def test_compensable_trim_root_of_the_study():
