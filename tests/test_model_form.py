@@ -303,3 +303,18 @@ def test_a_held_pusher_near_the_extended_tip_pushes_one_ring():
     assert max(seen) < 1e-9  # one station each
     assert eps[0] < eps[1] < eps[2]
     assert eps[1] == pytest.approx(0.5 * (eps[0] + eps[2]), rel=0.01)
+
+
+def test_smeared_fibres_on_one_wall_layer_are_warned(caplog):
+    """The smeared winding on the one-layer presets logs a warning naming the fix; on `fine` it does not."""
+    from whisker_opt import wiring
+    from whisker_opt.config.model import WhiskerConfig
+
+    def cfg(preset, model="smeared"):
+        return WhiskerConfig.model_validate({"fidelity": {"preset": preset}, "material": {"fibre_model": model}})
+
+    with caplog.at_level("WARNING", logger="whisker_opt.wiring"):
+        assert wiring.warn_smeared_on_one_layer(cfg("default"))
+    assert "fidelity.preset fine" in caplog.text
+    assert not wiring.warn_smeared_on_one_layer(cfg("fine"))
+    assert not wiring.warn_smeared_on_one_layer(cfg("default", "embedded"))

@@ -16,6 +16,7 @@ Scene names of a genome (:func:`design_scene_specs`):
 
 from __future__ import annotations
 
+import logging
 import re
 from dataclasses import dataclass, replace
 from typing import Any, Mapping
@@ -23,6 +24,8 @@ from typing import Any, Mapping
 from whisker_opt.config.model import FidelityConfig, WhiskerConfig
 from whisker_opt.config.optimiser import OptimiserConfig
 from whisker_opt.genes import GEOMETRY_GENES
+
+logger = logging.getLogger(__name__)
 
 INTACT = "intact"
 UNCOMPENSATED = "trimmed_uncompensated"
@@ -179,6 +182,20 @@ def scene_spec(cfg: WhiskerConfig, design, Q: float):
     )
 
 
+def warn_smeared_on_one_layer(cfg: WhiskerConfig) -> bool:
+    """Log a warning (and return True) when the smeared fibre winding is asked for on a mesh with one
+    element layer through the wall: there its f1 is an order of magnitude too small (docs/physics.md §13)."""
+    from whisker_opt.experiment.fidelity import resolve
+
+    sizing = resolve(cfg.fidelity).sizing
+    if cfg.material.fibre_model != "smeared" or sizing.h_wall is not None or sizing.wall_layers >= 2:
+        return False
+    logger.warning("material.fibre_model 'smeared' on %g wall layer(s) (fidelity.preset %s): f1 is an order of "
+                   "magnitude too small on one layer; use fidelity.preset fine or fidelity.h_wall <= t/2 "
+                   "(docs/physics.md section 13)", sizing.wall_layers, cfg.fidelity.preset)
+    return True
+
+
 def evaluator(cfg: WhiskerConfig, keep_curves: bool = False, validate: bool = True, robust: bool = True):
     """The GA's :class:`whisker_opt.experiment.evaluator.SceneEvaluator` for a config (its base
     design validated unless ``validate`` is False).
@@ -189,6 +206,7 @@ def evaluator(cfg: WhiskerConfig, keep_curves: bool = False, validate: bool = Tr
     """
     from whisker_opt.experiment.evaluator import SceneEvaluator
 
+    warn_smeared_on_one_layer(cfg)
     base = scene_spec(cfg, design_from_config(cfg, 0.0, validate), 0.0)
     ev = SceneEvaluator(base, optimiser_of(cfg).trim, cfg.scene.delta_step, cfg.scene.gauge_variant,
                         keep_curves)

@@ -156,6 +156,7 @@ def simulate(cfg: WhiskerConfig, out: Path, source: str = "config") -> Simulatio
 
     sc = cfg.scene
     specs = simulation_specs(cfg, source)
+    wiring.warn_smeared_on_one_layer(cfg)
     out = Path(out)
     delta = np.round(np.arange(0.0, sc.deflection + 0.5 * sc.delta_step, sc.delta_step), 10)
     results, summary = solve_scenes(out, specs, sc.gauge_variant)
