@@ -3,7 +3,9 @@
 Discrete potential (P2 displacement, P0 element pressure p_e)::
 
     Π(u, p) = Σ_e [ ∫_e W_iso(F) dV + p_e ∫_e (J − 1) dV − (D1/4) p_e² V_e ]
-              + Ψ_fibres(u) + Σ_q w ψ_f(F) − W_ext(u)
+              + Ψ_fibres(u) + Σ_e ½ C_e Ē_e² − W_ext(u)
+
+(Ψ_fibres: embedded trusses, fem.truss; Σ_e ½ C_e Ē_e²: smeared fibres, fem.fibre_field.)
 
 Stationarity gives (G = F⁻¹, ∂J/∂F = J Gᵀ)::
 

@@ -1,4 +1,4 @@
-"""Smeared fibre reinforcement: an anisotropic strain-energy term, locking-free on P2 elements.
+"""Smeared fibre reinforcement: an anisotropic strain-energy term with one fibre strain per element.
 
 A family of fibres smeared over a region of the host mesh has, at each point, the energy
 density of a linear fibre in Green–Lagrange / St Venant–Kirchhoff form along the reference
@@ -8,7 +8,8 @@ direction a (|a| = 1)::
 
 (Bonet & Wood 2008, §6.5; k = E_f A_f ρ_L with ρ_L the fibre length per volume). Stiff
 fibres (k/μ ~ 10³) make E_a ≈ 0 a constraint; imposed at every quadrature point of a P2
-tetrahedron it locks, as incompressibility does. As the mean dilatation does for J, the
+tetrahedron it made coarse whisker meshes too stiff (benchmarks/README.md), as incompressibility
+does. As the mean dilatation does for J, the
 element therefore carries one fibre strain, its k-weighted mean (c_q = w_q k_q,
 C_e = Σ_q c_q)::
 
@@ -59,10 +60,6 @@ class FibreFieldKernel:
         f = np.einsum("eqiJ,eqJ->eqi", F[self.elements], self.a)  # (n_sel, n_qp, 3)  F a
         E = 0.5 * (np.einsum("eqi,eqi->eq", f, f) - 1.0)  # (n_sel, n_qp)  E_a
         return f, np.einsum("eq,eq->e", self.wk, E) / self.C  # (n_sel,)  Ē_e
-
-    def mean_strain(self, F: np.ndarray) -> np.ndarray:
-        """Ē_e of every reinforced element, shape (n_sel,)."""
-        return self._strains(F)[1]
 
     def energy(self, F: np.ndarray) -> float:
         """Σ_e ½ C_e Ē_e²."""

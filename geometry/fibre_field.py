@@ -40,6 +40,7 @@ from fem.mesh import TetMesh
 from fem.problem import SmearedFibres
 from fem.quadrature import tet_rule
 from geometry.design import WhiskerDesign
+from geometry.fibres import helix_hoop_and_speed
 
 #: Degree of the rule that integrates the radial profile over each element.
 PROFILE_RULE_DEGREE = 8
@@ -52,11 +53,6 @@ def profile_half_width(design: WhiskerDesign) -> float:
     return min(f, 1.0 - f) * design.t
 
 
-def _hoop(design: WhiskerDesign, x: np.ndarray) -> np.ndarray:
-    """2π r_f(x) / p: the hoop component of the (unnormalised) helix tangent."""
-    return 2.0 * math.pi * design.r_fibre(x) / design.fibre_pitch
-
-
 def _stiffness(design: WhiskerDesign, X: np.ndarray) -> np.ndarray:
     """k(x, r) = E_f A_f n s / (2π r) · w(r − r_f(x)) · [c ≤ x ≤ l] at points X (..., 3) [MPa]."""
     x = X[..., 0]
@@ -64,7 +60,7 @@ def _stiffness(design: WhiskerDesign, X: np.ndarray) -> np.ndarray:
     h = profile_half_width(design)
     rho = r - design.r_fibre(x)
     w = np.where(np.abs(rho) < h, 0.5 / h, 0.0)
-    s = np.sqrt(1.0 + design.tan_alpha**2 + _hoop(design, x) ** 2)
+    _, s = helix_hoop_and_speed(design, x)
     k = design.fibre_E * design.fibre_area * design.n_fibres * s / (2.0 * math.pi * np.maximum(r, 1e-12)) * w
     return np.where((x >= design.c) & (x <= design.l), k, 0.0)
 
@@ -98,11 +94,8 @@ def smeared_fibres(mesh: TetMesh, design: WhiskerDesign, quadrature_degree: int 
     Returns
     -------
     SmearedFibres
-        Over the elements whose profile mean is positive.
+        Over the elements whose profile mean is positive (none without fibres).
     """
-    if design.n_fibres == 0:
-        return SmearedFibres(np.zeros(0, np.int64), np.zeros((0, len(tet_rule(quadrature_degree).weights))),
-                             np.zeros((0, len(tet_rule(quadrature_degree).weights), 3)))
     centroids = mesh.points[mesh.cells[:, :4]].mean(axis=1)  # (n_el, 3)
     reach = profile_half_width(design) + 2.0 * design.t  # generous: curved elements span about one wall
     r_c = np.hypot(centroids[:, 1], centroids[:, 2])
@@ -116,8 +109,7 @@ def smeared_fibres(mesh: TetMesh, design: WhiskerDesign, quadrature_degree: int 
     x = Xq[..., 0]
     th = np.arctan2(Xq[..., 2], Xq[..., 1])
     drf = -design.tan_alpha  # r_f'(x)
-    hoop = _hoop(design, x)  # (n, n_qp)
-    s = np.sqrt(1.0 + drf**2 + hoop**2)  # (n, n_qp)
+    hoop, s = helix_hoop_and_speed(design, x)  # (n, n_qp) each
     e_r = np.stack([np.zeros_like(th), np.cos(th), np.sin(th)], axis=-1)  # (n, n_qp, 3)
     e_t = np.stack([np.zeros_like(th), -np.sin(th), np.cos(th)], axis=-1)
     a = (np.array([1.0, 0.0, 0.0]) + drf * e_r + hoop[..., None] * e_t) / s[..., None]  # (n, n_qp, 3)

@@ -59,6 +59,13 @@ def helix_xyz(design: WhiskerDesign, x: np.ndarray, phase: float) -> np.ndarray:
     return np.stack([x, r * np.cos(th), r * np.sin(th)], axis=1)
 
 
+def helix_hoop_and_speed(design: WhiskerDesign, x):
+    """``(2π r_f(x)/p, s)`` with ``s = √(1 + r_f'² + (2π r_f/p)²)``: the hoop component of the
+    unnormalised helix tangent dX/dx and the helix's arc length per unit x (r_f' = −tan α)."""
+    hoop = (2.0 * math.pi / design.fibre_pitch) * design.r_fibre(x)
+    return hoop, np.sqrt(1.0 + design.tan_alpha**2 + hoop**2)
+
+
 def fibre_phases(design: WhiskerDesign) -> list[float]:
     """``2 pi k / n`` for k = 0..n-1."""
     n = int(design.n_fibres)
@@ -84,12 +91,10 @@ def sample_helix(design: WhiskerDesign, phase: float, ds: float) -> np.ndarray:
     if ds <= 0:
         raise ValueError(f"sample_helix: ds={ds} must be > 0")
     x0, x1 = design.c, design.l
-    tan_a = design.tan_alpha
-    k = 2.0 * math.pi / design.fibre_pitch
-    # arc length per unit x: sqrt(1 + r'^2 + (k r)^2), tabulated
+    # arc length per unit x (helix_hoop_and_speed), tabulated
     n_est = max(8, int(math.ceil(2.0 * math.pi * design.r_fibre(x0) * (x1 - x0) / design.fibre_pitch / ds)))
     xf = np.linspace(x0, x1, 32 * n_est + 1)
-    speed = np.sqrt(1.0 + tan_a**2 + (k * design.r_fibre(xf)) ** 2)
+    _, speed = helix_hoop_and_speed(design, xf)
     s = np.concatenate([[0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) * np.diff(xf))])
     n_seg = max(1, int(math.ceil(s[-1] / ds)))
     xs = np.interp(np.linspace(0.0, s[-1], n_seg + 1), s, xf)

@@ -31,7 +31,7 @@ from fem.problem import Dirichlet, Problem, ProblemError, SmearedFibres
 from fem.quadrature import tet_rule
 from fem.state import State
 from tests.test_fem_tube import lambda_b, tube_pressure, tube_problem
-from tests.test_fem_tangent import TOL, _dense, _distorted, _fd_jacobian, _residual_fun, _state, energy_gradient_fd
+from tests.test_fem_tangent import TOL, _distorted, _state, added_tangent_vs_fd, energy_gradient_fd
 
 
 @pytest.fixture(scope="module")
@@ -53,15 +53,7 @@ def _field(mesh, k=300.0, seed=7):
 @pytest.mark.parametrize("kernel", ["numpy", "numba"])
 def test_fibre_field_tangent_matches_fd(mesh, kernel):
     """K(material + field) − K(material) vs FD of the field's residual; k/μ = 300 so the field dominates."""
-    mat = NeoHookean(0.5, 0.0)
-    prob_m = Problem(mesh, mat)
-    prob_f = Problem(mesh, mat, fibre_fields=(_field(mesh),))
-    asm_m, asm_f = Assembler(prob_m, kernel="numpy"), Assembler(prob_f, kernel="auto" if kernel == "numba" else kernel)
-    u, p = _state(prob_f, seed=3, scale=0.05)
-    _, Km = _dense(asm_m, u, p, ())
-    _, Kf = _dense(asm_f, u, p, ())
-    fm, ff = _residual_fun(asm_m, ()), _residual_fun(asm_f, ())
-    Kfd = _fd_jacobian(lambda x: ff(x) - fm(x), np.concatenate([u.ravel(), p]))
+    Kf, Km, Kfd = added_tangent_vs_fd(mesh, kernel=kernel, fibre_fields=(_field(mesh),))
     assert np.abs(Kfd).max() > 10 * np.abs(Km).max()
     err = np.abs((Kf - Km) - Kfd).max() / np.abs(Kfd).max()
     assert err <= TOL
