@@ -10,6 +10,11 @@ Convergence of an increment needs both (Wriggers 2008, §5.1; Abaqus' criteria):
     residual of the increment and the current reaction/load norm) and
     ‖R_p‖ ≤ vtol · V (volume constraint);
   * energy: |Δx · R| ≤ etol · |Δx₀ · R₀| (first iteration of the increment).
+The residual criterion alone suffices when the residual has reached its round-off floor: it
+meets the criterion and the last iteration reduced it by less than a factor of 10 (Newton's
+quadratic rate would have reduced it by far more). A small increment (a secant correction of a
+prescribed displacement) starts with an energy |Δx₀ · R₀| near round-off, so its energy ratio
+cannot reach etol.
 An increment that diverges, inverts an element or exceeds the iteration limit returns
 its start state with an unconverged :class:`IncrementReport`; the load stepping
 (:mod:`fem.loadpath`) then cuts back, and raises :class:`SolveFailed` when it cannot.
@@ -335,8 +340,9 @@ class NewtonSolver:
             en_ok = energy / e0 <= opts.etol or energy <= 1e-30
             # both criteria; or one of them far exceeded while the other sits at round-off level
             # (stiff fibres put the residual's floor near 1e-16 · fibre force scale)
+            stalled = res_ok and it >= 2 and ratio > 0.1  # at the residual's round-off floor
             if (res_ok and en_ok) or (en_ok and ru <= 1e3 * opts.rtol * f_ref) or (
-                    res_ok and ru <= 1e-3 * opts.rtol * f_ref + opts.atol):
+                    res_ok and ru <= 1e-3 * opts.rtol * f_ref + opts.atol) or stalled:
                 inc.converged = True
                 return x, inc
             if it >= 3 and len(inc.residuals) >= 3 and inc.residuals[-1] > 1e3 * inc.residuals[0]:
