@@ -52,12 +52,11 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from _bench_common import markdown_table  # noqa: E402
-from fem import element  # noqa: E402
 from fem.assembly import Assembler  # noqa: E402
 from fem.loadpath import solve_path  # noqa: E402
 from fem.loads import LoadState  # noqa: E402
 from fem.material import NeoHookean  # noqa: E402
-from fem.mesh import TetMesh, boundary_faces  # noqa: E402
+from fem.mesh import TetMesh, boundary_faces, mapped_points  # noqa: E402
 from fem.meshgen import box_mesh  # noqa: E402
 from fem.newton import SolveFailed  # noqa: E402
 from fem.problem import Dirichlet, EmbeddedTrusses, FollowerPressure, Problem, SmearedFibres  # noqa: E402
@@ -135,8 +134,7 @@ def uniform_grids(cell: Cell, n_r: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _quadrature_points(mesh: TetMesh, degree: int) -> np.ndarray:
-    rule = tet_rule(degree)
-    return np.einsum("qa,eai->eqi", element.shape_functions(rule.points), mesh.points[mesh.cells])  # (n_el, n_qp, 3)
+    return mapped_points(mesh.points, mesh.cells, tet_rule(degree).points)  # (n_el, n_qp, 3)
 
 
 def _frame(Xq: np.ndarray) -> dict[str, np.ndarray]:
@@ -211,7 +209,6 @@ class CellRun:
         self.x_top = prob.mesh.points[top, 0]
         self.state = State.zero(prob)
         self.load = LoadState.zero(prob)
-        self.n_solves = 0
 
     def _load(self, Q: float, U: float, theta: float = 0.0) -> LoadState:
         uz = (U + theta * self.x_top)[:, None]
@@ -225,7 +222,6 @@ class CellRun:
         states, _ = solve_path(self.prob, self.state, self.load, load1,
                                fractions=tuple((k + 1) / steps for k in range(steps)))
         self.state, self.load = states[-1], load1
-        self.n_solves += 1
         return self.state
 
     def forces(self) -> tuple[float, float]:
@@ -285,7 +281,7 @@ def measure(cell: Cell, model: str, level: int, n_phi: int, smeared_scale: float
         r_grid, z_grid = uniform_grids(cell, level)
     mesh = cell_mesh(cell, r_grid, z_grid, n_phi)
     h = cell.t / (len(r_grid) - 1)
-    deg = Problem(mesh, NeoHookean(cell.c10, 0.0)).quadrature_degree
+    deg = Problem.quadrature_degree  # the default rule, which cell_problem uses
     trusses, fields = (), ()
     if model == "resolved":
         fields = resolved_fields(cell, mesh, deg, rigid=False)

@@ -41,8 +41,9 @@ class PardisoSolver:
       material + fibre tangents, and follower pressure on closed cavities;
     * real non-symmetric (mtype 11) otherwise.
 
-    Two pivoting strategies; ``matching`` first when the matrix has a zero diagonal entry,
-    ``perturb`` first otherwise, the other one when the first one's refined solve fails:
+    Three pivoting strategies (:attr:`strategies`); ``matching`` first when the matrix has a
+    zero diagonal entry, ``perturb`` first otherwise, then the others in turn when a refined
+    solve fails:
 
     * ``matching``: weighted matching (iparm(13)=1), which pairs each zero-diagonal
       pressure unknown of the mixed u–p system with a displacement unknown into a
@@ -60,15 +61,16 @@ class PardisoSolver:
       factors solve it (matching and scaling with the 1e-13 perturbation did not: 3e2).
 
     Every solve is refined on the true residual until ‖A x − b‖ ≤ ``tol`` ‖b‖. When
-    the first strategy's factors cannot reach that, the matrix is refactorised with the
-    other, then with ``scaled`` (a pattern where ``matching`` failed is remembered, so later
-    factorisations go to ``perturb`` directly, and one that only ``scaled`` solved goes to
-    ``scaled``); when none can, :class:`LinearSolverError` is raised (never a silent garbage
-    update).
+    the first strategy's factors cannot reach that, the matrix is refactorised with each
+    other strategy in the order above (a pattern where ``matching`` failed is remembered, so
+    later factorisations start with ``perturb``, and one that only ``scaled`` solved starts
+    with ``scaled``); when none can, :class:`LinearSolverError` is raised (never a silent
+    garbage update).
     """
 
     name = "pardiso"
-    strategies = ("matching", "perturb", "scaled")
+    #: (name, iparm(10) pivot perturbation 10^-k, iparm(11) scaling, iparm(13) weighted matching)
+    strategies = (("matching", 13, 0, 1), ("perturb", 8, 0, 0), ("scaled", 8, 1, 1))
 
     def __init__(self, tol: float = 1e-9) -> None:
         _mkl_rt_name()  # before the import: pypardiso searches for MKL at import time
@@ -78,8 +80,7 @@ class PardisoSolver:
         self._solvers: dict[tuple, object] = {}
         self._analysed: dict[tuple, tuple] = {}
         self._upper_cache = None  # (indptr, indices, mask, upper indices, upper indptr)
-        self._perturb_only = None  # (indptr, indices) of a pattern where matching failed
-        self._scaled_only = None  # (indptr, indices) of a pattern that only the scaled factors solved
+        self._start = None  # (indptr, indices, strategy): a pattern's first strategy, learnt from fallbacks
         self._A = None
         self._Af = None
         self._key = None
@@ -100,16 +101,10 @@ class PardisoSolver:
             s.set_iparm(1, 1)  # use the values below, not MKL defaults
             s.set_iparm(2, 2)  # nested-dissection (METIS) ordering
             s.set_iparm(8, 0)  # refinement done here, on the true residual
-            s.set_iparm(11, 0)  # no scaling
-            if strategy in ("matching", "scaled"):
-                s.set_iparm(10, 13)  # pivot perturbation 1e-13 (rarely needed with matching)
-                s.set_iparm(13, 1)  # weighted matching: 2×2 pivots for the zero pressure diagonal
-                if strategy == "scaled":
-                    s.set_iparm(10, 8)  # pivot perturbation 1e-8
-                    s.set_iparm(11, 1)  # symmetric scaling with the matching
-            else:
-                s.set_iparm(10, 8)  # pivot perturbation 1e-8
-                s.set_iparm(13, 0)  # no weighted matching
+            perturbation, scaling, matching = next(st[1:] for st in self.strategies if st[0] == strategy)
+            s.set_iparm(10, perturbation)  # pivot perturbation 10^-perturbation
+            s.set_iparm(11, scaling)  # symmetric scaling (with the matching)
+            s.set_iparm(13, matching)  # weighted matching: 2×2 pivots for the zero pressure diagonal
             if mtype == -2:
                 s.set_iparm(21, 1)  # Bunch–Kaufman pivoting
             self._solvers[key] = s
@@ -154,15 +149,14 @@ class PardisoSolver:
             self.stats["n_symmetric"] += 1
         else:
             Af = A
-        po = self._perturb_only
         # weighted matching exists for zero diagonal entries (the mixed D1 = 0 pressure block);
         # without any it only costs analysis time (0.23 -> 0.14 s at 24k unknowns, bench_fem)
         zero_diag = bool(np.any(A.diagonal() == 0.0))
-        known_bad = po is not None and self._same_pattern(A, po[0], po[1])
-        strategy = "matching" if zero_diag and not known_bad else "perturb"
-        so = self._scaled_only
-        if so is not None and self._same_pattern(A, so[0], so[1]):
-            strategy = "scaled"
+        st = self._start
+        if st is not None and self._same_pattern(A, st[0], st[1]):
+            strategy = st[2]
+        else:
+            strategy = "matching" if zero_diag else "perturb"
         self._A, self._Af = A, Af
         self._factor(mtype, strategy)
 
@@ -223,17 +217,16 @@ class PardisoSolver:
         try:
             x, rel = self._refined(b)
             if rel > self.tol:
-                other = "perturb" if self._key[1] == "matching" else "matching"
-                for nxt in (other, "scaled"):
+                for nxt in (st[0] for st in self.strategies if st[0] != self._key[1]):
                     logger.debug("PARDISO %s factors reached only %.3g; refactorising with %s", self._key[1], rel, nxt)
                     self.stats["n_fallback"] += 1
-                    if nxt == "perturb":
-                        self._perturb_only = (self._A.indptr.copy(), self._A.indices.copy())
+                    if nxt == "perturb":  # matching failed on this pattern: start without it next time
+                        self._start = (self._A.indptr.copy(), self._A.indices.copy(), nxt)
                     self._factor(self._key[0], nxt)
                     x, rel = self._refined(b)
                     if rel <= self.tol:
-                        if nxt == "scaled":
-                            self._scaled_only = (self._A.indptr.copy(), self._A.indices.copy())
+                        if nxt == "scaled":  # only the last resort solved it: start there next time
+                            self._start = (self._A.indptr.copy(), self._A.indices.copy(), nxt)
                         break
         finally:
             self.stats["solve"] += time.perf_counter() - t

@@ -152,6 +152,12 @@ def jacobian_determinants(points: np.ndarray, cells: np.ndarray, xi: np.ndarray)
     return np.linalg.det(J)
 
 
+def mapped_points(points: np.ndarray, cells: np.ndarray, xi: np.ndarray) -> np.ndarray:
+    """Reference positions X(ξ) = Σ_a N_a(ξ) X_a of the local points ``xi`` (n_qp, 3) in every element,
+    shape (n_elements, n_qp, 3); arguments as :func:`jacobian_determinants`."""
+    return np.einsum("qa,eai->eqi", element.shape_functions(xi), points[cells])  # (n_el, n_qp, 3)
+
+
 def volumes(points: np.ndarray, cells: np.ndarray, degree: int = 3) -> np.ndarray:
     """Element volumes of (possibly curved) 10-node tets, shape (n_elements,)."""
     from fem.quadrature import tet_rule

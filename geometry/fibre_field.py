@@ -35,8 +35,7 @@ import math
 
 import numpy as np
 
-from fem import element
-from fem.mesh import TetMesh
+from fem.mesh import TetMesh, jacobian_determinants, mapped_points
 from fem.problem import SmearedFibres
 from fem.quadrature import tet_rule
 from geometry.design import WhiskerDesign
@@ -68,14 +67,11 @@ def _stiffness(design: WhiskerDesign, X: np.ndarray) -> np.ndarray:
 def _element_means(mesh: TetMesh, design: WhiskerDesign, cells: np.ndarray) -> np.ndarray:
     """Mean of k over each element of ``cells`` (n, 10) [MPa]."""
     rule = tet_rule(PROFILE_RULE_DEGREE)
-    N = element.shape_functions(rule.points)  # (n_p, 10)
-    dN = element.shape_gradients(rule.points)  # (n_p, 10, 3)
     out = np.empty(len(cells))
     for s in range(0, len(cells), _CHUNK):
-        Xe = mesh.points[cells[s:s + _CHUNK]]  # (m, 10, 3)
-        Xp = np.einsum("pa,mai->mpi", N, Xe)  # (m, n_p, 3)
-        detJ = np.linalg.det(np.einsum("mai,paj->mpij", Xe, dN))  # (m, n_p)
-        wdv = rule.weights * detJ  # (m, n_p)
+        chunk = cells[s:s + _CHUNK]  # (m, 10)
+        Xp = mapped_points(mesh.points, chunk, rule.points)  # (m, n_p, 3)
+        wdv = rule.weights * jacobian_determinants(mesh.points, chunk, rule.points)  # (m, n_p)
         out[s:s + _CHUNK] = np.sum(wdv * _stiffness(design, Xp), axis=1) / np.sum(wdv, axis=1)
     return out
 
@@ -105,7 +101,7 @@ def smeared_fibres(mesh: TetMesh, design: WhiskerDesign, quadrature_degree: int 
     el = cand[kbar > 0.0]
     kbar = kbar[kbar > 0.0]
     rule = tet_rule(quadrature_degree)
-    Xq = np.einsum("qa,eai->eqi", element.shape_functions(rule.points), mesh.points[mesh.cells[el]])  # (n, n_qp, 3)
+    Xq = mapped_points(mesh.points, mesh.cells[el], rule.points)  # (n, n_qp, 3)
     x = Xq[..., 0]
     th = np.arctan2(Xq[..., 2], Xq[..., 1])
     drf = -design.tan_alpha  # r_f'(x)

@@ -18,7 +18,7 @@ from fem.assembly import Assembler
 from fem.material import NeoHookean
 from fem.problem import Problem
 from fem.quadrature import tet_rule
-from fem import element
+from fem.mesh import mapped_points
 from geometry.design import WhiskerDesign
 from geometry.fibre_field import profile_half_width, smeared_fibres
 from geometry.fibres import helix_xyz
@@ -49,7 +49,7 @@ def test_stored_stiffness_equals_the_discrete_fibres(case):
 def test_direction_is_the_helix_tangent(case):
     d, wm, ff = case
     rule = tet_rule(2)
-    Xq = np.einsum("qa,eai->eqi", element.shape_functions(rule.points), wm.mesh.points[wm.mesh.cells[ff.elements]])
+    Xq = mapped_points(wm.mesh.points, wm.mesh.cells[ff.elements], rule.points)  # (n, n_qp, 3)
     # helix tangent at the same (x, θ) and r = r_f(x): finite difference of helix_xyz in x
     x = Xq[..., 0].ravel()
     th = np.arctan2(Xq[..., 2], Xq[..., 1]).ravel()
