@@ -224,13 +224,14 @@ class CellRun:
         self.state, self.load = states[-1], load1
         return self.state
 
-    def forces(self) -> tuple[float, float]:
-        """Axial force N on the plane z = s and its moment M about the y axis (support reactions)."""
+    def forces(self) -> tuple[float, float, float]:
+        """Axial force N on the plane z = s, its moment M about the y axis through the origin (current
+        positions) and the moment M_w = Σ F_z X work-conjugate to θ (reference positions, as θ is applied)."""
         st = self.state
         R, _, _ = self.asm.evaluate(st.u, st.p, self.load.pressures, need_tangent=False)
         Fz = R[3 * self.top + 2]
         x = self.prob.mesh.points[self.top, 0] + st.u[self.top, 0]
-        return float(Fz.sum()), float((Fz * x).sum())
+        return float(Fz.sum()), float((Fz * x).sum()), float(Fz @ self.prob.mesh.points[self.top, 0])
 
     def pressurise(self, Q: float, U: float, Q0: float = 0.0, n_levels: int = 4) -> float:
         """U that carries the half tube's thrust Q π r_i²/2 at pressure Q, from the current state at Q0.
@@ -260,16 +261,18 @@ class CellRun:
             U0, N0, U1 = U1, N1, U1 + step
         raise RuntimeError(f"thrust at Q = {Q}: N = {N1:.6g} N after 10 secant steps, target {target:.6g} N")
 
-    def bending_stiffness(self, Q: float, U: float) -> float:
-        """EI = s · (M(+θ) − M(−θ))/(2θ) about the current pressurised state [N mm²]."""
+    def bending_stiffness(self, Q: float, U: float) -> tuple[float, float]:
+        """EI = s · (M(+θ) − M(−θ))/(2θ) about the current pressurised state [N mm²], with M about the
+        origin and with the work-conjugate M_w (the two agree at Q = 0; under pressure M also holds the
+        thrust times the end plane's lateral drift, which the closed chamber leaves unrestrained)."""
         base_state, base_load = self.state, self.load
         m = []
         for th in (THETA, -THETA):
             self.state, self.load = base_state, base_load
             self.go(Q, U, th)
-            m.append(self.forces()[1])
+            m.append(self.forces()[1:])
         self.state, self.load = base_state, base_load
-        return abs(m[0] - m[1]) / (2 * THETA) * self.cell.s
+        return tuple(abs(a - b) / (2 * THETA) * self.cell.s for a, b in zip(m[0], m[1]))
 
 
 def measure(cell: Cell, model: str, level: int, n_phi: int, smeared_scale: float = 1.0) -> dict:
@@ -296,7 +299,7 @@ def measure(cell: Cell, model: str, level: int, n_phi: int, smeared_scale: float
     prob, top = cell_problem(cell, mesh, trusses, fields)
     run = CellRun(cell, prob, top)
     row = {"model": model, "level": level, "n_el": mesh.n_elements, "n_r": len(r_grid) - 1, "n_z": len(z_grid) - 1}
-    ei0 = run.bending_stiffness(0.0, 0.0)
+    ei0 = run.bending_stiffness(0.0, 0.0)[1]
     row["EI0"] = ei0
     print(f"  {model} level {level}: {mesh.n_elements} tets, EI(0) = {ei0:.6g} N mm² "
           f"({time.perf_counter() - t0:.0f} s)", file=sys.stderr, flush=True)
@@ -308,7 +311,8 @@ def measure(cell: Cell, model: str, level: int, n_phi: int, smeared_scale: float
             print(f"{model} level {level}: Q = {Q} MPa not reached ({exc})", flush=True)
             break
         row[f"ez_{Q}"] = U / cell.s
-        row[f"EIr_{Q}"] = run.bending_stiffness(Q, U) / ei0
+        ei, ei_w = run.bending_stiffness(Q, U)
+        row[f"EIr_{Q}"], row[f"EIw_{Q}"] = ei / ei0, ei_w / ei0
         print(f"  {model} level {level}: Q = {Q} MPa, U/s = {U / cell.s:.6g}, EI(Q)/EI(0) = {row[f'EIr_{Q}']:.6g} "
               f"({time.perf_counter() - t0:.0f} s)", file=sys.stderr, flush=True)
     row["t_s"] = time.perf_counter() - t0
@@ -340,7 +344,7 @@ def main(argv=None) -> int:
             print(markdown_table([row], list(row)), flush=True)
     ref = [r for r in rows if r["model"] == "resolved"]
     cols = ["model", "level", "n_el", "n_r", "n_z"] + [f"ez_{Q}" for Q in PRESSURES] + ["EI0"] + \
-        [f"EIr_{Q}" for Q in PRESSURES] + ["t_s"]
+        [f"EIr_{Q}" for Q in PRESSURES] + [f"EIw_{Q}" for Q in PRESSURES] + ["t_s"]
     print()
     print(markdown_table(rows, cols))
     print("prototype k(Q): " + ", ".join(f"{Q}: {k:.3f}" for Q, k in PROTOTYPE_K.items()))

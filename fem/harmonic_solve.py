@@ -1,0 +1,188 @@
+"""Equilibrium paths of the axisymmetric state and linear harmonic responses about it.
+
+The axisymmetric unknowns x are restricted to ``x = T y + x_fixed`` (:class:`Reduction`): fixed dofs
+take prescribed values, tied groups share one unknown (a mirror plane kept plane and free to move),
+and a tied group may carry an axial force (the thrust of a closed end, :class:`EndThrust`). The cavity
+pressure Q is an unknown too, so one Newton iteration on (y, Q) follows either a prescribed pressure
+(load control) or a prescribed displacement (passing a limit point)::
+
+    [ Tᵀ K T    Tᵀ ∂R/∂Q ] [Δy]     [ Tᵀ R ]
+    [   c_y       c_Q    ] [ΔQ] = − [  c   ]
+
+with c = Q − Q* or c = x_k − x_k* (Crisfield, *Non-linear Finite Element Analysis of Solids and
+Structures*, vol. 1, §9.2, displacement control). Linear systems by SuperLU (2-D problems).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from fem.harmonic import HarmonicSolid
+
+log = logging.getLogger(__name__)
+
+
+class HarmonicSolveFailed(RuntimeError):
+    """Newton did not converge on the axisymmetric state."""
+
+
+@dataclass(frozen=True, eq=False)
+class Reduction:
+    """x = T y + x_fixed over ``size`` dofs: ``fixed`` dofs prescribed, each of ``ties`` one shared unknown."""
+
+    size: int
+    fixed: np.ndarray
+    ties: tuple = ()
+
+    def matrix(self) -> sp.csr_matrix:
+        """T (size × n_red): identity on the free dofs, a column of ones per tied group."""
+        free = np.ones(self.size, bool)
+        free[np.asarray(self.fixed, np.int64)] = False
+        for grp in self.ties:
+            free[np.asarray(grp)] = False
+        idx = np.nonzero(free)[0]
+        rows, cols = [idx], [np.arange(len(idx))]
+        for k, grp in enumerate(self.ties):
+            rows.append(np.asarray(grp, np.int64))
+            cols.append(np.full(len(grp), len(idx) + k))
+        r, c = np.concatenate(rows), np.concatenate(cols)
+        return sp.csr_matrix((np.ones(len(r)), (r, c)), shape=(self.size, len(idx) + len(self.ties)))
+
+
+@dataclass(frozen=True)
+class EndThrust:
+    """An axial force N = Q π a² on a tied group (index into ``Reduction.ties``), pulling in +z.
+
+    ``radius_dof`` is the axisymmetric dof of u_r at the cavity's edge of that plane: a = R₀ + u_r
+    (the current cavity radius, ``current=True``: the closed end of a tube) or a = R₀ (the reference
+    radius).
+    """
+
+    tie: int
+    radius: float
+    radius_dof: int
+    current: bool = True
+
+    def force(self, x: np.ndarray, Q: float) -> tuple[float, float, float]:
+        """N, ∂N/∂Q and ∂N/∂u_r."""
+        a = self.radius + (x[self.radius_dof] if self.current else 0.0)
+        dN_du = 2.0 * Q * math.pi * a if self.current else 0.0
+        return Q * math.pi * a * a, math.pi * a * a, dN_du
+
+
+class AxisymmetricPath:
+    """Newton on (y, Q) for one :class:`fem.harmonic.HarmonicSolid` under a :class:`Reduction`."""
+
+    def __init__(self, solid: HarmonicSolid, reduction: Reduction, thrust: EndThrust | None = None,
+                 tol: float = 1e-10, max_iter: int = 25) -> None:
+        self.solid, self.red, self.thrust = solid, reduction, thrust
+        self.T = reduction.matrix()
+        self.tol, self.max_iter = tol, max_iter
+        self.n_red = self.T.shape[1]
+        self.x_fixed = np.zeros(reduction.size)
+        n_free = self.n_red - len(reduction.ties)
+        self.tie_col = [n_free + k for k in range(len(reduction.ties))]
+
+    def full(self, y: np.ndarray) -> np.ndarray:
+        return self.T @ y + self.x_fixed
+
+    def _system(self, y: np.ndarray, Q: float, need_tangent: bool = True):
+        x = self.full(y)
+        R, K = self.solid.axisymmetric(x, Q, need_tangent)
+        dRdQ = np.zeros_like(R)
+        if self.solid.pressure is not None:
+            dRdQ[: self.solid.n_u0] = self.solid.pressure.residual0(x[: self.solid.n_u0].reshape(-1, 2), 1.0)
+        r = self.T.T @ R
+        g = self.T.T @ dRdQ
+        if self.thrust is not None:
+            N, dNdQ, dNdu = self.thrust.force(x, Q)
+            col = self.tie_col[self.thrust.tie]
+            r[col] -= N
+            g[col] -= dNdQ
+            if need_tangent and dNdu:
+                K = K - sp.csr_matrix(([dNdu], ([self.red.ties[self.thrust.tie][0]], [self.thrust.radius_dof])),
+                                      shape=K.shape)
+        Kr = (self.T.T @ K @ self.T).tocsc() if need_tangent else None
+        return r, g, Kr
+
+    def solve(self, y: np.ndarray, Q: float, control: tuple | None = None) -> tuple[np.ndarray, float, int]:
+        """Equilibrium from (y, Q): at pressure Q (``control=None``) or with ``control = (dof, value)``.
+
+        ``dof`` indexes x (the full axisymmetric vector; it must be a free dof). Returns (y, Q, iterations).
+        """
+        y = y.copy()
+        e = None
+        if control is not None:
+            col = self.T.getrow(control[0]).indices
+            if len(col) != 1:
+                raise ValueError(f"AxisymmetricPath.solve: control dof {control[0]} is not a free dof")
+            e = int(col[0])
+        scale = None
+        for it in range(1, self.max_iter + 1):
+            r, g, K = self._system(y, Q)
+            if scale is None:
+                scale = max(np.linalg.norm(r), abs(Q) * np.linalg.norm(g), 1e-12)
+            c = 0.0 if e is None else float(self.full(y)[control[0]] - control[1])
+            if e is None:
+                d = spla.splu(K, permc_spec="COLAMD").solve(-r)
+                dQ = 0.0
+            else:
+                A = sp.bmat([[K, g[:, None]], [sp.csr_matrix(([1.0], ([0], [e])), shape=(1, self.n_red)), None]],
+                            format="csc")
+                sol = spla.splu(A, permc_spec="COLAMD").solve(-np.append(r, c))
+                d, dQ = sol[:-1], sol[-1]
+            if not np.all(np.isfinite(d)):
+                raise HarmonicSolveFailed(f"non-finite Newton correction at iteration {it}")
+            y += d
+            Q += dQ
+            rn = np.linalg.norm(r)
+            if rn <= self.tol * scale and abs(c) <= 1e-12 * (1 + abs(control[1] if control else 0)):
+                return y, Q, it
+            if np.linalg.norm(d, np.inf) <= 1e-13 * max(1.0, np.linalg.norm(y, np.inf)) and it > 1:
+                return y, Q, it
+        raise HarmonicSolveFailed(f"Newton did not converge in {self.max_iter} iterations (|R| = {rn:.3g}, "
+                                  f"scale {scale:.3g})")
+
+    def follow(self, y: np.ndarray, Q0: float, Q1: float, steps: int = 4, max_cuts: int = 8):
+        """From equilibrium (y, Q0) to pressure Q1 in ``steps`` increments, halving a failed one."""
+        Q, done, h = Q0, 0, (Q1 - Q0) / steps
+        cuts = 0
+        while abs(Q1 - Q) > 1e-15 * max(1.0, abs(Q1)):
+            target = Q + h if abs(Q1 - Q - h) > 1e-12 * abs(h) and (Q1 - Q - h) * h > 0 else Q1
+            try:
+                y_new, _, _ = self.solve(y, target)
+            except (HarmonicSolveFailed, FloatingPointError) as exc:
+                cuts += 1
+                if cuts > max_cuts:
+                    raise HarmonicSolveFailed(f"pressure {target:.6g}: {exc} after {max_cuts} cut-backs") from exc
+                h /= 2
+                continue
+            y, Q = y_new, target
+            done += 1
+        return y, Q
+
+
+def harmonic_response(solid: HarmonicSolid, n: int, x: np.ndarray, Q: float, fixed: np.ndarray,
+                      values: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """Linear harmonic-n field with prescribed amplitudes ``values`` at dofs ``fixed`` (others free).
+
+    Returns the amplitudes y (all harmonic dofs), the generalised reactions K y and the second
+    variation yᵀ K y (twice the energy of the perturbation over the whole turn).
+    """
+    K = solid.harmonic_tangent(n, x, Q).tocsr()
+    size = K.shape[0]
+    fixed = np.asarray(fixed, np.int64)
+    free = np.ones(size, bool)
+    free[fixed] = False
+    y = np.zeros(size)
+    y[fixed] = values
+    Kff = K[free][:, free].tocsc()
+    y[free] = spla.splu(Kff, permc_spec="COLAMD").solve(-(K[free][:, fixed] @ y[fixed]))
+    f = K @ y
+    return y, f, float(y @ f)
