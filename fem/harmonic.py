@@ -77,6 +77,13 @@ class HoopFibre:
     stiffness: float
 
 
+def _csr(parts, size: int) -> sp.csr_matrix:
+    """One CSR matrix from COO triplets, duplicates summed and every structural entry kept (zeros included),
+    so that the pattern does not depend on the values (a factorisation's analysis is then reused)."""
+    rows, cols, vals = (np.concatenate(a) for a in zip(*parts))
+    return sp.csr_matrix((vals, (rows, cols)), shape=(size, size))
+
+
 class HarmonicSolid:
     """The axisymmetric state and the harmonic tangents of a body of revolution meshed with Q9 elements.
 
@@ -221,13 +228,11 @@ class HarmonicSolid:
             R[: self.n_u0] += self.pressure.residual0(u, pressure)
         if not need_tangent:
             return R, None
-        rows, cols, vals = self._blocks(B, A, JG, wR, self.edofs_0, self.pdofs(self.n_u0))
-        K = sp.coo_matrix((vals, (rows, cols)), shape=(len(R), len(R))).tocsr()
-        for hf in self.hoop:
-            K = K + self._hoop_tangent(hf, F, B, phi, 0, len(R), self.edofs_0)
+        parts = [self._blocks(B, A, JG, wR, self.edofs_0, self.pdofs(self.n_u0))]
+        parts += [self._hoop_tangent(hf, F, B, phi, self.edofs_0) for hf in self.hoop]
         if self.pressure is not None and pressure != 0.0:
-            K = K + self.pressure.tangent(u, pressure, 0, len(R))
-        return R, K
+            parts.append(self.pressure.tangent(u, pressure, 0))
+        return R, _csr(parts, len(R))
 
     def _blocks(self, B, A, JG, wR, edofs, pdofs):
         """COO triplets of [K_uu K_up; K_pu K_pp] from B, A, J F⁻ᵀ and the weights."""
@@ -258,8 +263,8 @@ class HarmonicSolid:
         b = np.einsum("eq,eq,eqa->ea", c, lam, B[els][:, :, 8, :])  # (n_sel, 18)  Σ c λ ∂F_θΘ/∂u
         np.add.at(R, self.edofs_0[els], phi * Eb[:, None] * b)
 
-    def _hoop_tangent(self, hf, F, B, phi, n_u, size, edofs):
-        """phi [b bᵀ / C + Ē Σ_q c Σ_i B_iΘᵀ B_iΘ] (the fibre term's second variation)."""
+    def _hoop_tangent(self, hf, F, B, phi, edofs):
+        """COO triplets of phi [b bᵀ / C + Ē Σ_q c Σ_i B_iΘᵀ B_iΘ] (the fibre term's second variation)."""
         els, c, C, lam, Eb = self._hoop_strain(hf, F)
         Bs = B[els]  # (n_sel, n_qp, 9, nd)
         b = np.einsum("eq,eq,eqa->ea", c, lam, Bs[:, :, 8, :])  # (n_sel, nd)
@@ -268,8 +273,7 @@ class HarmonicSolid:
                     + Eb[:, None, None] * np.einsum("eq,eqia,eqib->eab", c, col, col))  # (n_sel, nd, nd)
         ed = edofs[els]
         nd = ed.shape[1]
-        return sp.coo_matrix((Ke.ravel(), (np.repeat(ed, nd, 1).ravel(), np.tile(ed, nd).ravel())),
-                             shape=(size, size)).tocsr()
+        return np.repeat(ed, nd, 1).ravel(), np.tile(ed, nd).ravel(), Ke.ravel()
 
     # ---------------------------------------------------------------- harmonics
     def harmonic_tangent(self, n: int, x: np.ndarray, pressure: float = 0.0) -> sp.csr_matrix:
@@ -287,13 +291,11 @@ class HarmonicSolid:
         B = self._B(n, els, 3)  # (n_el, n_qp, 9, 27)
         wR = math.pi * self.wR
         size = self.n_uh + 3 * self.n_el
-        rows, cols, vals = self._blocks(B, A, JG, wR, self.edofs_h, self.pdofs(self.n_uh))
-        K = sp.coo_matrix((vals, (rows, cols)), shape=(size, size)).tocsr()
-        for hf in self.hoop:
-            K = K + self._hoop_tangent(hf, F, B, math.pi, 0, size, self.edofs_h)
+        parts = [self._blocks(B, A, JG, wR, self.edofs_h, self.pdofs(self.n_uh))]
+        parts += [self._hoop_tangent(hf, F, B, math.pi, self.edofs_h) for hf in self.hoop]
         if self.pressure is not None and pressure != 0.0:
-            K = K + self.pressure.tangent(u, pressure, n, size)
-        return K
+            parts.append(self.pressure.tangent(u, pressure, n))
+        return _csr(parts, size)
 
     def node_dof(self, n: int, nodes: np.ndarray, k: int) -> np.ndarray:
         """Global index of component k of the given nodes: axisymmetric (n = 0, k < 2) or harmonic."""

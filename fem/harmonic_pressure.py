@@ -22,7 +22,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import scipy.sparse as sp
 
 from fem import quad9
 
@@ -61,10 +60,9 @@ class EdgePressureKernel:
         np.add.at(out, (2 * self.edges[..., None] + np.arange(2)).ravel(), Re.ravel())
         return out
 
-    def tangent(self, u: np.ndarray, p: float, n: int, size: int) -> sp.csr_matrix:
-        """The linearised pressure term of harmonic n (n = 0: the axisymmetric tangent, dofs (u_r, u_z)).
-
-        Dofs of node m: 2m + k (n = 0) or 3m + k (n ≥ 1), k = r, z, θ.
+    def tangent(self, u: np.ndarray, p: float, n: int):
+        """COO triplets (rows, cols, values) of the linearised pressure term of harmonic n (n = 0: the
+        axisymmetric tangent, dofs (u_r, u_z)). Dofs of node m: 2m + k (n = 0) or 3m + k (n ≥ 1), k = r, z, θ.
         """
         r, rp, zp = self._geometry(u)
         fac = (2.0 if n == 0 else 1.0) * math.pi * p
@@ -84,5 +82,4 @@ class EdgePressureKernel:
             rows.append(np.broadcast_to(ri, blk.shape).ravel())
             cols.append(np.broadcast_to(ck, blk.shape).ravel())
             vals.append(fac * blk.ravel())
-        return sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                             shape=(size, size)).tocsr()
+        return np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)

@@ -21,11 +21,20 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from fem.harmonic import HarmonicSolid
+from fem.linsolve import make_solver
 
 log = logging.getLogger(__name__)
+
+
+def with_diagonal(A: sp.spmatrix) -> sp.csr_matrix:
+    """A in CSR with every diagonal entry stored (explicit zeros where A has none): the pressure rows of an
+    incompressible mixed system have a zero diagonal, and a symmetric factorisation reads the upper triangle."""
+    c = A.tocoo()
+    n = A.shape[0]
+    return sp.csr_matrix((np.r_[c.data, np.zeros(n)], (np.r_[c.row, np.arange(n)], np.r_[c.col, np.arange(n)])),
+                         shape=A.shape)
 
 
 class HarmonicSolveFailed(RuntimeError):
@@ -80,14 +89,18 @@ class AxisymmetricPath:
     """Newton on (y, Q) for one :class:`fem.harmonic.HarmonicSolid` under a :class:`Reduction`."""
 
     def __init__(self, solid: HarmonicSolid, reduction: Reduction, thrust: EndThrust | None = None,
-                 tol: float = 1e-10, max_iter: int = 25) -> None:
+                 tol: float = 1e-10, max_iter: int = 25, linear_solver: str = "auto") -> None:
         self.solid, self.red, self.thrust = solid, reduction, thrust
+        self.linear = make_solver(linear_solver)
         self.T = reduction.matrix()
         self.tol, self.max_iter = tol, max_iter
         self.n_red = self.T.shape[1]
         self.x_fixed = np.zeros(reduction.size)
         n_free = self.n_red - len(reduction.ties)
         self.tie_col = [n_free + k for k in range(len(reduction.ties))]
+        self._map = np.full(reduction.size, -1)  # full dof -> its reduced unknown (-1: fixed)
+        Tc = self.T.tocoo()
+        self._map[Tc.row] = Tc.col
 
     def full(self, y: np.ndarray) -> np.ndarray:
         return self.T @ y + self.x_fixed
@@ -100,16 +113,26 @@ class AxisymmetricPath:
             dRdQ[: self.solid.n_u0] = self.solid.pressure.residual0(x[: self.solid.n_u0].reshape(-1, 2), 1.0)
         r = self.T.T @ R
         g = self.T.T @ dRdQ
+        extra = None
         if self.thrust is not None:
             N, dNdQ, dNdu = self.thrust.force(x, Q)
             col = self.tie_col[self.thrust.tie]
             r[col] -= N
             g[col] -= dNdQ
-            if need_tangent and dNdu:
-                K = K - sp.csr_matrix(([dNdu], ([self.red.ties[self.thrust.tie][0]], [self.thrust.radius_dof])),
-                                      shape=K.shape)
-        Kr = (self.T.T @ K @ self.T).tocsc() if need_tangent else None
-        return r, g, Kr
+            extra = (self.red.ties[self.thrust.tie][0], self.thrust.radius_dof, -dNdu)
+        return r, g, (self._reduce(K, extra) if need_tangent else None)
+
+    def _reduce(self, K: sp.spmatrix, extra: tuple | None = None) -> sp.csr_matrix:
+        """Tᵀ (K + the entry ``extra`` = (row, col, value)) T with every structural entry kept (a fixed
+        pattern, so the factorisation's analysis is reused along the path; sparse sums and products would
+        drop entries that happen to be zero)."""
+        c = K.tocoo()
+        rows, cols, data = c.row, c.col, c.data
+        if extra is not None:
+            rows, cols, data = np.r_[rows, extra[0]], np.r_[cols, extra[1]], np.r_[data, extra[2]]
+        r, q = self._map[rows], self._map[cols]
+        ok = (r >= 0) & (q >= 0)
+        return sp.csr_matrix((data[ok], (r[ok], q[ok])), shape=(self.n_red, self.n_red))
 
     def solve(self, y: np.ndarray, Q: float, control: tuple | None = None) -> tuple[np.ndarray, float, int]:
         """Equilibrium from (y, Q): at pressure Q (``control=None``) or with ``control = (dof, value)``.
@@ -130,12 +153,14 @@ class AxisymmetricPath:
                 scale = max(np.linalg.norm(r), abs(Q) * np.linalg.norm(g), 1e-12)
             c = 0.0 if e is None else float(self.full(y)[control[0]] - control[1])
             if e is None:
-                d = spla.splu(K, permc_spec="COLAMD").solve(-r)
+                self.linear.factorize(with_diagonal(K), symmetric=False)
+                d = self.linear.solve(-r)
                 dQ = 0.0
             else:
                 A = sp.bmat([[K, g[:, None]], [sp.csr_matrix(([1.0], ([0], [e])), shape=(1, self.n_red)), None]],
-                            format="csc")
-                sol = spla.splu(A, permc_spec="COLAMD").solve(-np.append(r, c))
+                            format="csr")
+                self.linear.factorize(with_diagonal(A), symmetric=False)
+                sol = self.linear.solve(-np.append(r, c))
                 d, dQ = sol[:-1], sol[-1]
             if not np.all(np.isfinite(d)):
                 raise HarmonicSolveFailed(f"non-finite Newton correction at iteration {it}")
@@ -149,27 +174,37 @@ class AxisymmetricPath:
         raise HarmonicSolveFailed(f"Newton did not converge in {self.max_iter} iterations (|R| = {rn:.3g}, "
                                   f"scale {scale:.3g})")
 
-    def follow(self, y: np.ndarray, Q0: float, Q1: float, steps: int = 4, max_cuts: int = 8):
-        """From equilibrium (y, Q0) to pressure Q1 in ``steps`` increments, halving a failed one."""
-        Q, done, h = Q0, 0, (Q1 - Q0) / steps
+    def follow(self, y: np.ndarray, Q0: float, Q1: float, steps: int = 4, max_cuts: int = 8,
+               previous: tuple[np.ndarray, float] | None = None):
+        """From equilibrium (y, Q0) to pressure Q1 in ``steps`` increments, halving a failed one.
+
+        Each increment starts from the secant through the last two equilibria (``previous`` is the one
+        before (y, Q0), if known), which leaves Newton a correction of second order in the step.
+        Returns (y, Q, (y_before, Q_before)) with the last equilibrium before the end for the next call.
+        """
+        Q, h = Q0, (Q1 - Q0) / steps
         cuts = 0
+        prev = previous
         while abs(Q1 - Q) > 1e-15 * max(1.0, abs(Q1)):
             target = Q + h if abs(Q1 - Q - h) > 1e-12 * abs(h) and (Q1 - Q - h) * h > 0 else Q1
+            start = y
+            if prev is not None and (Q - prev[1]) * (target - Q) > 0:
+                start = y + (y - prev[0]) * ((target - Q) / (Q - prev[1]))
             try:
-                y_new, _, _ = self.solve(y, target)
+                y_new, _, _ = self.solve(start, target)
             except (HarmonicSolveFailed, FloatingPointError) as exc:
                 cuts += 1
                 if cuts > max_cuts:
                     raise HarmonicSolveFailed(f"pressure {target:.6g}: {exc} after {max_cuts} cut-backs") from exc
                 h /= 2
                 continue
+            prev = (y, Q)
             y, Q = y_new, target
-            done += 1
-        return y, Q
+        return y, Q, prev
 
 
 def harmonic_response(solid: HarmonicSolid, n: int, x: np.ndarray, Q: float, fixed: np.ndarray,
-                      values: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+                      values: np.ndarray, linear_solver: str = "auto") -> tuple[np.ndarray, np.ndarray, float]:
     """Linear harmonic-n field with prescribed amplitudes ``values`` at dofs ``fixed`` (others free).
 
     Returns the amplitudes y (all harmonic dofs), the generalised reactions K y and the second
@@ -182,7 +217,8 @@ def harmonic_response(solid: HarmonicSolid, n: int, x: np.ndarray, Q: float, fix
     free[fixed] = False
     y = np.zeros(size)
     y[fixed] = values
-    Kff = K[free][:, free].tocsc()
-    y[free] = spla.splu(Kff, permc_spec="COLAMD").solve(-(K[free][:, fixed] @ y[fixed]))
+    lin = make_solver(linear_solver)
+    lin.factorize(with_diagonal(K[free][:, free]), symmetric=False)
+    y[free] = lin.solve(-(K[free][:, fixed] @ y[fixed]))
     f = K @ y
     return y, f, float(y @ f)

@@ -16,13 +16,12 @@ import math
 
 import numpy as np
 import pytest
-from scipy.integrate import quad
-from scipy.optimize import brentq
 
 from fem.harmonic import HarmonicSolid, HoopFibre, Region
 from fem.harmonic_solve import AxisymmetricPath, EndThrust, Reduction, harmonic_response
 from fem.material import NeoHookean, Yeoh
 from fem.meshgen2d import grid_mesh, inclusion_mesh
+from tests.tube_closed_form import closed_end_tube
 
 MU = 1.0
 A, B = 1.0, 2.0
@@ -51,34 +50,6 @@ def test_plane_strain_tube_inflates_as_rivlin(lam_a):
     assert Q == pytest.approx(exact, rel=2e-5)
 
 
-def _closed_tube_pressure(lam_a: float) -> tuple[float, float]:
-    """(P, λ) of the closed-end incompressible neo-Hookean tube at cavity stretch λa, by quadrature."""
-    def state(lam):
-        a = lam_a * A
-        b = math.sqrt(a * a + (B * B - A * A) / lam)
-
-        def stretches(r):
-            R = math.sqrt(A * A + lam * (r * r - a * a))
-            lt = r / R
-            return lt, 1.0 / (lam * lt)
-
-        def hoop(r):
-            lt, lr = stretches(r)
-            return MU * (lt**2 - lr**2) / r
-
-        P = quad(hoop, a, b, epsabs=1e-13, epsrel=1e-12)[0]
-
-        def szz(r):  # σ_zz = σ_rr + μ(λ² − λr²), σ_rr(r) = −P + ∫_a^r (σθθ − σrr)/r
-            lt, lr = stretches(r)
-            srr = -P + quad(hoop, a, r, epsabs=1e-13, epsrel=1e-12)[0]
-            return (srr + MU * (lam**2 - lr**2)) * 2 * math.pi * r
-
-        return P, quad(szz, a, b, epsabs=1e-12, epsrel=1e-11)[0] - P * math.pi * a * a
-
-    lam = brentq(lambda v: state(v)[1], 0.5, 4.0, xtol=1e-14)
-    return state(lam)[0], lam
-
-
 def test_closed_tube_reaches_its_limit_pressure():
     """A closed-end tube driven past its maximum pressure: P(λa) and λ against the exact solution, and the
     limit pressure as the largest P over the path."""
@@ -92,7 +63,7 @@ def test_closed_tube_reaches_its_limit_pressure():
     fe, ex = [], []
     for lam_a in np.linspace(1.1, 3.0, 20):
         y, Q, _ = path.solve(y, Q, control=(2 * _node(m, A, 0.0), lam_a - 1.0))
-        P_exact, lam = _closed_tube_pressure(lam_a)
+        P_exact, lam = closed_end_tube(lam_a, A, B, MU)
         assert Q == pytest.approx(P_exact, rel=1e-4)
         assert 1 + path.full(y)[2 * top[0] + 1] / 0.5 == pytest.approx(lam, rel=1e-4)
         fe.append(Q)
@@ -235,7 +206,7 @@ def test_n1_bending_of_a_pressurised_tube_matches_the_3d_solver():
     topn = np.nonzero(np.abs(P[:, 1] - cell.s) < 1e-12)[0]
     red = Reduction(solid.n_u0 + 3 * solid.n_el, 2 * bottom + 1, ties=(2 * topn + 1,))
     path = AxisymmetricPath(solid, red, EndThrust(0, cell.r_i, 2 * _node(m, cell.r_i, cell.s), current=False))
-    y, _ = path.follow(np.zeros(path.n_red), 0.0, Q, 4)
+    y, _, _ = path.follow(np.zeros(path.n_red), 0.0, Q, 4)
     x = path.full(y)
     assert x[2 * topn[0] + 1] == pytest.approx(U, rel=1e-2)
     ei2 = _bend(m, solid, x, Q, lambda nodes: m.points[nodes, 0])
