@@ -33,7 +33,11 @@ class IsochoricI1Material:
     """Base class: W_iso = f(Ī1) with Ī1 = J^{-2/3} I1.
 
     Subclasses implement :meth:`f_derivatives` and define ``d1`` (volumetric
-    compliance, 1/MPa, ≥ 0) and ``shear_modulus``.
+    compliance, 1/MPa, ≥ 0) and ``shear_modulus``. Each law then answers for its own
+    stress: the solver's :meth:`stress_tangent` / :meth:`stress_coefficients`, and for
+    post-processing :meth:`cauchy_stress` and :meth:`von_mises` (built on the same
+    :meth:`stress_tangent`, so what is written is the stress that was solved) and
+    :meth:`at_nodes` (the law at the nodes of a mesh).
     """
 
     d1: float
@@ -140,6 +144,101 @@ class IsochoricI1Material:
                 "d2f": d2f, "dI": dI}
         return P, coef
 
+    # ------------------------------------------------------------------ stress measures
+    def cauchy_stress(self, F: np.ndarray, p) -> np.ndarray:
+        """Cauchy stress of the mixed u–p law: this law's isochoric stress plus the pressure.
+
+        With P_iso the first Piola stress of :meth:`stress_tangent` and the volumetric term
+        p J F⁻ᵀ of :mod:`fem.assembly` (∂[p (J − 1)]/∂F)::
+
+            σ = J⁻¹ (P_iso + p J F⁻ᵀ) Fᵀ = J⁻¹ P_iso Fᵀ + p I
+
+        For an Ī1 law, P_iso = 2 f'(Ī1) J^{-2/3} (F − (I1/3) F⁻ᵀ), so σ = 2 f'(Ī1) J^{-5/3}
+        dev(F Fᵀ) + p I (Holzapfel 2000, eq. 6.103): the mean stress tr σ / 3 is p (positive
+        in tension, :class:`fem.state.State`), the deviator does not depend on p.
+        Incompressible uniaxial stretch λ with σ_yy = σ_zz = 0 gives
+        σ_xx = 2 f'(Ī1) (λ² − 1/λ), Ī1 = λ² + 2/λ (μ (λ² − 1/λ) for the neo-Hookean law).
+        For the 'displacement' formulation pass p = 2 (J − 1) / D1. The result is made
+        exactly symmetric, ½ (σ + σᵀ) (the two differ by round-off).
+
+        Parameters
+        ----------
+        F : ndarray, shape (..., 3, 3)
+            Deformation gradients, det F > 0. A law with one row per element
+            (:class:`ElementwiseMaterial`) needs F of shape (n_rows, ..., 3, 3).
+        p : float or ndarray, shape (...)
+            Pressure [MPa], > 0 in tension.
+
+        Returns
+        -------
+        ndarray, shape (..., 3, 3)
+            [MPa].
+        """
+        F = np.asarray(F, dtype=float)
+        J = np.linalg.det(F)  # (...)
+        G = np.linalg.inv(F)  # (..., 3, 3)
+        P_iso, _ = self.stress_tangent(F, G, J, need_tangent=False)  # (..., 3, 3)
+        p = np.broadcast_to(np.asarray(p, dtype=float), J.shape)  # (...)
+        P = P_iso + (p * J)[..., None, None] * np.swapaxes(G, -1, -2)  # (..., 3, 3) P_iso + p J F⁻ᵀ
+        sigma = np.einsum("...iJ,...kJ->...ik", P, F) / J[..., None, None]  # (..., 3, 3) J⁻¹ P Fᵀ
+        return 0.5 * (sigma + np.swapaxes(sigma, -1, -2))
+
+    def von_mises(self, F: np.ndarray, p=0.0) -> np.ndarray:
+        """Von Mises stress of :meth:`cauchy_stress` (:func:`von_mises_stress`).
+
+        σ_vM = sqrt(3/2 s:s), s the deviator of σ; p drops out of s for every Ī1 law, so
+        any pressure (e.g. 0) gives the same value. Incompressible uniaxial stretch λ:
+        σ_vM = 2 f'(Ī1) |λ² − 1/λ|.
+
+        Parameters
+        ----------
+        F : ndarray, shape (..., 3, 3)
+        p : float or ndarray, shape (...)
+            Pressure [MPa].
+
+        Returns
+        -------
+        ndarray, shape (...)
+            [MPa].
+        """
+        return von_mises_stress(self.cauchy_stress(F, p))
+
+    def at_nodes(self, cells: np.ndarray, used: np.ndarray | None = None) -> "IsochoricI1Material":
+        """The law at the nodes of a mesh: the law itself (one law everywhere).
+
+        :class:`ElementwiseMaterial` returns its laws with one row per node instead, for
+        nodal post-processing (:func:`fem.post.nodal_strain_stress`).
+
+        Parameters
+        ----------
+        cells : ndarray, shape (n_el, n_nodes_per_el)
+        used : ndarray of bool, shape (n_nodes,), optional
+            The nodes the rows stand for (no effect here).
+
+        Returns
+        -------
+        IsochoricI1Material
+        """
+        return self
+
+
+def von_mises_stress(sigma: np.ndarray) -> np.ndarray:
+    """Von Mises equivalent stress ``σ_vM = sqrt(3/2 s:s)``, ``s = σ − (tr σ / 3) I``.
+
+    Parameters
+    ----------
+    sigma : ndarray, shape (..., 3, 3)
+        Cauchy stresses [MPa].
+
+    Returns
+    -------
+    ndarray, shape (...)
+        [MPa], ≥ 0.
+    """
+    sigma = np.asarray(sigma, dtype=float)
+    s = sigma - (np.einsum("...ii->...", sigma) / 3.0)[..., None, None] * np.eye(3)  # (..., 3, 3)
+    return np.sqrt(1.5 * np.einsum("...ij,...ij->...", s, s))  # (...)
+
 
 @dataclass(frozen=True)
 class NeoHookean(IsochoricI1Material):
@@ -216,9 +315,10 @@ class ElementwiseMaterial(IsochoricI1Material):
     element's own law (the assembly integrates element by element; a material interface
     along element faces is exact for a perfect bond). Vectorised: every law is evaluated
     once on the elements of its group. Arrays handed to :meth:`f_derivatives` (and so
-    to :meth:`energy`, :meth:`stress_tangent`, :meth:`stress_coefficients`) must have one
-    row per element, shape (n_el, ...), as the assembler's (n_el, n_qp) quadrature arrays
-    do. The tangent is checked against central finite differences in
+    to :meth:`energy`, :meth:`stress_tangent`, :meth:`stress_coefficients`,
+    :meth:`cauchy_stress`, :meth:`von_mises`) must have one row per element, shape (n_el, ...),
+    as the assembler's (n_el, n_qp) quadrature arrays do; :meth:`at_nodes` gives the same laws
+    with one row per node. The tangent is checked against central finite differences in
     tests/test_model_form.py.
 
     Parameters
@@ -263,6 +363,35 @@ class ElementwiseMaterial(IsochoricI1Material):
     @property
     def n_elements(self) -> int:
         return len(self.element_material)
+
+    def at_nodes(self, cells: np.ndarray, used: np.ndarray | None = None) -> "ElementwiseMaterial":
+        """The laws with one row per node: a node takes the law of the lowest group among the
+        elements holding it (a node on an interface takes the first law's, e.g. the body's).
+
+        Parameters
+        ----------
+        cells : ndarray, shape (n_el, n_nodes_per_el)
+            The elements of ``element_material``, in order.
+        used : ndarray of bool, shape (n_nodes,), optional
+            The nodes the rows stand for, in node order, each held by some element (default:
+            the nodes held by some element, as :func:`fem.post.nodal_deformation_gradient` returns).
+
+        Returns
+        -------
+        ElementwiseMaterial
+            ``element_material`` of shape (n_used,).
+        """
+        cells = np.asarray(cells, dtype=np.int64)
+        if len(cells) != self.n_elements:
+            raise ValueError(f"ElementwiseMaterial.at_nodes: {len(cells)} cells, expected {self.n_elements}")
+        n_nodes = (int(cells.max()) + 1 if cells.size else 0) if used is None else len(used)
+        node_group = np.full(n_nodes, np.iinfo(np.int64).max)  # (n_nodes,)
+        np.minimum.at(node_group, cells.ravel(), np.repeat(self.element_material, cells.shape[1]))
+        held = node_group < len(self.materials)  # (n_nodes,)
+        used = held if used is None else np.asarray(used, dtype=bool)
+        if not held[used].all():
+            raise ValueError("ElementwiseMaterial.at_nodes: a used node is held by no element")
+        return ElementwiseMaterial(self.materials, node_group[used])
 
     def f_derivatives(self, i1bar):
         i1bar = np.asarray(i1bar, dtype=float)

@@ -1,5 +1,6 @@
 """Nodal post-processing of a TET10 displacement field: deformation gradient, logarithmic
-strain, and the Cauchy and von Mises stresses of the neo-Hookean law of the mixed u–p form.
+strain, and the Cauchy and von Mises stresses of the solved law of the mixed u–p form
+(each law computes its own stress, :meth:`fem.material.IsochoricI1Material.cauchy_stress`).
 
 Each element evaluates ``F = I + ∂u/∂X`` at its own 10 nodes with the quadratic shape
 functions of :mod:`fem.element`; a node takes the average over the elements sharing it.
@@ -19,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from fem import element
+from fem.material import von_mises_stress  # noqa: F401  (re-exported: σ_vM of stored stresses)
 
 
 def nodal_deformation_gradient(points: np.ndarray, cells: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -130,36 +132,6 @@ def axial_log_strain(points: np.ndarray, cells: np.ndarray, u: np.ndarray, axis:
     return spread_to_nodes(eulerian_log_strain(F)[:, axis, axis], used)
 
 
-def von_mises_neo_hookean(F: np.ndarray, c10: float) -> np.ndarray:
-    """Von Mises stress of the decoupled neo-Hookean law ``W = C10 (Ī₁ - 3) + U(J)``.
-
-    The deviatoric Cauchy stress is::
-
-        s = 2 C10 J^(-5/3) dev(B),   B = F Fᵀ,   dev(B) = B - (tr B / 3) I
-
-    (the volumetric part ``U(J)``, hence the pressure, does not enter) and
-    ``σ_vM = sqrt(3/2 s:s)``. Incompressible closed forms: a uniaxial stretch λ gives
-    ``2 C10 (λ² - 1/λ)``, a simple shear γ gives ``2 C10 γ sqrt(3 + γ²)``.
-
-    Parameters
-    ----------
-    F : ndarray, shape (k, 3, 3)
-    c10 : float
-        [MPa].
-
-    Returns
-    -------
-    ndarray, shape (k,)
-        [MPa].
-    """
-    F = np.asarray(F, dtype=float)
-    J = np.linalg.det(F)  # (k,)
-    B = np.einsum("kij,klj->kil", F, F)  # (k, 3, 3) F Fᵀ
-    dev = B - np.einsum("kii->k", B)[:, None, None] / 3.0 * np.eye(3)  # (k, 3, 3)
-    sdev = 2.0 * c10 * np.abs(J)[:, None, None] ** (-5.0 / 3.0) * dev  # (k, 3, 3)
-    return np.sqrt(1.5 * np.einsum("kij,kij->k", sdev, sdev))  # (k,)
-
-
 #: Component order of a symmetric tensor stored with 6 components, VTK's and ParaView's:
 #: XX, YY, ZZ, XY, YZ, XZ (:func:`symmetric_components`).
 SYMMETRIC_COMPONENTS: tuple[str, ...] = ("XX", "YY", "ZZ", "XY", "YZ", "XZ")
@@ -217,128 +189,21 @@ def element_to_nodes(cells: np.ndarray, values: np.ndarray, n_nodes: int, fill: 
     return out
 
 
-def cauchy_stress_neo_hookean(F: np.ndarray, c10: float, p: np.ndarray) -> np.ndarray:
-    """Cauchy stress of the mixed-form neo-Hookean law of :mod:`fem.assembly`.
-
-    The element energy density is ``W = C10 (Ī₁ − 3) + p (J − 1) − (D1/4) p²`` with
-    ``Ī₁ = J^(-2/3) tr(FᵀF)`` and p the element pressure unknown; its first Piola stress
-    (:meth:`fem.material.IsochoricI1Material.stress_tangent` plus the volumetric term of
-    :mod:`fem.assembly`) is::
-
-        P = ∂W/∂F = 2 C10 J^(-2/3) (F − (I₁/3) F⁻ᵀ) + p J F⁻ᵀ
-
-    and the Cauchy stress ``σ = J⁻¹ P Fᵀ``::
-
-        σ = 2 C10 J^(-5/3) (B − (tr B / 3) I) + p I,     B = F Fᵀ
-
-    The deviatoric part does not depend on p, the mean stress is ``tr σ / 3 = p``: p is
-    positive in tension (:class:`fem.state.State`). With the displacement formulation
-    ('displacement', D1 > 0) pass ``p = 2 (J − 1) / D1``. Incompressible uniaxial tension
-    λ along x, laterally free (``σ_yy = σ_zz = 0``), gives ``σ_xx = 2 C10 (λ² − 1/λ)``.
-
-    Parameters
-    ----------
-    F : ndarray, shape (k, 3, 3)
-        Deformation gradients (det F > 0).
-    c10 : float
-        [MPa].
-    p : ndarray, shape (k,) or float
-        Pressure [MPa], > 0 in tension.
-
-    Returns
-    -------
-    ndarray, shape (k, 3, 3)
-        [MPa], symmetric.
-    """
-    F = np.asarray(F, dtype=float)
-    p = np.broadcast_to(np.asarray(p, dtype=float), F.shape[:1])  # (k,)
-    J = np.linalg.det(F)  # (k,)
-    B = np.einsum("kij,klj->kil", F, F)  # (k, 3, 3) F Fᵀ
-    dev = B - np.einsum("kii->k", B)[:, None, None] / 3.0 * np.eye(3)  # (k, 3, 3)
-    return 2.0 * c10 * (J ** (-5.0 / 3.0))[:, None, None] * dev + p[:, None, None] * np.eye(3)  # (k, 3, 3)
-
-
-def von_mises_stress(sigma: np.ndarray) -> np.ndarray:
-    """Von Mises equivalent stress ``σ_vM = sqrt(3/2 s:s)``, ``s = σ − (tr σ / 3) I``.
-
-    Parameters
-    ----------
-    sigma : ndarray, shape (k, 3, 3)
-        Cauchy stresses [MPa].
-
-    Returns
-    -------
-    ndarray, shape (k,)
-        [MPa], >= 0; equals :func:`von_mises_neo_hookean` for the stress of
-        :func:`cauchy_stress_neo_hookean`, whatever the pressure.
-    """
-    sigma = np.asarray(sigma, dtype=float)
-    s = sigma - np.einsum("kii->k", sigma)[:, None, None] / 3.0 * np.eye(3)  # (k, 3, 3)
-    return np.sqrt(1.5 * np.einsum("kij,kij->k", s, s))  # (k,)
-
-
-def cauchy_stress_i1(F: np.ndarray, dfdi1: np.ndarray, p: np.ndarray) -> np.ndarray:
-    """Cauchy stress of any mixed-form law whose isochoric energy is f(Ī₁) (neo-Hookean, Yeoh, ...).
-
-    As :func:`cauchy_stress_neo_hookean` with C10 replaced by f'(Ī₁) at each point
-    (:meth:`fem.material.IsochoricI1Material.stress_tangent`: P_iso = 2 f' J^(-2/3) (F − (I₁/3) F⁻ᵀ))::
-
-        σ = 2 f'(Ī₁) J^(-5/3) (B − (tr B / 3) I) + p I
-
-    Parameters
-    ----------
-    F : ndarray, shape (k, 3, 3)
-    dfdi1 : ndarray, shape (k,)
-        f'(Ī₁) [MPa] at each point (C10 for the neo-Hookean law).
-    p : ndarray, shape (k,) or float
-        Pressure [MPa], > 0 in tension.
-
-    Returns
-    -------
-    ndarray, shape (k, 3, 3)
-    """
-    F = np.asarray(F, dtype=float)
-    p = np.broadcast_to(np.asarray(p, dtype=float), F.shape[:1])  # (k,)
-    J = np.linalg.det(F)  # (k,)
-    B = np.einsum("kij,klj->kil", F, F)  # (k, 3, 3) F Fᵀ
-    dev = B - np.einsum("kii->k", B)[:, None, None] / 3.0 * np.eye(3)  # (k, 3, 3)
-    coef = 2.0 * np.asarray(dfdi1, dtype=float) * J ** (-5.0 / 3.0)  # (k,)
-    return coef[:, None, None] * dev + p[:, None, None] * np.eye(3)  # (k, 3, 3)
-
-
-def nodal_law_slope(F: np.ndarray, material, cells: np.ndarray, used: np.ndarray) -> np.ndarray:
-    """f'(Ī₁) of ``material`` at the nodes ``used`` (shape (k,)), Ī₁ from the nodal F (k, 3, 3).
-
-    A material with one law per element group (``element_material``, e.g.
-    :class:`fem.material.ElementwiseMaterial`) gives each node the law of the lowest group among
-    its elements: a node on an interface takes the first law's (the body's).
-    """
-    J = np.linalg.det(F)  # (k,)
-    i1bar = J ** (-2.0 / 3.0) * np.einsum("kij,kij->k", F, F)  # (k,)
-    groups = getattr(material, "element_material", None)
-    if groups is None:
-        return material.f_derivatives(i1bar)[1]
-    n_nodes = int(cells.max()) + 1
-    node_group = np.full(n_nodes, np.iinfo(np.int64).max)
-    np.minimum.at(node_group, cells.ravel(), np.repeat(np.asarray(groups, dtype=np.int64), cells.shape[1]))
-    ng = node_group[np.flatnonzero(used)]  # (k,) used: the (n_nodes,) mask of nodal_deformation_gradient
-    out = np.empty_like(i1bar)
-    for k, law in enumerate(material.materials):
-        sel = ng == k
-        if sel.any():
-            out[sel] = law.f_derivatives(i1bar[sel])[1]
-    return out
-
-
-def nodal_strain_stress(points: np.ndarray, cells: np.ndarray, u: np.ndarray, p: np.ndarray | None, c10: float,
-                        d1: float = 0.0, formulation: str = "mixed", material=None) -> tuple[np.ndarray, np.ndarray]:
+def nodal_strain_stress(points: np.ndarray, cells: np.ndarray, u: np.ndarray, p: np.ndarray | None, material,
+                        formulation: str = "mixed") -> tuple[np.ndarray, np.ndarray]:
     """Nodal Eulerian log strain and Cauchy stress of a solved u–p state.
 
     F at the nodes from :func:`nodal_deformation_gradient`; ``ln V`` from
-    :func:`eulerian_log_strain`; σ from :func:`cauchy_stress_neo_hookean` (or, given
-    ``material``, :func:`cauchy_stress_i1` with its f'(Ī₁), :func:`nodal_law_slope`) with the nodal
-    pressure: the mean of the element pressures around the node (:func:`element_to_nodes`)
-    for the 'mixed' formulation, ``2 (J − 1) / D1`` of the nodal F for 'displacement'.
+    :func:`eulerian_log_strain`; σ from the law's own
+    :meth:`~fem.material.IsochoricI1Material.cauchy_stress` at the nodes
+    (:meth:`~fem.material.IsochoricI1Material.at_nodes`: with one law per element group a node
+    takes the law of the lowest group among its elements)::
+
+        σ = J⁻¹ (P_iso + p J F⁻ᵀ) Fᵀ
+
+    with the nodal pressure p: the mean of the element pressures around the node
+    (:func:`element_to_nodes`) for the 'mixed' formulation, ``2 (J − 1) / D1`` of the nodal
+    F for 'displacement'.
 
     Parameters
     ----------
@@ -348,11 +213,11 @@ def nodal_strain_stress(points: np.ndarray, cells: np.ndarray, u: np.ndarray, p:
         [mm].
     p : ndarray, shape (n_el,) or None
         Element pressures [MPa] (mixed formulation; > 0 in tension).
-    c10, d1 : float
-        [MPa], [1/MPa].
+    material : fem.material.IsochoricI1Material
+        The solved law (one row per element of ``cells`` for
+        :class:`fem.material.ElementwiseMaterial`); its ``d1`` [1/MPa] serves the
+        'displacement' formulation.
     formulation : {'mixed', 'displacement'}
-    material : fem.material.IsochoricI1Material, optional
-        The solved law; default the neo-Hookean law of ``c10``.
 
     Returns
     -------
@@ -366,11 +231,11 @@ def nodal_strain_stress(points: np.ndarray, cells: np.ndarray, u: np.ndarray, p:
             raise ValueError("nodal_strain_stress: the mixed formulation needs the element pressures p")
         pn = element_to_nodes(cells, p, len(used))[used]  # (k,)
     elif formulation == "displacement":
+        d1 = float(material.d1)
         if not d1 > 0:
             raise ValueError(f"nodal_strain_stress: the displacement formulation needs D1 > 0, got {d1!r}")
         pn = 2.0 * (np.linalg.det(F) - 1.0) / d1  # (k,)
     else:
         raise ValueError(f"nodal_strain_stress: formulation={formulation!r}, allowed 'mixed', 'displacement'")
-    sigma = (cauchy_stress_neo_hookean(F, c10, pn) if material is None
-             else cauchy_stress_i1(F, nodal_law_slope(F, material, cells, used), pn))
+    sigma = material.at_nodes(cells, used).cauchy_stress(F, pn)  # (k, 3, 3)
     return spread_to_nodes(eulerian_log_strain(F), used), spread_to_nodes(sigma, used)

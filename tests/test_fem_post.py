@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from fem import element, post, query
+from fem.material import ElementwiseMaterial, NeoHookean, Yeoh
 from fem.mesh import TetMesh
 from fem.meshgen import box_mesh, map_mesh
 
@@ -120,7 +121,7 @@ def test_von_mises_closed_forms():
     c10 = 0.14
     lam, g = 1.4, 0.6
     F = np.stack([_uniaxial(lam), _shear(g), _rot_x(0.7) @ _uniaxial(lam), 1.2 * np.eye(3), 1.1 * _uniaxial(lam)])
-    vm = post.von_mises_neo_hookean(F, c10)
+    vm = NeoHookean(c10).von_mises(F)
     uniaxial = 2 * c10 * (lam**2 - 1 / lam)
     np.testing.assert_allclose(vm, [
         uniaxial,
@@ -135,10 +136,10 @@ def test_von_mises_of_a_sheared_mesh():
     m, c10, g = MESHES["distorted"], 0.2, 0.3
     u = m.points @ (_shear(g) - np.eye(3)).T  # u = (γ y, 0, 0)
     F, used = post.nodal_deformation_gradient(m.points, m.cells, u)
-    np.testing.assert_allclose(post.von_mises_neo_hookean(F, c10), 2 * c10 * g * math.sqrt(3 + g * g), rtol=1e-12)
+    np.testing.assert_allclose(NeoHookean(c10).von_mises(F), 2 * c10 * g * math.sqrt(3 + g * g), rtol=1e-12)
 
 
-# ------------------------------------------------------------------ Cauchy stress of the mixed u–p neo-Hookean law
+# ------------------------------------------------------------------ Cauchy stress of the mixed u–p law at the nodes
 def _uniaxial_pressure(lam: float, c10: float) -> float:
     """p making the lateral stress of an incompressible uniaxial stretch λ zero: 2 C10 (I1/3 - 1/λ)."""
     return 2 * c10 * ((lam**2 + 2 / lam) / 3 - 1 / lam)
@@ -149,16 +150,16 @@ def test_cauchy_stress_uniaxial_closed_form():
     c10 = 0.14
     for lam in (0.7, 1.0, 1.4, 2.5):
         p = _uniaxial_pressure(lam, c10)
-        sigma = post.cauchy_stress_neo_hookean(_uniaxial(lam)[None], c10, np.array([p]))[0]
+        sigma = NeoHookean(c10).cauchy_stress(_uniaxial(lam)[None], np.array([p]))[0]
         np.testing.assert_allclose(sigma, np.diag([2 * c10 * (lam**2 - 1 / lam), 0.0, 0.0]), atol=1e-14)
         assert np.trace(sigma) / 3 == pytest.approx(p, abs=1e-14)  # p is the mean stress, > 0 in tension
         assert post.von_mises_stress(sigma[None])[0] == pytest.approx(abs(2 * c10 * (lam**2 - 1 / lam)), abs=1e-14)
     # a rotation superposed on it rotates σ: R σ Rᵀ
     lam, R = 1.4, _rot_x(0.7) @ _rot_z(0.3)
-    sigma = post.cauchy_stress_neo_hookean((R @ _uniaxial(lam))[None], c10, _uniaxial_pressure(lam, c10))[0]
+    sigma = NeoHookean(c10).cauchy_stress((R @ _uniaxial(lam))[None], _uniaxial_pressure(lam, c10))[0]
     np.testing.assert_allclose(sigma, R @ np.diag([2 * c10 * (lam**2 - 1 / lam), 0, 0]) @ R.T, atol=1e-14)
     # a rigid rotation leaves the pressure alone
-    np.testing.assert_allclose(post.cauchy_stress_neo_hookean(R[None], c10, -0.3)[0], -0.3 * np.eye(3), atol=1e-14)
+    np.testing.assert_allclose(NeoHookean(c10).cauchy_stress(R[None], -0.3)[0], -0.3 * np.eye(3), atol=1e-14)
 
 
 @pytest.mark.parametrize("f_name", [*HOMOGENEOUS, "dilated"])
@@ -166,23 +167,21 @@ def test_cauchy_stress_equals_the_material_stress(f_name):
     """σ = J⁻¹ (P_iso + p J F⁻ᵀ) Fᵀ with P_iso of fem.material.NeoHookean, the stress the solver
     assembles at its quadrature points (fem.assembly); on a curved mesh the nodal σ of a
     homogeneous deformation with one pressure in every element is that σ at every node."""
-    from fem.material import NeoHookean
-
     c10, p = 0.17, -0.042
     F = 1.07 * _uniaxial(1.2) if f_name == "dilated" else HOMOGENEOUS[f_name]
     J, G = np.linalg.det(F), np.linalg.inv(F)
     P_iso, _ = NeoHookean(c10).stress_tangent(F[None], G[None], np.array([J]), need_tangent=False)
     P = P_iso[0] + p * J * G.T
     expected = P @ F.T / J
-    np.testing.assert_allclose(post.cauchy_stress_neo_hookean(F[None], c10, p)[0], expected, atol=1e-14)
+    np.testing.assert_allclose(NeoHookean(c10).cauchy_stress(F[None], p)[0], expected, atol=1e-14)
     m = MESHES["curved"]
     u = m.points @ (F - np.eye(3)).T
-    le, sigma = post.nodal_strain_stress(m.points, m.cells, u, np.full(m.n_elements, p), c10)
+    le, sigma = post.nodal_strain_stress(m.points, m.cells, u, np.full(m.n_elements, p), NeoHookean(c10))
     np.testing.assert_allclose(sigma, np.broadcast_to(expected, sigma.shape), atol=1e-12)
     np.testing.assert_allclose(le, np.broadcast_to(post.eulerian_log_strain(F[None])[0], le.shape), atol=1e-12)
     # von Mises does not see the pressure
-    np.testing.assert_allclose(post.von_mises_stress(sigma), post.von_mises_neo_hookean(np.broadcast_to(F, sigma.shape),
-                                                                                       c10), rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(post.von_mises_stress(sigma), NeoHookean(c10).von_mises(np.broadcast_to(F, sigma.shape)),
+                               rtol=1e-12, atol=1e-14)
 
 
 def test_displacement_formulation_pressure():
@@ -190,12 +189,12 @@ def test_displacement_formulation_pressure():
     m, c10, d1 = MESHES["box"], 0.14, 0.5
     s = 1.05
     u = m.points * (s - 1.0)  # pure dilation: σ = 2 (J − 1)/D1 I
-    _, sigma = post.nodal_strain_stress(m.points, m.cells, u, None, c10, d1, formulation="displacement")
+    _, sigma = post.nodal_strain_stress(m.points, m.cells, u, None, NeoHookean(c10, d1), formulation="displacement")
     np.testing.assert_allclose(sigma, np.broadcast_to(2 * (s**3 - 1) / d1 * np.eye(3), sigma.shape), atol=1e-12)
     with pytest.raises(ValueError, match="D1 > 0"):
-        post.nodal_strain_stress(m.points, m.cells, u, None, c10, 0.0, formulation="displacement")
+        post.nodal_strain_stress(m.points, m.cells, u, None, NeoHookean(c10, 0.0), formulation="displacement")
     with pytest.raises(ValueError, match="element pressures"):
-        post.nodal_strain_stress(m.points, m.cells, u, None, c10)
+        post.nodal_strain_stress(m.points, m.cells, u, None, NeoHookean(c10))
 
 
 def test_element_to_nodes_and_symmetric_components():
@@ -216,8 +215,6 @@ def test_cauchy_stress_of_a_yeoh_law_and_of_two_laws_by_element():
     """Any Ī1 law: σ = 2 f'(Ī1) J^(-5/3) dev B + p I equals J⁻¹ P Fᵀ of the material's own stress, at
     every node of a homogeneously deformed mesh; with one law per element group a node takes the
     law of the lowest group among its elements."""
-    from fem.material import ElementwiseMaterial, NeoHookean, Yeoh
-
     F = np.array([[1.3, 0.1, 0.0], [0.05, 0.9, 0.02], [0.0, -0.03, 0.86]])
     J, G = np.linalg.det(F), np.linalg.inv(F)
     yeoh, p = Yeoh((0.145, 6.07e-3, 1e-4)), -0.02
@@ -228,13 +225,13 @@ def test_cauchy_stress_of_a_yeoh_law_and_of_two_laws_by_element():
 
     m = MESHES["curved"]
     u = m.points @ (F - np.eye(3)).T
-    _, sigma = post.nodal_strain_stress(m.points, m.cells, u, np.full(m.n_elements, p), 0.14, material=yeoh)
+    _, sigma = post.nodal_strain_stress(m.points, m.cells, u, np.full(m.n_elements, p), yeoh)
     np.testing.assert_allclose(sigma, np.broadcast_to(expected(yeoh), sigma.shape), atol=1e-12)
     # incompressible uniaxial closed form: σ_xx − σ_yy = 2 f'(I1) (λ² − 1/λ), I1 = λ² + 2/λ
     lam = 1.7
     Fu = np.diag([lam, lam ** -0.5, lam ** -0.5])
     i1 = lam ** 2 + 2 / lam
-    s = post.cauchy_stress_i1(Fu[None], yeoh.f_derivatives(np.array([i1]))[1], 0.0)[0]
+    s = yeoh.cauchy_stress(Fu[None], 0.0)[0]
     fprime = 0.145 + 2 * 6.07e-3 * (i1 - 3) + 3 * 1e-4 * (i1 - 3) ** 2
     assert s[0, 0] - s[1, 1] == pytest.approx(2 * fprime * (lam ** 2 - 1 / lam), rel=1e-12)
     # two laws: elements of group 1 everywhere but element 0
@@ -242,7 +239,7 @@ def test_cauchy_stress_of_a_yeoh_law_and_of_two_laws_by_element():
     groups = np.ones(m.n_elements, dtype=np.int64)
     groups[0] = 0
     mixed = ElementwiseMaterial((soft, yeoh), groups)
-    _, sig2 = post.nodal_strain_stress(m.points, m.cells, u, np.full(m.n_elements, p), 0.14, material=mixed)
+    _, sig2 = post.nodal_strain_stress(m.points, m.cells, u, np.full(m.n_elements, p), mixed)
     in0 = np.zeros(m.n_nodes, dtype=bool)
     in0[m.cells[0]] = True
     np.testing.assert_allclose(sig2[in0], np.broadcast_to(expected(soft), sig2[in0].shape), atol=1e-12)

@@ -19,6 +19,7 @@ pv.OFF_SCREEN = True
 
 from fem import post  # noqa: E402
 from fem.io import write_vtu  # noqa: E402
+from fem.material import NeoHookean  # noqa: E402
 from fem.mesh import TetMesh, volumes  # noqa: E402
 from fem.meshgen import box_mesh, map_mesh  # noqa: E402
 from whisker_opt.viewer import command, evaluations, fields, guard, overlays, rundir, sceneinfo  # noqa: E402
@@ -26,6 +27,7 @@ from whisker_opt.viewer import colours  # noqa: E402
 from whisker_opt.viewer import labels as vlabels  # noqa: E402
 from whisker_opt.viewer import render as rendering  # noqa: E402
 from whisker_opt.viewer import state as vstate  # noqa: E402
+from whisker_opt.viewer.rubber import RunRubber  # noqa: E402
 
 WS = (320, 200)  # small images keep the tests fast
 
@@ -351,11 +353,11 @@ def test_von_mises_uniaxial_closed_form(box):
     Fu = np.diag([lam, lam**-0.5, lam**-0.5])  # incompressible uniaxial stretch
     F, used = post.nodal_deformation_gradient(X, box.cells, X @ Fu.T - X)
     assert used.all()
-    np.testing.assert_allclose(post.von_mises_neo_hookean(F, c10), 2 * c10 * (lam**2 - 1 / lam), rtol=1e-12)
+    np.testing.assert_allclose(NeoHookean(c10).von_mises(F), 2 * c10 * (lam**2 - 1 / lam), rtol=1e-12)
     # a superposed rigid rotation changes nothing
     th = 0.7
     R = np.array([[1, 0, 0], [0, math.cos(th), -math.sin(th)], [0, math.sin(th), math.cos(th)]])
-    np.testing.assert_allclose(post.von_mises_neo_hookean(R @ F, c10), 2 * c10 * (lam**2 - 1 / lam), rtol=1e-12)
+    np.testing.assert_allclose(NeoHookean(c10).von_mises(R @ F), 2 * c10 * (lam**2 - 1 / lam), rtol=1e-12)
 
 
 def test_run_directory_best_without_scenes_json(tmp_path, box):
@@ -373,7 +375,7 @@ def test_run_directory_best_without_scenes_json(tmp_path, box):
         {"genes": {"alpha": 1.5, "l": 5.5, "t": 0.6, "Q_i": 0.02}, "f1": 0.003, "F_p": 0.004, "eval_id": 11}))
     (run / "best_curves.csv").write_text("delta_mm,eps_i,eps_c\n0,0,0\n1,0.01,0.011\n2,0.02,0.023\n")
     c = rundir.discover(run)
-    assert c.default_group() == "best" and c.c10 == 0.14
+    assert c.default_group() == "best" and c.rubber == RunRubber("neo_hookean", "same", 0.14, 0.0, 1.0)
     intact, trimmed = c.info("best", "intact"), c.info("best", "trimmed")
     assert intact.design["alpha"] == 1.5 and intact.design["t"] == 0.6 and intact.Q == 0.02
     assert trimmed.trim == 2.0 and trimmed.Q == 0.0 and trimmed.reading("deflected") == (2.0, 0.023)

@@ -44,7 +44,7 @@ from scipy.interpolate import CubicSpline
 
 from fem.loadpath import solve_path
 from fem.loads import LoadState
-from fem.material import ElementwiseMaterial, IsochoricI1Material, NeoHookean, Yeoh
+from fem.material import IsochoricI1Material
 from fem.problem import Dirichlet, EmbeddedTrusses, FollowerPressure, Problem
 from fem.state import State
 from geometry.design import WhiskerDesign
@@ -52,7 +52,7 @@ from geometry.fibre_field import smeared_fibres
 from geometry.mesh import MeshSizing, WhiskerMesh, build_mesh
 from whisker_opt.experiment.contact import Contact, contact_band, place_contact_ring
 from whisker_opt.experiment.gauge import GaugedMesh, GaugeReader
-from whisker_opt.experiment.spec import RUBBER_LAWS, SceneSpec
+from whisker_opt.experiment.spec import SceneSpec, cap_elements, rubber_material
 
 logger = logging.getLogger(__name__)
 
@@ -120,31 +120,11 @@ class SceneResult:
         return np.interp(delta, self.delta, y)
 
 
-def rubber_law(name: str, spec: SceneSpec) -> IsochoricI1Material:
-    """The isochoric law called ``name`` (:data:`whisker_opt.experiment.spec.RUBBERS`): the
-    neo-Hookean law of ``spec.c10``, or the Yeoh fit of :data:`~whisker_opt.experiment.spec.RUBBER_LAWS`;
-    D1 = ``spec.d1`` for every law."""
-    if name == "neo_hookean":
-        return NeoHookean(spec.c10, spec.d1)
-    return Yeoh(RUBBER_LAWS[name], spec.d1)
-
-
-def cap_elements(mesh, c: float) -> np.ndarray:
-    """Mask (n_el,) of the cap's elements of ``mesh`` (``points``, ``cells``): those whose centroid
-    (mean of the four corner nodes) lies at x < c."""
-    corners = mesh.points[mesh.cells[:, :4]]  # (n_el, 4, 3)
-    return corners[:, :, 0].mean(axis=1) < c
-
-
 def scene_material(mesh, spec: SceneSpec) -> IsochoricI1Material:
     """The rubber of the scene on ``mesh`` (:attr:`SceneSpec.rubber`, :attr:`SceneSpec.cap_rubber`): one
     law, or the cap's law on :func:`cap_elements` and the body's elsewhere
-    (:class:`fem.material.ElementwiseMaterial`)."""
-    body = rubber_law(spec.rubber, spec)
-    if spec.cap_rubber in ("same", spec.rubber):
-        return body
-    return ElementwiseMaterial((body, rubber_law(spec.cap_rubber, spec)),
-                               cap_elements(mesh, spec.design.c).astype(np.int64))
+    (:func:`whisker_opt.experiment.spec.rubber_material`)."""
+    return rubber_material(spec.rubber, spec.cap_rubber, spec.c10, spec.d1, cap_elements(mesh, spec.design.c))
 
 
 def base_dirichlet(wm: WhiskerMesh, spec: SceneSpec) -> list[Dirichlet]:

@@ -3,8 +3,11 @@
 Its user settings (contact, deflection, rubber constants, gauge factor) are declared here once
 with :func:`geometry.design.parameter`: their defaults, units, ranges and meanings; the
 ``scene`` and ``material`` sections of a run file are generated from them
-(:mod:`whisker_opt.config.model`). This module imports no solver code, so the configuration
-can read it cheaply.
+(:mod:`whisker_opt.config.model`). The rubbers are registered here by name, once: the
+named laws (:data:`RUBBER_LAWS`, :data:`RUBBERS`) and the law objects they stand for
+(:func:`rubber_law`, :func:`rubber_material`), used by the solver, the result files and the
+viewer alike. This module imports no solver code at import time (:mod:`fem.material` only
+inside those functions), so the configuration can read it cheaply.
 """
 
 from __future__ import annotations
@@ -13,10 +16,13 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from geometry.design import WhiskerDesign, parameter
 from geometry.sizing import MeshSizing
 
 if TYPE_CHECKING:  # pragma: no cover
+    from fem.material import IsochoricI1Material
     from fem.newton import SolveOptions
 
 #: Where the contact is placed (:attr:`SceneSpec.contact_at`).
@@ -36,6 +42,73 @@ RUBBER_LAWS = MappingProxyType({
 
 #: The rubber laws of :attr:`SceneSpec.rubber`: the neo-Hookean law of ``c10``/``d1``, or a named Yeoh fit.
 RUBBERS: tuple[str, ...] = ("neo_hookean",) + tuple(RUBBER_LAWS)
+
+
+def rubber_law(name: str, c10: float, d1: float) -> IsochoricI1Material:
+    """The isochoric law called ``name``, one of :data:`RUBBERS`: the one place a rubber's name
+    becomes a law.
+
+    'neo_hookean': W = C10 (Ī1 − 3) with C10 = ``c10`` (:class:`fem.material.NeoHookean`);
+    a key of :data:`RUBBER_LAWS`: W = C10 (Ī1 − 3) + C20 (Ī1 − 3)² with that silicone's
+    constants (:class:`fem.material.Yeoh`; ``c10`` is not used). D1 = ``d1`` for every law.
+
+    Parameters
+    ----------
+    name : str
+    c10 : float
+        [MPa].
+    d1 : float
+        [1/MPa].
+
+    Returns
+    -------
+    fem.material.IsochoricI1Material
+
+    Raises
+    ------
+    ValueError
+        An unknown name (the message lists :data:`RUBBERS`).
+    """
+    from fem.material import NeoHookean, Yeoh
+
+    if name == "neo_hookean":
+        return NeoHookean(c10, d1)
+    if name not in RUBBER_LAWS:
+        raise ValueError(f"rubber {name!r}: must be " + " or ".join(map(repr, RUBBERS)))
+    return Yeoh(RUBBER_LAWS[name], d1)
+
+
+def cap_elements(mesh, c: float) -> np.ndarray:
+    """Mask (n_el,) of the cap's elements of ``mesh`` (``points``, ``cells``): those whose centroid
+    (mean of the four corner nodes) lies at x < c."""
+    corners = mesh.points[mesh.cells[:, :4]]  # (n_el, 4, 3)
+    return corners[:, :, 0].mean(axis=1) < c
+
+
+def rubber_material(rubber: str, cap_rubber: str, c10: float, d1: float, cap: np.ndarray) -> IsochoricI1Material:
+    """The rubber of a whisker: one law, or the cap's law on the cap's elements and the body's elsewhere.
+
+    Parameters
+    ----------
+    rubber, cap_rubber : str
+        :attr:`SceneSpec.rubber`, :attr:`SceneSpec.cap_rubber` ('same', or one of :data:`RUBBERS`).
+    c10, d1 : float
+        [MPa], [1/MPa] (:func:`rubber_law`).
+    cap : ndarray of bool, shape (n_el,)
+        The cap's elements (:func:`cap_elements`); not read for one law.
+
+    Returns
+    -------
+    fem.material.IsochoricI1Material
+        :func:`rubber_law` of ``rubber``, or a :class:`fem.material.ElementwiseMaterial` of
+        (body, cap) laws with group 1 on ``cap``.
+    """
+    from fem.material import ElementwiseMaterial
+
+    body = rubber_law(rubber, c10, d1)
+    if cap_rubber in ("same", rubber):
+        return body
+    return ElementwiseMaterial((body, rubber_law(cap_rubber, c10, d1)), np.asarray(cap, dtype=bool).astype(np.int64))
 
 #: How the base face is held (:attr:`SceneSpec.base_support`).
 BASE_SUPPORTS: tuple[str, ...] = ("clamped", "sliding")

@@ -197,8 +197,9 @@ def state_fields(mesh, state, spec=None) -> tuple[dict, dict]:
     Point arrays: ``displacement`` u [mm] (n, 3); ``displacement_magnitude`` |u| [mm];
     ``log_strain``, the Eulerian log strain ln V = ½ ln(F Fᵀ) (n, 6) in VTK's order XX, YY,
     ZZ, XY, YZ, XZ; ``log_strain_axial`` its XX [-]; ``cauchy_stress`` σ [MPa] (n, 6), same
-    order, of the scene's rubber law with the mixed pressure (:func:`fem.post.cauchy_stress_i1`;
-    neo-Hookean by default); ``von_mises`` [MPa]. Nodal values: F
+    order, of the scene's own rubber law with the mixed pressure
+    (:func:`whisker_opt.experiment.scene.scene_material`, its
+    :meth:`~fem.material.IsochoricI1Material.cauchy_stress`); ``von_mises`` [MPa] of that σ. Nodal values: F
     averaged over the elements sharing a node, the element pressures likewise
     (:func:`fem.post.nodal_strain_stress`). Cell array ``mixed_pressure`` [MPa]: the element
     pressure unknown p of the u–p formulation, the mean stress tr σ / 3, positive in tension
@@ -210,7 +211,8 @@ def state_fields(mesh, state, spec=None) -> tuple[dict, dict]:
     state : fem.state.State
         ``u`` (n_nodes, 3) and ``p`` (n_el,).
     spec : whisker_opt.experiment.spec.SceneSpec, optional
-        C10, D1 and the formulation; without it the stress arrays are left out.
+        The rubber (:attr:`~whisker_opt.experiment.spec.SceneSpec.rubber`, ``cap_rubber``, C10,
+        D1) and the formulation; without it the stress arrays are left out.
 
     Returns
     -------
@@ -225,8 +227,8 @@ def state_fields(mesh, state, spec=None) -> tuple[dict, dict]:
     if spec is not None:
         from whisker_opt.experiment.scene import scene_material
 
-        le, sigma = post.nodal_strain_stress(mesh.points, mesh.cells, u, state.p, spec.c10, spec.d1, formulation,
-                                             material=scene_material(mesh, spec))
+        le, sigma = post.nodal_strain_stress(mesh.points, mesh.cells, u, state.p, scene_material(mesh, spec),
+                                             formulation)
         pdata["log_strain"] = post.symmetric_components(le)
         pdata["log_strain_axial"] = le[:, 0, 0]
         pdata["cauchy_stress"] = post.symmetric_components(sigma)

@@ -17,12 +17,15 @@ Modules, each importing only those listed before it:
     Facts about a scene (``scenes.json`` entries): design, Q, trim, gauge, readings.
 :mod:`~whisker_opt.viewer.genome`
     The scenes of a genome from the run's config (:mod:`whisker_opt.wiring`).
+:mod:`~whisker_opt.viewer.rubber`
+    The run's own rubber law (its config's ``material`` section), for a stress a file does not store.
 :mod:`~whisker_opt.viewer.rundir`
     Discovering the VTU states and metadata of a results directory.
 :mod:`~whisker_opt.viewer.evaluations`
     ``--rank`` / ``--eval``: rows of ``evaluations.csv``, their meshes, re-runs.
 :mod:`~whisker_opt.viewer.fields`
-    Reading a VTU grid; derived point fields (from :mod:`fem.post`); choosing the colour field.
+    Reading a VTU grid; the stored fields, and those an older file lacks (from :mod:`fem.post` and
+    the run's law); choosing the colour field.
 :mod:`~whisker_opt.viewer.state`
     A loaded state: warped smooth surfaces, curved edges, outline, titles.
 :mod:`~whisker_opt.viewer.overlays`

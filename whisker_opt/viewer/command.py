@@ -54,7 +54,8 @@ def add_view_args(p: argparse.ArgumentParser, types: Mapping[str, Callable[[str]
                         "opening a window")
     p.add_argument("--field", default=None,
                    help="colour by: strain (axial log strain LE_xx, default), displacement (|u|), mises (von Mises, "
-                        "needs material.C10 in config.yaml), any stored array, name:x for a component, or none")
+                        "as stored; for an older file without it, of the rubber in config.yaml), any stored array, "
+                        "name:x for a component, or none")
     p.add_argument("--clim", dest="clim_mode", choices=CLIM_MODES, default="panel",
                    help="colour range: panel = each panel its own range and scalar bar (default; in a window, over "
                         "all the deflections of that panel), so a vented panel is not washed out by the pressurised "

@@ -2,8 +2,9 @@
 
 By default a view shows the axial logarithmic strain ``LE_xx = (½ ln(F Fᵀ))_xx`` (the
 Eulerian Hencky strain, Abaqus' LE11), else the displacement magnitude, or any array
-stored in the VTU; with the run's neo-Hookean C10 also the von Mises stress. The numbers
-come from :mod:`fem.post`; this module only puts them on the grid.
+stored in the VTU, and the von Mises stress. Stored arrays are shown as stored; what an
+older file lacks is computed by :mod:`fem.post` and, for a stress, by the run's own law
+(:mod:`whisker_opt.viewer.rubber`); this module only puts the numbers on the grid.
 """
 
 from __future__ import annotations
@@ -136,32 +137,49 @@ def quadratic_cells(grid) -> np.ndarray:
     return np.asarray(cells, dtype=np.int64)
 
 
-def add_derived_fields(grid, disp: str | None, c10: float | None = None) -> None:
-    """Add ``X_ref``, ``displacement_magnitude``, ``axial_log_strain`` and (given ``c10``)
-    ``von_mises`` point arrays in place.
+def add_derived_fields(grid, disp: str | None, law=None) -> None:
+    """Add ``X_ref``, ``displacement_magnitude``, ``axial_log_strain`` and ``von_mises`` point
+    arrays in place, each the array the solver stored when the file has it.
 
-    The strain (:func:`fem.post.eulerian_log_strain`, xx component) is computed only for
-    quadratic tets and when no stored axial strain exists; the von Mises stress
-    (:func:`fem.post.von_mises_neo_hookean`) only for quadratic tets with a known
-    neo-Hookean C10 [MPa]. Nodes outside every cell get NaN.
+    The stored ``displacement_magnitude`` and ``von_mises`` are shown as stored, a stored axial
+    strain (:data:`STORED_STRAIN_NAMES`) as ``axial_log_strain``; only what a file lacks is
+    computed, on quadratic tets: |u|, the strain (:func:`fem.post.eulerian_log_strain`, xx
+    component), and the von Mises stress of the run's own law
+    (:meth:`fem.material.IsochoricI1Material.von_mises` at the nodes, with p = 0: the
+    pressure drops out of the deviator of every Ī1 law). No constitutive quantity is derived
+    from anything but that law. Nodes outside every cell get NaN.
+
+    Parameters
+    ----------
+    grid : pyvista.UnstructuredGrid
+    disp : str or None
+        The displacement point array.
+    law : callable, optional
+        ``law(points, cells)``: the run's law (:class:`fem.material.IsochoricI1Material`, one
+        row per cell for a cap of another rubber) on the reference points and the
+        :func:`quadratic_cells` of the grid, or None; called only when no ``von_mises`` is
+        stored (:meth:`whisker_opt.viewer.rubber.RunRubber.law`). Without it a file that
+        stores no stress shows none.
     """
     grid.point_data["X_ref"] = np.asarray(grid.points, dtype=float).copy()
     if disp is None:
         return
     u = np.asarray(grid.point_data[disp], dtype=float)
-    grid.point_data[MAGNITUDE_FIELD] = np.linalg.norm(u, axis=1)
+    if MAGNITUDE_FIELD not in grid.point_data:
+        grid.point_data[MAGNITUDE_FIELD] = np.linalg.norm(u, axis=1)
     cells = quadratic_cells(grid)
     stored = [k for k in grid.point_data.keys() if k.lower() in STORED_STRAIN_NAMES]
-    if stored:
-        if stored[0] != STRAIN_FIELD:
-            grid.point_data[STRAIN_FIELD] = np.array(grid.point_data[stored[0]], dtype=float)
-    if not len(cells) or (stored and c10 is None):
+    if stored and stored[0] != STRAIN_FIELD:
+        grid.point_data[STRAIN_FIELD] = np.array(grid.point_data[stored[0]], dtype=float)
+    need_mises = law is not None and MISES_FIELD not in grid.point_data
+    if not len(cells) or (stored and not need_mises):
         return
     F, used = post.nodal_deformation_gradient(grid.points, cells, u)
     if not stored:
         grid.point_data[STRAIN_FIELD] = post.spread_to_nodes(post.eulerian_log_strain(F)[:, 0, 0], used)
-    if c10 is not None:
-        grid.point_data[MISES_FIELD] = post.spread_to_nodes(post.von_mises_neo_hookean(F, c10), used)
+    material = law(np.asarray(grid.points, dtype=float), cells) if need_mises else None
+    if material is not None:
+        grid.point_data[MISES_FIELD] = post.spread_to_nodes(material.at_nodes(cells, used).von_mises(F, 0.0), used)
 
 
 def field_names(grid) -> list[str]:

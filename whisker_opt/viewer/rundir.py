@@ -17,6 +17,7 @@ present, from ``scenes.json`` (in the VTU's folder or a parent), ``best.json``,
 from __future__ import annotations
 
 import csv
+import functools
 import logging
 import math
 import re
@@ -28,7 +29,8 @@ from whisker_opt.output.scenes import FIBRE_SUFFIX
 from whisker_opt.wiring import INTACT, TRIMMED, UNCOMPENSATED
 from whisker_opt.viewer.genome import genome_scenes
 from whisker_opt.viewer.guard import ViewerError
-from whisker_opt.viewer.sceneinfo import DELTA_TOL, SceneInfo, finite_float, number_in, read_json, read_scenes_json
+from whisker_opt.viewer.rubber import RunRubber, run_rubber
+from whisker_opt.viewer.sceneinfo import DELTA_TOL, SceneInfo, number_in, read_json, read_scenes_json
 
 logger = logging.getLogger(__name__)
 
@@ -176,10 +178,11 @@ class RunContents:
     single_file: bool = False
     config: dict = field(default_factory=dict)
 
-    @property
-    def c10(self) -> float | None:
-        """Neo-Hookean C10 [MPa] of the run's ``config.yaml`` (``material.C10``), None when absent."""
-        return finite_float(config_section(self.config, "material").get("C10"))
+    @functools.cached_property
+    def rubber(self) -> RunRubber | None:
+        """The rubber the run was solved with (its ``config.yaml``'s ``material`` section,
+        :func:`whisker_opt.viewer.rubber.run_rubber`); None without a usable config."""
+        return run_rubber(self.config)
 
     @property
     def groups(self) -> list[str]:

@@ -10,6 +10,7 @@ connectivity. The undeformed outline is the boundary of the reference section z 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import logging
 import math
 from dataclasses import dataclass
@@ -27,6 +28,7 @@ from whisker_opt.viewer.fields import (
     quadratic_cells,
 )
 from whisker_opt.viewer.guard import ViewerError, require_pyvista
+from whisker_opt.viewer.rubber import RunRubber, cap_end
 from whisker_opt.viewer.rundir import RunContents, StateFile
 from whisker_opt.viewer.sceneinfo import SceneInfo
 from whisker_opt.wiring import INTACT, TRIMMED, UNCOMPENSATED
@@ -186,7 +188,7 @@ def prepare_state(
     scale: float = 1.0,
     subdivision: int = 2,
     edges: bool = True,
-    c10: float | None = None,
+    rubber: RunRubber | None = None,
 ) -> StateView:
     """Load a state and build its surfaces.
 
@@ -207,8 +209,10 @@ def prepare_state(
         Subdivisions of each curved boundary triangle (0 = straight).
     edges : bool
         Build the curved element edges.
-    c10 : float, optional
-        Neo-Hookean C10 [MPa]; adds the ``von_mises`` field (:func:`fem.post.von_mises_neo_hookean`).
+    rubber : RunRubber, optional
+        The run's rubber (:func:`whisker_opt.viewer.rubber.run_rubber`): the law that computes
+        ``von_mises`` when the file stores none (:func:`whisker_opt.viewer.fields.add_derived_fields`;
+        the cap's end from :func:`whisker_opt.viewer.rubber.cap_end`).
 
     Returns
     -------
@@ -232,7 +236,8 @@ def prepare_state(
     disp = displacement_name(grid, displacement, where)
     if disp is None:
         logger.info("%s: no displacement array (looked for %s); drawn undeformed", where, DISPLACEMENT_NAMES)
-    add_derived_fields(grid, disp, c10)
+    law = None if rubber is None else functools.partial(rubber.law, c=cap_end(grid, info.design))
+    add_derived_fields(grid, disp, law)
     vol = cell_volumes(grid)
     if np.any(vol <= 0):
         logger.warning("%s: %d of %d cells have non-positive VTK volume (inverted or misordered nodes)",
@@ -290,14 +295,14 @@ def load_views(
         The states to load (overrides ``group``, ``scenes`` and ``state``), e.g. from
         :meth:`RunContents.select_delta`.
     **kw
-        Passed to :func:`prepare_state` (``c10`` defaults to the run's).
+        Passed to :func:`prepare_state` (``rubber`` defaults to the run's, :attr:`RunContents.rubber`).
 
     Returns
     -------
     list of StateView
     """
     out = []
-    kw.setdefault("c10", contents.c10)
+    kw.setdefault("rubber", contents.rubber)
     for f in (contents.select(group, scenes, state) if files is None else files):
         info = contents.info(f.group, f.scene)
         if notes:
