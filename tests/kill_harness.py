@@ -142,7 +142,7 @@ class _Watch:
 
 
 def _checkpoint_temporary(run_dir: Path) -> bool:
-    """True while the temporary file of the next ``checkpoint.pkl`` exists."""
+    """True while the temporary file of the next checkpoint exists."""
     try:
         return any(p.name.startswith(f".{CHECKPOINT_NAME}.") and storage.is_temporary(p.name)
                    for p in run_dir.iterdir())

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 import yaml
 
-from whisker_opt.calibration.fit import covariance
+from whisker_opt.calibration.fit import bounds_reached, chi2_limit, covariance
 from whisker_opt.calibration.forward import BeamSimulator, RestoreSearch, predict
 from whisker_opt.calibration.job import calibrate, prepare
 from whisker_opt.calibration.measurements import MeasurementError, Restore, read_measurements
@@ -247,3 +247,70 @@ def test_a_pressure_the_model_cannot_hold_ends_the_restore_scan():
     pred = predict(ob, WhiskerConfig(), Sim(), RestoreSearch(Q_max=0.3, scan=7))
     assert pred.matched and pred.value == pytest.approx(0.12, abs=1e-5)
     assert "does not hold Q = 0.25 MPa" in pred.note and "scanned up to 0.2 MPa" in pred.note
+
+
+def _cli(capsys, *args):
+    from whisker_opt.cli.main import main
+
+    code = main([str(a) for a in args])
+    out, err = capsys.readouterr()
+    return SimpleNamespace(returncode=code, stdout=out, stderr=err)
+
+
+@pytest.mark.parametrize("budget, state", [(6, "budget exhausted"), (3, "not moved")])
+def test_a_fit_stopped_by_its_budget_is_not_labelled_calibrated(tmp_path, capsys, budget, state):
+    """Header, JSON, summary and exit status say that the fit did not converge."""
+    _write_data(tmp_path)
+    path = _config(tmp_path)
+    r = _cli(capsys, "calibrate", path, "--out", tmp_path / "out", "--set", f"calibration.max_evaluations={budget}")
+    assert r.returncode == 4, r.stderr
+    assert "Traceback" not in r.stderr and r.stderr.strip().count("\n") == 0
+    assert "not calibrated" in r.stderr and "NOT CALIBRATED" in r.stderr and "exit status 4" in r.stderr
+    assert f"status: {state.upper()} after {budget} of at most {budget} model evaluations" in r.stdout
+    text = (tmp_path / "out" / "calibrated.yaml").read_text()
+    assert text.startswith(f"# NOT CALIBRATED ({state})") and "CALIBRATED MODEL" not in text
+    assert "# WARNING: not calibrated: the fit used its budget" in text
+    report = json.loads((tmp_path / "out" / "calibration.json").read_text())
+    assert report["calibrated_model"] is False and report["fit_status"] == state
+    assert report["max_evaluations"] == budget and report["warnings"][0].startswith("not calibrated")
+    # the same data with the default budget: converged, headed calibrated, exit status 0
+    ok = _cli(capsys, "calibrate", path, "--out", tmp_path / "ok")
+    assert ok.returncode == 0, ok.stderr
+    report = json.loads((tmp_path / "ok" / "calibration.json").read_text())
+    assert report["calibrated_model"] is True and report["fit_status"] == "converged" and report["warnings"] == []
+    assert (tmp_path / "ok" / "calibrated.yaml").read_text().startswith("# CALIBRATED MODEL")
+
+
+def test_a_fit_pressed_against_a_bound_is_flagged(tmp_path):
+    """The data want C10 = 0.2; its upper bound 0.15 stops it a little inside that bound, where
+    least_squares' strictly feasible iterates end, and it is flagged there; chi2/dof is flagged too."""
+    _write_data(tmp_path)
+    params = [{"path": "material.C10", "lower": 0.05, "upper": 0.15, "start": 0.1},
+              {"path": "scene.calibration", "lower": 1.0, "upper": 10.0}]
+    path = _config(tmp_path, parameters=params)
+    run = calibrate(prepare(load_config(path), path), tmp_path)
+    out = run.outcome
+    assert out.state == "converged" and out.at_bound == ("upper", None)
+    assert 1e-6 * 0.1 < 0.15 - out.values[0] <= out.tolerance * 0.1  # inside the bound, within the fit's tolerance
+    assert out.chi2_high and out.chi2_per_dof > chi2_limit(out.dof)
+    report = json.loads((tmp_path / "calibration.json").read_text())
+    assert report["parameters"][0]["at_bound"] == "upper" and report["parameters"][1]["at_bound"] is None
+    assert report["chi2_per_dof"] == pytest.approx(out.chi2 / out.dof)
+    assert report["chi2_per_dof_limit"] == pytest.approx(chi2_limit(out.dof))
+    assert any("material.C10 = 0.15 is at its upper bound" in w for w in report["warnings"])
+    assert any(w.startswith("chi2/dof = ") for w in report["warnings"])
+    text = (tmp_path / "calibrated.yaml").read_text()
+    assert "(at its upper bound)" in text and "# WARNING: material.C10" in text and "# WARNING: chi2/dof" in text
+    assert "WARNING: material.C10 = 0.15 is at its upper bound" in run.summary
+
+
+def test_the_bound_and_chi2_limits():
+    """At a bound: within tolerance x range of the nearer bound (least_squares' active-set rule with
+    xtol = tolerance); chi2/dof limit: the 99th percentile of chi2_nu / nu."""
+    from whisker_opt.calibration.parameters import ModelParameter
+
+    p = ModelParameter(path="material.C10", lower=0.0, upper=2.0, start=1.0, unit="MPa", description="")
+    got = bounds_reached([2.0 - 2e-4, 2e-4, 1.0, 2.0 - 4e-3, 2.0], [p] * 5, 1e-3)
+    assert got == ("upper", "lower", None, None, "upper")
+    assert chi2_limit(5) == pytest.approx(3.017, abs=1e-3) and chi2_limit(1) == pytest.approx(6.635, abs=1e-3)
+    assert np.isnan(chi2_limit(0))

@@ -104,7 +104,7 @@ def test_demo_template_runs_end_to_end_with_settings(demo_run):
     assert stored["optimiser"]["stopping"]["max_generations"] == 0
     assert stored["optimiser"]["executor"]["kind"] == "serial"
     assert stored["fidelity"]["preset"] == "coarse"
-    assert (demo_run / "checkpoint.pkl").is_file()
+    assert (demo_run / "checkpoint.json").is_file()
 
 
 def test_resume_max_generations(demo_run, capsys):

@@ -265,7 +265,7 @@ def test_resume_from_previous(ws, tmp_path, capsys):
     d = tmp_path / "run"
     shutil.copytree(ws.run, d)
     state, config = load_checkpoint(d)
-    save_checkpoint(d, state, config)  # the second save keeps the first as checkpoint.prev.pkl
+    save_checkpoint(d, state, config)  # the second save keeps the first as checkpoint.prev.json
     good = (d / CHECKPOINT_NAME).read_bytes()
     (d / CHECKPOINT_NAME).write_bytes(good[:-7])
     line = _one_line(capsys, cli.main(["resume", str(d), "--no-progress"]), "resume")
@@ -273,7 +273,7 @@ def test_resume_from_previous(ws, tmp_path, capsys):
     assert cli.main(["resume", str(d), "--no-progress", "--from-previous"]) == 0
     out = capsys.readouterr().out
     assert "previous checkpoint (generation 0)" in out and "status         finished" in out, out
-    assert (d / "checkpoint.damaged.pkl").read_bytes() == good[:-7]
+    assert (d / "checkpoint.damaged.json").read_bytes() == good[:-7]
     assert load_checkpoint(d)[0].generation == 0
     # nothing to fall back on
     (d / PREVIOUS_NAME).unlink()

@@ -36,7 +36,7 @@ def finished_run(tmp_path_factory):
 def test_run_directory_holds_every_file(finished_run):
     _, run_dir, _ = finished_run
     for name in (
-        "optimiser.json", "environment.json", "checkpoint.pkl", "evaluations.csv", "generations.csv",
+        "optimiser.json", "environment.json", "checkpoint.json", "evaluations.csv", "generations.csv",
         "best.json", "convergence.png", "best_curves.csv", "best_curves.png",
     ):
         assert (run_dir / name).is_file(), name

@@ -50,7 +50,7 @@ def test_killed_ga_run_resumes_to_the_uninterrupted_result(tmp_path, reference, 
     if moment.kind == "metadata":
         assert not got["environment"] and got["generation"] == -1
     if moment.kind == "checkpoint":
-        assert any(n.startswith(".checkpoint.pkl.") for n in got["temporaries"])  # killed inside the write
+        assert any(n.startswith(".checkpoint.json.") for n in got["temporaries"])  # killed inside the write
         assert got["generation"] == moment.generation - 1
     if moment.kind == "finish":
         assert got["finished"]
@@ -205,8 +205,8 @@ def test_vtu_files_have_ordinary_modes(tmp_path, umask, mode):
 
 
 def test_temporaries_are_recognised():
-    for name in (".checkpoint.pkl.x1y2.tmp", ".tmpab12", "tmpab12cd34.vtu", ".best.partial", ".eval_3.partial",
+    for name in (".checkpoint.json.x1y2.tmp", ".tmpab12", "tmpab12cd34.vtu", ".best.partial", ".eval_3.partial",
                  ".intact_deflected.vtu.k2j3.tmp"):
         assert storage.is_temporary(name), name
-    for name in ("best", "checkpoint.pkl", "intact_deflected.vtu", "tmp.vtu", "scenes.json", "eval_3"):
+    for name in ("best", "checkpoint.json", "run.lock", "intact_deflected.vtu", "tmp.vtu", "scenes.json", "eval_3"):
         assert not storage.is_temporary(name), name

@@ -1,10 +1,16 @@
 """Progress of the long jobs: the executors' per-result callback, the run's per-evaluation
 progress (count, closing at 100 %, no effect on the results), the compensation table's row
-progress and the run directory's ``run.log``."""
+progress, the run directory's ``run.log``, and the progress lines (count, elapsed time, ETA) that
+reach a console that is no terminal, one per generation of a run."""
 
 from __future__ import annotations
 
 import logging
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,9 +24,12 @@ from whisker_opt.optimise import runner
 from whisker_opt.optimise.executors import ProcessExecutor, SerialExecutor
 from whisker_opt.optimise.ga import EvaluationProgress, GeneticAlgorithm
 from whisker_opt.optimise.runner import run_optimisation
+from whisker_opt.output import progress
+from whisker_opt.output.progress import PROGRESS_LOGGER, Progress, format_duration
 from whisker_opt.output.storage import read_csv
 from tests.analytic_fitness import AnalyticFitness, FailureRegion
 
+REPO = Path(__file__).resolve().parents[1]
 EV = AnalyticFitness(failures=(FailureRegion("alpha", 5.5, "mesh_failed"),))
 GENES = [{"alpha": 3.0 + 0.4 * k, "l": 12.0, "t": 4.0, "Q_i": 0.05} for k in range(8)]
 SEEDS = list(range(100, 108))
@@ -175,3 +184,72 @@ def test_run_log_writes_info_and_leaves_the_console_as_it_was(tmp_path):
     assert "INFO whisker_opt.optimise.ga: an info line" in text and "WARNING" in text and "appended on reopening" in text
     assert seen == ["a warning line"]  # the console saw what it saw before, nothing more
     assert (pkg.level, pkg.propagate, list(pkg.handlers)) == before
+
+
+# ----------------------------------------------------------------------------- progress lines
+class _ListHandler(logging.Handler):
+    def __init__(self):
+        super().__init__()
+        self.seen = []
+
+    def emit(self, record):
+        self.seen.append(record.getMessage())
+
+
+def test_a_progress_line_states_the_count_the_elapsed_time_and_the_eta(caplog):
+    with caplog.at_level(logging.INFO, logger=PROGRESS_LOGGER):
+        with Progress(5, "verify at fine", "scene", enabled=False) as steps:
+            steps.t0 -= 30.0  # 30 s into the job
+            steps.step("(design 1/3: intact scene solved)")
+        with Progress(41, "calibrate", "model evaluation", enabled=False, initial=1, at_most=True) as steps:
+            steps.t0 -= 130.0
+            steps.step(n=2)
+    assert [r.getMessage() for r in caplog.records] == [
+        "verify at fine: scene 1/5 (design 1/3: intact scene solved); elapsed 30 s, ETA 2 min 00 s",
+        "calibrate: model evaluation 3 of at most 41; elapsed 2 min 10 s, ETA ≤ 41 min 10 s"]  # 38 left at 65 s each
+    assert format_duration(2 * 3600 + 7 * 60) == "2 h 07 min" and format_duration(math.inf) == "?"
+
+
+@pytest.mark.parametrize("enabled", [True, False])
+def test_progress_lines_reach_a_console_that_is_no_terminal_and_nothing_else_does(tmp_path, monkeypatch, enabled):
+    """At the console's WARNING level: progress lines only (also through a run's log), unless disabled."""
+    root, console = logging.getLogger(), _ListHandler()
+    old_level = root.level
+    root.addHandler(console)
+    root.setLevel(logging.WARNING)
+    monkeypatch.setattr(progress.sys, "stderr", open(tmp_path / "stderr", "w"))  # not a terminal
+    try:
+        with progress.show_progress_lines(enabled) as shown:
+            Progress(2, "job", "step", bar=False).step()
+            logging.getLogger("whisker_opt.optimise.ga").info("an ordinary info line")
+            with workflows.run_log(tmp_path):
+                Progress(2, "job in a run", "step", bar=False).step()
+        assert shown is enabled
+    finally:
+        root.removeHandler(console)
+        root.setLevel(old_level)
+        progress.sys.stderr.close()
+    want = ["job: step 1/2; elapsed 0 s, ETA 0 s", "job in a run: step 1/2; elapsed 0 s, ETA 0 s"] if enabled else []
+    assert console.seen == want
+    assert logging.getLogger(PROGRESS_LOGGER).level == logging.NOTSET  # restored
+    assert "job in a run: step 1/2" in (tmp_path / "run.log").read_text()  # the run's log has it either way
+
+
+def test_a_run_with_stderr_to_a_file_logs_one_progress_line_per_generation(tmp_path):
+    """As under `nohup whisker-opt run ... > log 2>&1`: the demo at population 2, generations 0 and 1."""
+    log = tmp_path / "log"
+    args = ["run", str(REPO / "configs" / "demo.yaml"), "--out", str(tmp_path / "run"),
+            "--set", "optimiser.ga.population=2", "--set", "optimiser.ga.n_elite=0",
+            "--set", "optimiser.stopping.max_generations=1", "--set", "optimiser.executor.kind=serial"]
+    with open(log, "w") as f:
+        proc = subprocess.run([sys.executable, "-m", "whisker_opt.cli.main", *args], cwd=REPO, stdout=f,
+                              stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, timeout=900,
+                              env={**os.environ, "OMP_NUM_THREADS": "1"})
+    text = log.read_text()
+    assert proc.returncode == 0, text
+    lines = [ln for ln in text.splitlines() if "run: generations done" in ln]
+    assert len(lines) == 2, text
+    for k, ln in enumerate(lines):
+        assert f"generations done {k + 1} of at most 2 (generation {k}: best F_p " in ln
+        assert "; elapsed " in ln and ", ETA" in ln
+    assert "evaluation 1/" not in text  # one line per generation, not per evaluation

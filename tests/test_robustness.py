@@ -156,6 +156,36 @@ def test_the_command_refuses_a_bad_tolerance_in_one_line(tmp_path, capsys):
     assert not (tmp_path / "o").exists()  # refused before anything was written
 
 
+def test_a_sample_too_small_for_the_sensitivities_is_refused_in_one_line(tmp_path, capsys):
+    """Six non-zero tolerances need 7 points for the linear fit's slopes; fewer gave NaN sensitivities."""
+    from whisker_opt import robustness as study
+    from whisker_opt.cli import main as cli
+    from whisker_opt.config.model import WhiskerConfig
+
+    path = tmp_path / "r.yaml"
+    path.write_text("scene: {Q_i: 0.2}\n")
+    for args in (["--samples", "6"], ["--method", "both", "--set", "robustness.sample.n=3"]):
+        rc = cli.main(["robustness", str(path), *args, "--out", str(tmp_path / "o")])
+        err = capsys.readouterr().err.strip().splitlines()
+        assert rc == 2 and len(err) == 1, err
+        assert err[0].startswith("whisker-opt robustness: error: robustness.sample.n (--samples): ") and \
+            "the minimum is 7" in err[0], err
+    assert not (tmp_path / "o").exists()  # refused before anything was written
+    # zero tolerances need no slope: two live ones need 3 points; the expansion needs no sample
+    cfg = WhiskerConfig.model_validate({"robustness": {"sample": {"n": 3}, "tolerances": {
+        "alpha": 0, "l": 0, "t": 0, "fibre_radius": 0, "C10": 10, "calibration": 0.1}}})
+    study.check_sample_size(cfg, ["sample"])
+    study.check_sample_size(cfg.model_copy(update={"robustness": cfg.robustness.model_copy(
+        update={"sample": cfg.robustness.sample.model_copy(update={"n": 2})})}), ["expansion"])
+    with pytest.raises(study.RobustnessError, match=r"robustness.sample.n \(--samples\): 2 is too few .* minimum is 3"):
+        study.check_sample_size(cfg.model_copy(update={"robustness": cfg.robustness.model_copy(
+            update={"sample": cfg.robustness.sample.model_copy(update={"n": 2})})}), ["both"])
+    # the linear fit itself: d + 1 points give finite slopes, d points none
+    x = rb.draw(7, [1.0] * 6, seed=1)
+    assert np.all(np.isfinite(rb.linear_fit_slopes(x, x @ np.arange(6.0)[:, None])))
+    assert np.all(np.isnan(rb.linear_fit_slopes(x[:6], x[:6] @ np.arange(6.0)[:, None])))
+
+
 # ----------------------------------------------------------------------------- the robust objective
 @dataclass(frozen=True)
 class _Analytic:

@@ -64,6 +64,10 @@ def test_same_preset_is_warned(run_dir, caplog):
     warned = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
     assert any("coarse is the run's own preset" in m for m in warned), warned
     assert any(r.getMessage().startswith("verify: design 1/1 done") for r in caplog.records)  # a line per design
+    scenes = [r.getMessage() for r in caplog.records if r.name == "whisker_opt.progress"]  # and per scene
+    assert [m.split(" solved")[0] for m in scenes] == ["verify at coarse: scene 1/2 (design 1/1: intact scene",
+                                                       "verify at coarse: scene 2/2 (design 1/1: trimmed scene"]
+    assert all("; elapsed " in m and ", ETA " in m for m in scenes)
     text = format_rows(rows, "coarse")
     assert "WARNING: preset coarse is the run's own preset" in text and "--preset fine" in text
     assert "f1 resolution ~2e-3 at preset coarse" in text

@@ -243,7 +243,7 @@ def run(cfg: WhiskerConfig, out: str | Path | None = None, progress: bool = Fals
     return workflows.run(cfg, _out_dir(cfg, out, "run"), progress=progress)
 
 
-def resume(run_dir: str | Path, progress: bool = False) -> RunSummary:
+def resume(run_dir: str | Path, progress: bool = False, allow_config_change: bool = False) -> RunSummary:
     """Continue a killed run from its last checkpoint; the result equals an uninterrupted run.
 
     A finished run is not run again: its summary is returned.
@@ -254,6 +254,9 @@ def resume(run_dir: str | Path, progress: bool = False) -> RunSummary:
         A directory written by :func:`run` (or ``whisker-opt run``).
     progress : bool
         Show a progress bar on stderr.
+    allow_config_change : bool
+        Continue although the run's ``config.yaml`` was edited since it started (the change is
+        recorded); otherwise such a run is refused.
 
     Returns
     -------
@@ -263,6 +266,12 @@ def resume(run_dir: str | Path, progress: bool = False) -> RunSummary:
     ------
     FileNotFoundError
         ``run_dir`` is not a run directory.
+    whisker_opt.optimise.checkpoint.RunDirectoryError
+        A damaged checkpoint, one of an earlier version
+        (:class:`~whisker_opt.optimise.checkpoint.OlderFormatError`), or an edited ``config.yaml``
+        (:class:`~whisker_opt.optimise.rundir.ConfigChanged`).
+    whisker_opt.output.lock.RunDirectoryBusy
+        Another process writes into ``run_dir``.
 
     Examples
     --------
@@ -272,7 +281,7 @@ def resume(run_dir: str | Path, progress: bool = False) -> RunSummary:
     """
     from whisker_opt import workflows
 
-    return workflows.resume(Path(run_dir), progress=progress)
+    return workflows.resume(Path(run_dir), progress=progress, allow_config_change=allow_config_change)
 
 
 @dataclass(frozen=True)
@@ -415,8 +424,10 @@ def verify(run_dir: str | Path, preset: str = "fine", top: int = 3) -> list[dict
     (0.00137..., 0.00142...)
     """
     from whisker_opt.analysis.verify import verify_run
+    from whisker_opt.output.lock import RunDirLock
 
-    return verify_run(Path(run_dir), preset, top)
+    with RunDirLock(Path(run_dir), "verify"):
+        return verify_run(Path(run_dir), preset, top)
 
 
 def vent_pressure(trim: float, a: float, table) -> float:

@@ -80,15 +80,16 @@ class _TableProgress:
     """
 
     def __init__(self, response, trims: list[float], enabled: bool) -> None:
-        from whisker_opt.optimise.runner import progress_bar
+        from whisker_opt.output.progress import Progress
 
         self.response, self.trims = response, trims
         self.current: float | None = None
         self.done = 0
-        self.bar = progress_bar(len(trims), "compensate: table", "trim", enabled)
+        self.bar = Progress(len(trims), "compensate: table", "row", enabled)
 
     def _advance(self, done: int) -> None:
-        self.bar.update(max(done - self.done, 0))
+        if done > self.done:
+            self.bar.step(f"(trim Δ up to {self.trims[done - 1]:g} mm)", n=done - self.done)
         self.done = max(done, self.done)
 
     def __call__(self, d, Q, deltas):
@@ -185,15 +186,15 @@ class _CellProgress:
     """``sensitivity`` with a tqdm bar over the ``n_cells`` cells (a × Q) and a log line per cell."""
 
     def __init__(self, sensitivity, n_cells: int, enabled: bool) -> None:
-        from whisker_opt.optimise.runner import progress_bar
+        from whisker_opt.output.progress import Progress
 
         self.sensitivity, self.n_cells, self.done = sensitivity, n_cells, 0
-        self.bar = progress_bar(n_cells, "compensate: beam vs FE", "cell", enabled)
+        self.bar = Progress(n_cells, "compensate: beam vs FE", "cell", enabled)
 
     def __call__(self, d, a, Q):
         value = self.sensitivity(d, a, Q)
         self.done += 1
-        self.bar.update(1)
+        self.bar.step(f"(a = {a:g}, Q = {Q:g} MPa)")
         logger.info("compensate: sensitivity cell %d/%d, a = %g, Q = %g MPa: FE ε/δ = %.6g 1/mm", self.done,
                     self.n_cells, a, Q, value)
         return value
@@ -314,14 +315,14 @@ class _MapProgress:
     """``on_cell`` of :func:`whisker_opt.analysis.compensation_map.solve_map`: a tqdm bar over the cells, a log line each."""
 
     def __init__(self, n_cells: int, enabled: bool) -> None:
-        from whisker_opt.optimise.runner import progress_bar
+        from whisker_opt.output.progress import Progress
 
         self.n_cells, self.done = n_cells, 0
-        self.bar = progress_bar(n_cells, "compensate: map", "cell", enabled)
+        self.bar = Progress(n_cells, "compensate: map", "cell", enabled)
 
     def __call__(self, trim: float, a: float, cell: dict) -> None:
         self.done += 1
-        self.bar.update(1)
+        self.bar.step(f"(trim Δ = {trim:g} mm, a = {a:g})")
         logger.info("compensate: map cell %d/%d, trim Δ = %g mm, a = %g: Q = %.6g MPa%s, recovery %.4g %%",
                     self.done, self.n_cells, trim, a, cell["Q"],
                     f" (at its bound, {cell['at_bound']})" if cell["at_bound"] and trim > 0 else "",

@@ -210,8 +210,43 @@ def check_methods(methods: Sequence[str]) -> tuple[str, ...]:
     return tuple(out)
 
 
+def check_sample_size(cfg: WhiskerConfig, methods: Sequence[str]) -> None:
+    """Refuse a sample too small for the sensitivities of the sample method.
+
+    The sensitivities are the slopes of the least-squares fit y ≈ b0 + Σ_j b_j x_j over the
+    sample (:func:`whisker_opt.optimise.robust.linear_fit_slopes`): d slopes of the d non-zero
+    tolerances and an intercept need at least d + 1 points.
+
+    Parameters
+    ----------
+    cfg : WhiskerConfig
+    methods : sequence of str
+        The methods to run (nothing is checked without 'sample').
+
+    Raises
+    ------
+    RobustnessError
+        ``robustness.sample.n`` below d + 1 (one line naming the field, the value and the minimum).
+    """
+    if "sample" not in check_methods(methods):
+        return
+    live = sum(1 for h in cfg.robustness.tolerances.half_widths() if h > 0)
+    n = cfg.robustness.sample.n
+    if n < live + 1:
+        raise RobustnessError(f"robustness.sample.n (--samples): {n} is too few for the sensitivities to the {live} "
+                              f"non-zero tolerances (a linear fit of {live} slopes and an intercept); the minimum is "
+                              f"{live + 1}")
+
+
+def _expected_points(method: str, cfg: WhiskerConfig, half) -> int:
+    """Point evaluations of one design by ``method``: the sample's size, or at most 2d + 1 and two corners."""
+    if method == "sample":
+        return int(cfg.robustness.sample.n)
+    return 2 * sum(1 for h in half if h > 0) + 1 + len(OUTPUTS)
+
+
 def study_design(cfg: WhiskerConfig, design: StudyDesign, methods: Sequence[str] = ("expansion",),
-                 runner=None) -> DesignRobustness:
+                 runner=None, progress: bool = False) -> DesignRobustness:
     """Propagate the tolerances of ``cfg.robustness`` to f1 and the recovery rate of one design.
 
     Parameters
@@ -220,6 +255,9 @@ def study_design(cfg: WhiskerConfig, design: StudyDesign, methods: Sequence[str]
     design : StudyDesign
     methods : sequence of {'expansion', 'sample'}
     runner : SceneRunner, optional
+    progress : bool
+        Passed on to the progress lines, one per evaluated point (deviated design) of each method
+        (:class:`whisker_opt.output.progress.Progress`, log lines only).
 
     Returns
     -------
@@ -232,6 +270,7 @@ def study_design(cfg: WhiskerConfig, design: StudyDesign, methods: Sequence[str]
     """
     from whisker_opt.optimise.robust import draw, expansion_estimate, sample_estimate
     from whisker_opt.experiment.scene import SceneRunner
+    from whisker_opt.output.progress import Progress
 
     rob = cfg.robustness
     half = wiring.tolerance_half_widths(cfg)
@@ -244,12 +283,20 @@ def study_design(cfg: WhiskerConfig, design: StudyDesign, methods: Sequence[str]
     for method in check_methods(methods):
         before = points.solves
         logger.info("robustness: %s %s by %s", design.label, design.genes, method)
-        if method == "expansion":
-            est = expansion_estimate(points, half, rob.distribution, rob.normal_sigmas, rob.fd_step, WORSE)
-        else:
-            pts = draw(rob.sample.n, half, rob.distribution, rob.sample.design, rob.sample_seed(cfg.seed),
-                       rob.normal_sigmas)
-            est = sample_estimate(points, pts, WORSE)
+        with Progress(_expected_points(method, cfg, half), f"robustness: {design.label} by {method}", "point",
+                      progress, bar=False, at_most=method == "expansion") as steps:
+
+            def counted(x, steps=steps):
+                y = points(x)
+                steps.step(f"(deviated designs solved: {points.solves})")
+                return y
+
+            if method == "expansion":
+                est = expansion_estimate(counted, half, rob.distribution, rob.normal_sigmas, rob.fd_step, WORSE)
+            else:
+                pts = draw(rob.sample.n, half, rob.distribution, rob.sample.design, rob.sample_seed(cfg.seed),
+                           rob.normal_sigmas)
+                est = sample_estimate(counted, pts, WORSE)
         res.estimates[method] = est
         res.solves[method] = points.solves - before + (1 if not res.seconds else 0)
         res.seconds[method] = time.perf_counter() - t0
@@ -260,19 +307,17 @@ def study_design(cfg: WhiskerConfig, design: StudyDesign, methods: Sequence[str]
 
 def study(cfg: WhiskerConfig, designs: Sequence[StudyDesign], methods: Sequence[str] = ("expansion",),
           progress: bool = True) -> list[DesignRobustness]:
-    """:func:`study_design` for every design, with a progress bar over the designs."""
+    """:func:`study_design` for every design, with a progress bar and a progress line per design
+    (and a line per evaluated point, :func:`study_design`)."""
     from whisker_opt.experiment.scene import SceneRunner
-    from whisker_opt.optimise.runner import progress_bar
+    from whisker_opt.output.progress import Progress
 
     runner = SceneRunner(memo_size=16)
     out = []
-    bar = progress_bar(len(designs), "robustness", "design", progress)
-    try:
+    with Progress(len(designs), "robustness", "design", progress) as steps:
         for d in designs:
-            out.append(study_design(cfg, d, methods, runner))
-            bar.update(1)
-    finally:
-        bar.close()
+            out.append(study_design(cfg, d, methods, runner, progress))
+            steps.step(f"({d.label})")
     return out
 
 
@@ -351,10 +396,17 @@ def robustness(cfg: WhiskerConfig, designs: Sequence[StudyDesign], out: Path, me
     -------
     results : list of DesignRobustness
     paths : dict of str -> Path
+
+    Raises
+    ------
+    RobustnessError
+        A method that is none of :data:`METHODS`, or a sample too small for its sensitivities
+        (:func:`check_sample_size`), before anything is solved.
     """
     from whisker_opt.output.robustness import write_outputs
 
     methods = check_methods([cfg.robustness.method] if methods is None else methods)
+    check_sample_size(cfg, methods)
     wiring.tolerance_half_widths(cfg)
     results = study(cfg, designs, methods, progress)
     paths = write_outputs(Path(out), summary_rows(results), sensitivity_rows(results, cfg), _json(results, cfg),

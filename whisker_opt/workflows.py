@@ -55,7 +55,7 @@ def new_run_dir(cfg: WhiskerConfig, config_path: Path | str, kind: str) -> Path:
 
 # ----------------------------------------------------------------------------- mesh
 def mesh(cfg: WhiskerConfig, out: Path, trim: float | None = None, method: str | None = None,
-         step: bool = False) -> tuple[Any, dict]:
+         step: bool = False, progress: bool = True) -> tuple[Any, dict]:
     """Build and mesh the config's design; write ``mesh.npz``, ``mesh.vtu`` and ``mesh_report.json``.
 
     Parameters
@@ -69,6 +69,9 @@ def mesh(cfg: WhiskerConfig, out: Path, trim: float | None = None, method: str |
         Default ``fidelity.mesh_method``.
     step : bool
         Also export the CAD solid as STEP and STL.
+    progress : bool
+        A bar over the steps (meshing, then exporting STEP and STL) on a terminal; a progress
+        line per step is logged either way (:class:`whisker_opt.output.progress.Progress`).
 
     Returns
     -------
@@ -79,23 +82,28 @@ def mesh(cfg: WhiskerConfig, out: Path, trim: float | None = None, method: str |
     from fem.io import write_vtu
     from geometry.mesh import build_mesh
     from whisker_opt.experiment.fidelity import resolve
+    from whisker_opt.output.progress import Progress
 
     trim = cfg.scene.trim if trim is None else trim
     design = wiring.design_from_config(cfg, trim=trim)
     method = method or cfg.fidelity.mesh_method
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    t0 = time.perf_counter()
-    wm = build_mesh(design, resolve(cfg.fidelity).sizing, method=method)
-    elapsed = time.perf_counter() - t0
-    wm.save(out / "mesh.npz")
-    write_vtu(out / "mesh.vtu", wm.mesh)
-    if step:
-        from geometry.cad import build_solid, export_step, export_stl
+    steps = Progress(2 if step else 1, "mesh", "step", progress)
+    with steps:
+        t0 = time.perf_counter()
+        wm = build_mesh(design, resolve(cfg.fidelity).sizing, method=method)
+        elapsed = time.perf_counter() - t0
+        wm.save(out / "mesh.npz")
+        write_vtu(out / "mesh.vtu", wm.mesh)
+        steps.step(f"(meshed by {method}: {wm.mesh.cells.shape[0]} elements; mesh.npz and mesh.vtu written)")
+        if step:
+            from geometry.cad import build_solid, export_step, export_stl
 
-        solid = build_solid(design)
-        export_step(solid, out / "whisker.step")
-        export_stl(solid, out / "whisker.stl")
+            solid = build_solid(design)
+            export_step(solid, out / "whisker.step")
+            export_stl(solid, out / "whisker.stl")
+            steps.step("(whisker.step and whisker.stl written)")
     # the method actually used (e.g. 'template:default_a3.3_t3.6') stays; the one asked for beside it
     report = dict(wm.report.as_dict(), mesh_seconds=round(elapsed, 3), method_requested=method, trim_mm=trim)
     (out / "mesh_report.json").write_text(json.dumps(report, indent=2))
@@ -239,8 +247,18 @@ class _Forward(logging.Handler):
         self.parent, self.threshold = parent, threshold
 
     def emit(self, record: logging.LogRecord) -> None:
-        if record.levelno >= self.threshold:
+        if record.levelno >= self._threshold_of(record.name):
             self.parent.handle(record)
+
+    def _threshold_of(self, name: str) -> int:
+        """The level set on ``name`` or an ancestor below the package's logger (e.g. the progress
+        lines' logger), else the package's threshold before :func:`run_log` lowered it."""
+        log = logging.getLogger(name)
+        while log is not None and log.name not in (PACKAGE_LOGGER, "root"):
+            if log.level != logging.NOTSET:
+                return log.level
+            log = log.parent
+        return self.threshold
 
 
 @contextlib.contextmanager
@@ -427,12 +445,40 @@ def check_run_config(run_dir: Path, cfg: WhiskerConfig) -> None:
                               f"with `whisker-opt resume {run_dir}` or choose another --out")
 
 
-def run(cfg: WhiskerConfig, run_dir: Path, progress: bool = True):
+class GenerationLines:
+    """``callbacks`` entry of a run: a progress line per generation with elapsed time and ETA
+    (:class:`whisker_opt.output.progress.Progress`; the run's bar counts the evaluations).
+
+    Parameters
+    ----------
+    max_generations : int
+        The last generation (generations 0 … this); a stopping rule may end the run sooner, so the
+        ETA is an upper bound.
+    done : int
+        Generations finished before (a resumed run).
+    """
+
+    def __init__(self, max_generations: int, done: int = 0) -> None:
+        from whisker_opt.output.progress import Progress
+
+        self.steps = Progress(max_generations + 1, "run", "generations done", bar=False, initial=done, at_most=True)
+
+    def __call__(self, state, row: dict) -> None:
+        feasible = "" if row.get("best_feasible", True) else " (infeasible)"
+        stop = f"; stop: {state.stop_reason}" if state.stop_reason else ""
+        self.steps.step(f"(generation {row['generation']}: best F_p {row['best_fp']:.4g}{feasible}, "
+                        f"{row.get('evals', 0)} evaluations, {state.n_evaluations} in all{stop})")
+
+
+def run(cfg: WhiskerConfig, run_dir: Path, progress: bool = True, overwrite: bool = False):
     """Run the GA of a config into ``run_dir`` and re-run its best design into ``run_dir/best``.
 
     ``run_dir`` may be new, empty, or a run killed before its first checkpoint with the same
-    config (it starts again). The run's log (INFO and above) is appended to ``run_dir/run.log``
-    (:func:`run_log`); the run records its fidelity preset and f1 resolution (:func:`fidelity_of`).
+    config (it starts again); with ``overwrite``, a folder holding a run is emptied first
+    (:func:`whisker_opt.optimise.rundir.check_run_target`). The run holds the folder's writer
+    lock throughout (:class:`whisker_opt.output.lock.RunDirLock`). The run's log (INFO and above)
+    is appended to ``run_dir/run.log`` (:func:`run_log`); the run records its fidelity preset and
+    f1 resolution (:func:`fidelity_of`) and its resolved config with its digest.
 
     Returns
     -------
@@ -441,33 +487,41 @@ def run(cfg: WhiskerConfig, run_dir: Path, progress: bool = True):
     Raises
     ------
     FileExistsError
-        ``run_dir`` already holds a run (resume it instead), or a ``config.yaml`` of another config.
+        ``run_dir`` already holds a run (resume it instead, or pass ``overwrite``), a ``config.yaml``
+        of another config, or files of no run.
+    whisker_opt.output.lock.RunDirectoryBusy
+        Another process writes into ``run_dir``.
     whisker_opt.optimise.executors.MachineFailure
         The executor cannot start (an unreachable dask scheduler), or workers were lost during
         the run (it resumes from its last checkpoint).
     """
     from whisker_opt.optimise.backend import preflight
-    from whisker_opt.optimise.runner import check_new_run_dir, remove_run_temporaries, run_optimisation
+    from whisker_opt.optimise.rundir import check_run_target, clear_run_dir
+    from whisker_opt.optimise.runner import remove_run_temporaries, run_optimisation
+    from whisker_opt.output.lock import RunDirLock
 
     opt = wiring.optimiser_of(cfg)
     ev = wiring.evaluator(cfg)
     run_dir = Path(run_dir)
-    check_run_config(run_dir, cfg)  # before anything is written into the directory
-    check_new_run_dir(run_dir)
+    check_run_target(run_dir, lambda path: _same_config(path, cfg), overwrite)  # before anything is written
     preflight(opt.executor)
     run_dir.mkdir(parents=True, exist_ok=True)
-    if (run_dir / CONFIG_YAML).exists():  # a run of this config killed before its first checkpoint
-        remove_run_temporaries(run_dir)
-    else:
-        storage.atomic_write_text(run_dir / CONFIG_YAML, dump_config(cfg))
-    fidelity = fidelity_of(cfg)
-    with run_log(run_dir):
-        logger.info("run of %s at preset %s (f1 resolution %.3g)", run_dir, fidelity["preset"],
-                    fidelity["f1_resolution"])
-        summary = run_optimisation(opt, run_dir, ev, opt.resolve_seed(cfg.seed), progress=progress,
-                                   fidelity=fidelity)
-        finish_best(run_dir, cfg, summary)
-        _verify_front(run_dir, cfg)
+    with RunDirLock(run_dir, "run"):
+        if check_run_target(run_dir, lambda path: _same_config(path, cfg), overwrite):  # again, under the lock
+            clear_run_dir(run_dir)
+        if (run_dir / CONFIG_YAML).exists():  # a run of this config killed before its first checkpoint
+            remove_run_temporaries(run_dir)
+        else:
+            storage.atomic_write_text(run_dir / CONFIG_YAML, dump_config(cfg))
+        fidelity = fidelity_of(cfg)
+        with run_log(run_dir):
+            logger.info("run of %s at preset %s (f1 resolution %.3g)", run_dir, fidelity["preset"],
+                        fidelity["f1_resolution"])
+            summary = run_optimisation(opt, run_dir, ev, opt.resolve_seed(cfg.seed), progress=progress,
+                                       fidelity=fidelity, callbacks=[GenerationLines(opt.stopping.max_generations)],
+                                       run_config=run_config(run_dir).model_dump(mode="json"))  # as resume reads it
+            finish_best(run_dir, cfg, summary)
+            _verify_front(run_dir, cfg)
     return summary
 
 
@@ -492,9 +546,15 @@ def run_config(run_dir: Path) -> WhiskerConfig:
     return load_config(run_config_path(run_dir))
 
 
-def resume(run_dir: Path, progress: bool = True, max_generations: int | None = None):
+def resume(run_dir: Path, progress: bool = True, max_generations: int | None = None,
+           allow_config_change: bool = False):
     """Continue a killed run from its last checkpoint (same result as an uninterrupted run), or
     extend a finished one to ``max_generations`` (:func:`~whisker_opt.optimise.runner.resume_optimisation`).
+
+    The resume holds the folder's writer lock (:class:`whisker_opt.output.lock.RunDirLock`). A
+    ``config.yaml`` edited since the run started is refused
+    (:class:`whisker_opt.optimise.rundir.ConfigChanged`) unless ``allow_config_change``: the run
+    then continues with it and records the change (:func:`whisker_opt.optimise.rundir.check_config`).
 
     Whatever a kill left unwritten is written: ``optimiser.json`` and ``environment.json``,
     the tables and the convergence plot, and ``best/`` with ``best_curves.csv/png`` when any
@@ -507,23 +567,34 @@ def resume(run_dir: Path, progress: bool = True, max_generations: int | None = N
     whisker_opt.optimise.runner.RunSummary
     """
     from whisker_opt.optimise.checkpoint import has_checkpoint
+    from whisker_opt.optimise.rundir import check_config
     from whisker_opt.optimise.runner import load_run, remove_run_temporaries, resume_optimisation, write_run_metadata
+    from whisker_opt.output.lock import RunDirLock
 
     run_dir = Path(run_dir)
     cfg = run_config(run_dir)
-    remove_run_temporaries(run_dir)
-    if not has_checkpoint(run_dir) and not (run_dir / storage.OPTIMISER_JSON).is_file():
-        opt = wiring.optimiser_of(cfg)  # killed before the run wrote anything but its config
-        write_run_metadata(run_dir, opt, opt.resolve_seed(cfg.seed))
-    load_run(run_dir)  # a damaged run directory is refused before run.log is written into it
-    with run_log(run_dir):
-        logger.info("resume of %s", run_dir)
-        summary = resume_optimisation(run_dir, wiring.evaluator(cfg), progress=progress, fidelity=fidelity_of(cfg),
-                                      max_generations=max_generations)
-        missing = missing_best_outputs(run_dir, summary)
-        if missing:
-            logger.info("rebuilding the best design's outputs (missing: %s)", ", ".join(missing))
-            finish_best(run_dir, cfg, summary)
-        _verify_front(run_dir, cfg)
+    resolved = cfg.model_dump(mode="json")
+    with RunDirLock(run_dir, "resume"):
+        remove_run_temporaries(run_dir)
+        if not has_checkpoint(run_dir) and not (run_dir / storage.OPTIMISER_JSON).is_file():
+            opt = wiring.optimiser_of(cfg)  # killed before the run wrote anything but its config
+            write_run_metadata(run_dir, opt, opt.resolve_seed(cfg.seed), resolved)
+        state, opt_cfg, _, _ = load_run(run_dir)  # a damaged run directory is refused before run.log is written
+        done = -1 if state is None else state.generation
+        change = check_config(run_dir, None if state is None else state.extra, done, resolved, wiring.optimiser_of(cfg),
+                              allow_config_change)
+        opt_cfg = opt_cfg if change is None else change.optimiser
+        lines = GenerationLines(max_generations if max_generations is not None else opt_cfg.stopping.max_generations,
+                                0 if state is None else state.generation + 1)
+        with run_log(run_dir):
+            logger.info("resume of %s", run_dir)
+            summary = resume_optimisation(run_dir, wiring.evaluator(cfg), progress=progress,
+                                          fidelity=fidelity_of(cfg), max_generations=max_generations,
+                                          callbacks=[lines], run_config=resolved, config_change=change)
+            missing = missing_best_outputs(run_dir, summary)
+            if missing:
+                logger.info("rebuilding the best design's outputs (missing: %s)", ", ".join(missing))
+                finish_best(run_dir, cfg, summary)
+            _verify_front(run_dir, cfg)
     return summary
 

@@ -10,9 +10,10 @@ verification preset, recomputes F_p with the run's own penalty terms
 (:func:`whisker_opt.optimise.penalty.dynamic_penalty`: F_p = f1 + Σ_j C_j κ_j, κ_j = f1 · distance_j)
 and writes ``verify_<preset>.csv`` into the run directory (atomically).
 
-Each design takes one evaluation at the verification preset (about 2 minutes at ``fine``):
-a tqdm bar shows on a terminal (``progress=False`` hides it) and a log line per design is
-written either way. Verifying at the run's own preset reproduces the run's f1 and verifies
+Each design takes one evaluation at the verification preset (about 2 minutes at ``fine``), two
+scenes: a bar over the scenes shows on a terminal (``progress=False`` hides it) and a progress
+line per scene, with elapsed time and ETA, is logged either way
+(:class:`whisker_opt.output.progress.Progress`). Verifying at the run's own preset reproduces the run's f1 and verifies
 nothing: that is logged as a warning and said in the printed table.
 """
 
@@ -58,7 +59,7 @@ def verify_run(run_dir: Path, preset: str = "fine", top: int = 3, progress: bool
     top : int
         Number of designs, 1 … the hall of fame's size.
     progress : bool
-        Show a tqdm bar over the designs (stderr, on a terminal only).
+        Show a tqdm bar over the scenes (stderr, on a terminal only).
 
     Returns
     -------
@@ -80,7 +81,9 @@ def verify_run(run_dir: Path, preset: str = "fine", top: int = 3, progress: bool
     from whisker_opt.experiment.fidelity import f1_resolution
     from whisker_opt.genes import genes_dict
     from whisker_opt.optimise.penalty import dynamic_penalty, penalty_terms
-    from whisker_opt.optimise.runner import load_run, progress_bar, run_config_path
+    from whisker_opt.experiment.evaluator import SceneEvaluator
+    from whisker_opt.optimise.runner import load_run, run_config_path
+    from whisker_opt.output.progress import Progress, format_duration
 
     run_dir = Path(run_dir)
     check_args(preset, top)
@@ -101,13 +104,22 @@ def verify_run(run_dir: Path, preset: str = "fine", top: int = 3, progress: bool
     evaluate = wiring.evaluator(wiring.with_preset(cfg, preset))
     terms = penalty_terms(opt)
     rows = []
-    bar = progress_bar(len(chosen), f"verify at {preset}", "design", progress)
-    try:
+    per_scene = isinstance(evaluate, SceneEvaluator)  # a robust objective's evaluation is counted as a whole
+    steps = Progress(len(chosen) * (len(SceneEvaluator.SCENES) if per_scene else 1), f"verify at {preset}",
+                     "scene" if per_scene else "design", progress)
+    with steps:
         for rank, ind in enumerate(chosen, start=1):
             genes = genes_dict(ind)
             f1_run = float(ind.info["f1"])
             logger.info("verify: design %d/%d %s at preset %s", rank, len(chosen), genes, preset)
-            out = evaluate(genes)
+            if per_scene:
+                out = evaluate(genes, on_scene=lambda name, s: steps.step(
+                    f"(design {rank}/{len(chosen)}: {name} scene solved in {format_duration(s)})"))
+            else:
+                out = evaluate(genes)
+            left = rank * steps.total // len(chosen) - steps.done  # the scenes a failed design did not reach
+            if left > 0:
+                steps.step(f"(design {rank}/{len(chosen)}: {out.status})", n=left)
             row = {"rank_run": rank, **genes, "f1_run": f1_run, "F_p_run": float(ind.fitness.values[1]),
                    "status": out.status, "reason": out.reason,
                    "time_s": float(out.timings.get("total", float("nan"))), **resolution}
@@ -118,11 +130,8 @@ def verify_run(run_dir: Path, preset: str = "fine", top: int = 3, progress: bool
             else:
                 row.update(f1_verify=float("nan"), F_p_verify=float("nan"), f1_change=float("nan"))
             rows.append(row)
-            bar.update(1)
             logger.info("verify: design %d/%d done: %s, f1 %.6g at %s against %.6g at %s (%.0f s)", rank, len(chosen),
                         out.status, row["f1_verify"], preset, f1_run, run_preset, row["time_s"])
-    finally:
-        bar.close()
     ok = sorted((r for r in rows if r["status"] == "ok"), key=lambda r: r["F_p_verify"])
     for i, r in enumerate(ok, start=1):
         r["rank_verify"] = i

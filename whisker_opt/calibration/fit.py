@@ -25,6 +25,19 @@ it has an infinite std (``null`` in JSON), stated as "not determined by these ob
 
 Held-out observations take no part in C; they are predicted with the start and the fitted values and
 their miss m_k(θ̂) − y_k reported.
+
+Status of a fit (:attr:`FitOutcome.state`): ``converged`` when ``least_squares`` met its tolerance
+(``ftol``, ``xtol`` or ``gtol``); ``budget exhausted`` when it stopped at its evaluation budget first;
+``not moved`` when, in addition, no parameter left its start by more than the tolerance. Only a
+converged fit is a calibrated model. A parameter is *at a bound* when it lies within ``tolerance``
+× (upper − lower) of it, the nearer one: the rule by which ``least_squares`` (trust-region
+reflective) declares a bound active (``xtol`` in the normalised u, whose bounds are 0 and 1). Its
+iterates stay strictly inside the bounds (a step covers at most 99.5 % of the distance to a bound),
+so a parameter pressed against a bound ends a small fraction of the range inside it, not on it.
+χ²/ν is flagged above the 99th percentile of its distribution for ν degrees of freedom
+(:func:`chi2_limit`: 6.63 for ν = 1, 3.02 for ν = 5, 1.88 for ν = 20, → 1 as ν grows): the stated
+σ_k are then very unlikely to account for the misfit (a model that cannot reach the data, or
+uncertainties stated too small), and ``std`` is too small; ``std_scaled`` allows for it.
 """
 
 from __future__ import annotations
@@ -47,6 +60,52 @@ logger = logging.getLogger(__name__)
 
 #: Singular values of J below this fraction of the largest are taken as zero (undetermined directions).
 RCOND = 1e-8
+#: χ²/ν is flagged above this quantile of its distribution for ν degrees of freedom (:func:`chi2_limit`).
+CHI2_QUANTILE = 0.99
+#: :attr:`FitOutcome.state` of a fit that is a calibrated model.
+CONVERGED = "converged"
+BUDGET_EXHAUSTED = "budget exhausted"
+NOT_MOVED = "not moved"
+
+
+def chi2_limit(dof: int, quantile: float = CHI2_QUANTILE) -> float:
+    """The largest χ²/ν not flagged: the ``quantile`` of χ²_ν / ν (nan for ν ≤ 0).
+
+    Parameters
+    ----------
+    dof : int
+        ν = observations − parameters.
+    quantile : float
+
+    Returns
+    -------
+    float
+    """
+    from scipy.stats import chi2
+
+    return float(chi2.ppf(quantile, dof) / dof) if dof > 0 else math.nan
+
+
+def bounds_reached(values, parameters: Sequence[ModelParameter], rtol: float) -> tuple:
+    """'lower' / 'upper' where a value lies within ``rtol`` × (upper − lower) of that bound (the
+    nearer one), else None: ``least_squares``' active-set rule with ``xtol = rtol`` (module docstring).
+
+    Parameters
+    ----------
+    values : sequence of float, shape (n,)
+    parameters : sequence of ModelParameter
+    rtol : float
+
+    Returns
+    -------
+    tuple of str or None
+    """
+    out = []
+    for v, p in zip(np.asarray(values, dtype=float), parameters):
+        near = rtol * (p.upper - p.lower)
+        lo, up = v - p.lower, p.upper - v
+        out.append("lower" if lo <= min(up, near) else ("upper" if up <= min(lo, near) else None))
+    return tuple(out)
 
 
 @dataclass(frozen=True)
@@ -101,7 +160,7 @@ class FitOutcome:
         Standard uncertainties from the Jacobian (inf where undetermined; see the module docstring).
     correlation : ndarray, shape (n, n)
     at_bound : tuple of str or None
-        'lower' / 'upper' where θ̂ is on a bound (within 1e-6 of the range), else None.
+        'lower' / 'upper' where θ̂ is at a bound (:func:`bounds_reached`), else None.
     cost_start, cost : float
         C at the start and at θ̂.
     chi2, dof : float, int
@@ -117,6 +176,10 @@ class FitOutcome:
         ``least_squares``' status and message.
     seconds : float
     singular_values : ndarray
+    max_evaluations : int
+        The evaluation budget.
+    tolerance : float
+        ``ftol`` and ``xtol`` of the fit; also the at-bound and moved tolerance (a fraction of the range).
     """
 
     parameters: tuple[ModelParameter, ...]
@@ -136,10 +199,62 @@ class FitOutcome:
     message: str
     seconds: float
     singular_values: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    max_evaluations: int = 0
+    tolerance: float = 1e-3
 
     @property
     def start(self) -> np.ndarray:
         return np.array([p.start for p in self.parameters])
+
+    @property
+    def moved(self) -> bool:
+        """Some parameter left its start by more than ``tolerance`` × its range."""
+        width = np.array([p.upper - p.lower for p in self.parameters])
+        return bool(np.any(np.abs(self.values - self.start) > self.tolerance * width))
+
+    @property
+    def state(self) -> str:
+        """:data:`CONVERGED`, :data:`BUDGET_EXHAUSTED` or :data:`NOT_MOVED` (the module docstring)."""
+        if self.status > 0:
+            return CONVERGED
+        return BUDGET_EXHAUSTED if self.moved else NOT_MOVED
+
+    @property
+    def calibrated(self) -> bool:
+        """The fit converged: the fitted values are a calibrated model."""
+        return self.state == CONVERGED
+
+    @property
+    def chi2_per_dof(self) -> float:
+        """χ²/ν (nan for ν ≤ 0)."""
+        return self.chi2 / self.dof if self.dof > 0 else math.nan
+
+    @property
+    def chi2_high(self) -> bool:
+        """χ²/ν above :func:`chi2_limit`."""
+        return self.dof > 0 and self.chi2_per_dof > chi2_limit(self.dof)
+
+    def warnings(self) -> list[str]:
+        """One sentence per reason not to trust the fit as it is: not converged, a parameter at a
+        bound, χ²/ν above its limit, a parameter the observations do not determine."""
+        out = []
+        if self.state != CONVERGED:
+            what = ("no parameter moved from its start by more than "
+                    f"{self.tolerance:g} of its range" if self.state == NOT_MOVED else "it had not converged")
+            out.append(f"not calibrated: the fit used its budget of {self.max_evaluations} model evaluations and "
+                       f"stopped ({what}); raise calibration.max_evaluations (done: {self.evaluations})")
+        for p, v, b in zip(self.parameters, self.values, self.at_bound):
+            if b:
+                out.append(f"{p.path} = {v:.6g} is at its {b} bound {getattr(p, b):g} (within {self.tolerance:g} "
+                           "of the range): the data push it beyond; widen the bound or question the model")
+        if self.chi2_high:
+            out.append(f"chi2/dof = {self.chi2_per_dof:.3g} is above {chi2_limit(self.dof):.3g} (the "
+                       f"{100 * CHI2_QUANTILE:g}th percentile for {self.dof} degrees of freedom): the stated "
+                       "uncertainties do not account for the misfit; std is too small (see std_scaled)")
+        for p, sd in zip(self.parameters, self.std):
+            if not math.isfinite(sd):
+                out.append(f"{p.path} is not determined by these observations")
+        return out
 
     @property
     def fitted(self) -> tuple[ObservationResult, ...]:
@@ -178,6 +293,8 @@ class Problem:
         self.width = np.array([p.upper - p.lower for p in self.parameters])
         self.evaluations = 0
         self._memo: dict[tuple, np.ndarray] = {}
+        #: Counts the evaluations when set (:func:`fit`): a progress line each.
+        self.progress = None
 
     def theta(self, u) -> np.ndarray:
         """θ = lower + u·(upper − lower)."""
@@ -208,8 +325,11 @@ class Problem:
         if not np.all(np.isfinite(r)):
             bad = [w.observation.name for w, v in zip(self.observations, r) if not math.isfinite(v)]
             raise FloatingPointError(f"the model gives no value for {', '.join(bad)} at {self._describe(theta)}")
-        logger.info("calibration: evaluation %d at %s: cost %.6g", self.evaluations, self._describe(theta),
-                    0.5 * float(r @ r))
+        if self.progress is not None:
+            self.progress.step(f"(cost {0.5 * float(r @ r):.6g} at {self._describe(theta)})")
+        else:
+            logger.info("calibration: evaluation %d at %s: cost %.6g", self.evaluations, self._describe(theta),
+                        0.5 * float(r @ r))
         self._memo[key] = r
         return r
 
@@ -260,7 +380,7 @@ def covariance(jac: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def fit(problem: Problem, held_out: Sequence[Weighted] = (), *, max_evaluations: int = 40, diff_step: float = 0.02,
-        tolerance: float = 1e-3) -> FitOutcome:
+        tolerance: float = 1e-3, progress: bool = False) -> FitOutcome:
     """Fit the problem's parameters (see the module docstring) and predict the held-out observations.
 
     Parameters
@@ -275,22 +395,33 @@ def fit(problem: Problem, held_out: Sequence[Weighted] = (), *, max_evaluations:
     diff_step : float
         Finite-difference step h in the normalised parameters (a fraction of each range).
     tolerance : float
-        ``ftol`` and ``xtol`` of ``least_squares``.
+        ``ftol`` and ``xtol`` of ``least_squares``; also the at-bound and moved tolerance
+        (:func:`bounds_reached`, :attr:`FitOutcome.moved`).
+    progress : bool
+        A bar over the model evaluations on a terminal; a progress line per evaluation (elapsed
+        time, ETA against the budget) is logged either way (:class:`whisker_opt.output.progress.Progress`).
 
     Returns
     -------
     FitOutcome
     """
+    from whisker_opt.output.progress import Progress
+
     t0 = time.perf_counter()
     params = problem.parameters
     n = len(params)
     theta0 = np.array([p.start for p in params])
     u0 = problem.u(theta0)
-    r0 = problem.residuals(u0)
-    start_preds = problem.predictions(theta0)  # memoised scenes: no new solves
-    res = optimize.least_squares(problem.residuals, u0, jac=lambda u: problem.jacobian(u, diff_step),
-                                 bounds=(np.zeros(n), np.ones(n)), method="trf", x_scale=1.0, ftol=tolerance,
-                                 xtol=tolerance, gtol=1e-10, max_nfev=max(1, max_evaluations // (n + 1)))
+    problem.progress = Progress(max_evaluations, "calibrate", "model evaluation", progress, at_most=True)
+    try:
+        r0 = problem.residuals(u0)
+        start_preds = problem.predictions(theta0)  # memoised scenes: no new solves
+        res = optimize.least_squares(problem.residuals, u0, jac=lambda u: problem.jacobian(u, diff_step),
+                                     bounds=(np.zeros(n), np.ones(n)), method="trf", x_scale=1.0, ftol=tolerance,
+                                     xtol=tolerance, gtol=1e-10, max_nfev=max(1, max_evaluations // (n + 1)))
+    finally:
+        problem.progress.close()
+        problem.progress = None
     theta = problem.theta(np.clip(res.x, 0.0, 1.0))
     r = problem.residuals(res.x)
     jac_theta = np.asarray(res.jac, dtype=float) / problem.width  # (m, n): dr/dθ = dr/du / (upper - lower)
@@ -304,9 +435,7 @@ def fit(problem: Problem, held_out: Sequence[Weighted] = (), *, max_evaluations:
     chi2 = float(r @ r)
     dof = m - n
     std_scaled = std * math.sqrt(chi2 / dof) if dof > 0 else np.full(n, np.nan)
-    span = problem.width
-    at_bound = tuple("lower" if v - p.lower <= 1e-6 * w else ("upper" if p.upper - v <= 1e-6 * w else None)
-                     for v, p, w in zip(theta, params, span))
+    at_bound = bounds_reached(theta, params, tolerance)
     fitted_preds = problem.predictions(theta)
     held_start = problem.predictions(theta0, held_out) if held_out else []
     held_fit = problem.predictions(theta, held_out) if held_out else []
@@ -320,9 +449,10 @@ def fit(problem: Problem, held_out: Sequence[Weighted] = (), *, max_evaluations:
         cost_start=0.5 * float(r0 @ r0), cost=0.5 * chi2, chi2=chi2, dof=dof, observations=tuple(results),
         evaluations=problem.evaluations, scenes=int(getattr(problem.sim, "solved", 0)), status=int(res.status),
         message=str(res.message), seconds=time.perf_counter() - t0, singular_values=s,
+        max_evaluations=int(max_evaluations), tolerance=float(tolerance),
     )
-    logger.info("calibration: %s after %d evaluations: cost %.6g -> %.6g", res.message, problem.evaluations,
-                outcome.cost_start, outcome.cost)
+    logger.info("calibration: %s (%s) after %d evaluations: cost %.6g -> %.6g", outcome.state, res.message,
+                problem.evaluations, outcome.cost_start, outcome.cost)
     return outcome
 
 

@@ -137,7 +137,7 @@ def simulator(prepared: Prepared):
     return SceneSimulator(deflection=max(deltas) if deltas else 1.0)
 
 
-def calibrate(prepared: Prepared, out: str | Path, sim=None) -> CalibrationRun:
+def calibrate(prepared: Prepared, out: str | Path, sim=None, progress: bool = False) -> CalibrationRun:
     """Fit the prepared calibration and write ``calibration.json``, ``calibrated.yaml``, ``calibration.png``.
 
     Parameters
@@ -148,6 +148,8 @@ def calibrate(prepared: Prepared, out: str | Path, sim=None) -> CalibrationRun:
         An existing, writable folder.
     sim : Simulator, optional
         Default :func:`simulator`.
+    progress : bool
+        A bar over the model evaluations on a terminal (a progress line each is logged either way).
 
     Returns
     -------
@@ -160,7 +162,7 @@ def calibrate(prepared: Prepared, out: str | Path, sim=None) -> CalibrationRun:
     search = RestoreSearch(Q_max=sec.restore_Q_max, scan=sec.restore_scan, xtol=sec.restore_xtol)
     problem = Problem(prepared.data, prepared.parameters, prepared.fitted, sim, search, prepared.source_file)
     outcome = fit(problem, prepared.held_out, max_evaluations=sec.max_evaluations, diff_step=sec.diff_step,
-                  tolerance=sec.tolerance)
+                  tolerance=sec.tolerance, progress=progress)
     cfg = problem.config(outcome.values)
     fidelity = describe(prepared.cfg.fidelity, prepared.cfg.scene.calibration) if sec.model == "fe" else None
     paths = write_outputs(Path(out), cfg, outcome, source=sec.source, config=prepared.source_file, model=sec.model,

@@ -4,6 +4,10 @@
 without the ``calibration`` section, so ``whisker-opt run`` and ``whisker-opt compensate`` take it as it
 is. Its header says that it is a calibrated model, from which run file and data source, on which date,
 and the fitted values with their uncertainties: a calibrated model is used by name, never silently.
+A fit that did not converge (:attr:`~whisker_opt.calibration.fit.FitOutcome.state`) is headed
+``NOT CALIBRATED`` instead, with the reason; the header, the summary and ``calibration.json`` state
+the fit's status, χ²/ν against its limit and every warning
+(:meth:`~whisker_opt.calibration.fit.FitOutcome.warnings`).
 
 The figure has one panel per kind of observation: each observation's measured value with its stated
 uncertainty (±σ), the model's value at the start and at the fitted parameters, held-out observations
@@ -22,7 +26,7 @@ from typing import Any, Mapping
 import numpy as np
 import yaml
 
-from whisker_opt.calibration.fit import FitOutcome, ObservationResult
+from whisker_opt.calibration.fit import CHI2_QUANTILE, FitOutcome, ObservationResult, chi2_limit
 from whisker_opt.config.model import WhiskerConfig
 from whisker_opt.output.storage import atomic_write_bytes, atomic_write_text, write_json
 
@@ -59,16 +63,20 @@ def summary_dict(outcome: FitOutcome, *, source: str, config: str, model: str,
                        "std_scaled": _f(outcome.std_scaled[k]), "at_bound": outcome.at_bound[k],
                        "determined": bool(math.isfinite(outcome.std[k]))})
     return {
-        "calibrated_model": True, "source": source, "config": config, "date": date, "model": model,
+        "calibrated_model": outcome.calibrated, "fit_status": outcome.state, "warnings": outcome.warnings(),
+        "source": source, "config": config, "date": date, "model": model,
         "fidelity": dict(fidelity) if fidelity else None,
         "parameters": params,
         "correlation": [[_f(v) for v in row] for row in outcome.correlation],
         "singular_values": [float(v) for v in outcome.singular_values],
         "cost_start": outcome.cost_start, "cost": outcome.cost, "chi2": outcome.chi2, "dof": outcome.dof,
+        "chi2_per_dof": _f(outcome.chi2_per_dof), "chi2_per_dof_limit": _f(chi2_limit(outcome.dof)),
+        "chi2_quantile": CHI2_QUANTILE, "at_bound_tolerance": outcome.tolerance,
         "observations": [_observation(o) for o in outcome.observations],
         "held_out": {o.name: {"measured": o.measured, "predicted": _f(o.fitted.value), "miss": _f(o.miss),
                               "matched": o.fitted.matched, "unit": o.unit} for o in outcome.held_out},
-        "evaluations": outcome.evaluations, "scenes_solved": outcome.scenes, "seconds": outcome.seconds,
+        "evaluations": outcome.evaluations, "max_evaluations": outcome.max_evaluations,
+        "scenes_solved": outcome.scenes, "seconds": outcome.seconds,
         "status": outcome.status, "message": outcome.message,
     }
 
@@ -84,9 +92,17 @@ def calibrated_yaml(cfg: WhiskerConfig, outcome: FitOutcome, *, source: str, con
     """The text of ``calibrated.yaml``: a header of comments, then the resolved run file."""
     data = cfg.model_dump(mode="json")
     data.pop("calibration", None)
+    if outcome.calibrated:
+        head = ["# CALIBRATED MODEL, not the default one: written by `whisker-opt calibrate` "
+                f"from {Path(config).name} on {date}."]
+    else:
+        head = [f"# NOT CALIBRATED ({outcome.state}): the fit stopped before it converged; the values below are where "
+                "it stopped,", "# not a calibrated model. Written by `whisker-opt calibrate` "
+                f"from {Path(config).name} on {date}."]
     lines = [
-        "# CALIBRATED MODEL, not the default one: written by `whisker-opt calibrate` "
-        f"from {Path(config).name} on {date}.",
+        *head,
+        f"# Fit: {_status_line(outcome)}",
+        *(f"# WARNING: {w}" for w in outcome.warnings()),
         f"# Data source: {' '.join(source.split())}",
         "# Fitted values (± standard uncertainty from the fit's Jacobian; calibration.json beside this file holds",
         "# the residual of every observation and the held-out predictions):",
@@ -101,13 +117,24 @@ def calibrated_yaml(cfg: WhiskerConfig, outcome: FitOutcome, *, source: str, con
     return "\n".join(lines) + yaml.safe_dump(data, sort_keys=False)
 
 
+def _status_line(outcome: FitOutcome) -> str:
+    """The fit's state, its evaluations against the budget and χ²/ν against its limit."""
+    limit = chi2_limit(outcome.dof)
+    chi = (f"chi2/dof {outcome.chi2_per_dof:.4g} (limit {limit:.3g})" if outcome.dof > 0
+           else "chi2/dof undefined (no more observations than parameters)")
+    return (f"{outcome.state.upper()} after {outcome.evaluations} of at most {outcome.max_evaluations} model "
+            f"evaluations; {chi}")
+
+
 def format_summary(outcome: FitOutcome, *, source: str) -> str:
-    """The printed summary: parameters, then every observation measured / start / fitted / miss."""
-    out = [f"calibration against {source}",
+    """The printed summary: the fit's status and warnings, the parameters, then every observation
+    measured / start / fitted / miss."""
+    out = [f"calibration against {source}", f"status: {_status_line(outcome)}",
            f"{outcome.message.rstrip('.')}; {outcome.evaluations} model evaluations, {outcome.scenes} scenes, "
            f"{outcome.seconds:.0f} s; cost {outcome.cost_start:.5g} -> {outcome.cost:.5g} (chi2 {outcome.chi2:.4g}, "
-           f"dof {outcome.dof})", "",
-           f"{'parameter':<28} {'start':>10} {'fitted':>12} {'std':>10}  unit"]
+           f"dof {outcome.dof})"]
+    out += [f"WARNING: {w}" for w in outcome.warnings()]
+    out += ["", f"{'parameter':<28} {'start':>10} {'fitted':>12} {'std':>10}  unit"]
     for k, p in enumerate(outcome.parameters):
         std = f"{outcome.std[k]:.3g}" if math.isfinite(outcome.std[k]) else "undetermined"
         bound = f"  (at {outcome.at_bound[k]} bound)" if outcome.at_bound[k] else ""
@@ -142,7 +169,8 @@ def calibration_figure(outcome: FitOutcome, *, title: str = ""):
             colour = "tab:red" if o.held_out else "tab:blue"
             ax.plot([xi], [o.fitted.value], "o", color=colour, mfc=colour if o.fitted.matched else "none",
                     markersize=6, zorder=4)
-        ax.plot([], [], "o", color="tab:blue", label="calibrated model")
+        ax.plot([], [], "o", color="tab:blue",
+                label="calibrated model" if outcome.calibrated else f"fitted, NOT calibrated ({outcome.state})")
         if any(o.held_out for o in obs):
             ax.plot([], [], "o", color="tab:red", label="calibrated, held out")
         if any(not o.fitted.matched for o in obs):

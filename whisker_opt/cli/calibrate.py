@@ -4,19 +4,26 @@
 :data:`whisker_opt.cli.commands.REGISTRY`. The run file, its ``calibration`` section, the parameters,
 every measurement file and the held-out names are checked before the results folder is made (a bad
 one exits with status 2 and one line naming the file, row and column, or the key); a scene that does
-not converge during the fit exits with status 3. A fit that cannot reach the observations is not a
-failure: the summary and ``calibration.json`` say which observation is missed and by how much.
+not converge during the fit exits with status 3. A fit that stops at its evaluation budget before it
+converges (or before any parameter moves) writes its outputs headed ``NOT CALIBRATED`` and exits with
+status :data:`NOT_CALIBRATED` (4). A fit that converges but cannot reach the observations is not a
+failure: the summary and ``calibration.json`` say which observation is missed and by how much, and
+warn of a parameter at a bound or a χ²/ν above its limit.
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from whisker_opt.cli.arguments import ensure_writable_dir, nonempty_path, preset_setting, setting
 from whisker_opt.cli.failures import ComputationFailed, computation_errors, describe_failure
 from whisker_opt.config.model import load_config
 from whisker_opt.experiment.fidelity import PRESET_NAMES
+
+#: Exit status of a fit that wrote its outputs but did not converge (budget exhausted, nothing moved).
+NOT_CALIBRATED = 4
 
 HELP = "fit model parameters to measurements of a prototype; write calibration.json and a calibrated run file"
 
@@ -33,10 +40,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    "section, which is refused)")
     p.add_argument("--out", type=nonempty_path, default=None,
                    help="output folder (default: a new one under output.results_dir)")
+    p.add_argument("--no-progress", action="store_true", default=argparse.SUPPRESS, help="no progress bar")
 
 
 def run(args: argparse.Namespace) -> int:
-    """Check everything, fit, write ``calibration.json``, ``calibrated.yaml``, ``calibration.png``; print a summary."""
+    """Check everything, fit, write ``calibration.json``, ``calibrated.yaml``, ``calibration.png``; print a summary.
+
+    Returns 0, or :data:`NOT_CALIBRATED` when the fit did not converge (its outputs say so).
+    """
     from whisker_opt.calibration.job import calibrate, prepare
     from whisker_opt.workflows import new_run_dir
 
@@ -49,13 +60,17 @@ def run(args: argparse.Namespace) -> int:
     out = args.out or new_run_dir(cfg, args.config, "calibrate")
     Path(out).mkdir(parents=True, exist_ok=True)
     try:
-        result = calibrate(prepared, out)
+        result = calibrate(prepared, out, progress=not getattr(args, "no_progress", False))
     except computation_errors() as exc:
         raise ComputationFailed(describe_failure(exc, "calibrate", Path(out))) from exc
     except FloatingPointError as exc:
         raise ComputationFailed(f"calibrate: {exc}") from exc
     print(result.summary)
     print(f"written to {out} ({', '.join(p.name for p in result.paths.values())})")
+    if not result.outcome.calibrated:
+        print(f"whisker-opt calibrate: {result.outcome.warnings()[0]}; the outputs in {out} are headed NOT "
+              f"CALIBRATED (exit status {NOT_CALIBRATED})", file=sys.stderr)
+        return NOT_CALIBRATED
     return 0
 
 

@@ -43,9 +43,10 @@ def _user_errors() -> tuple[type[BaseException], ...]:
     from geometry.design import InvalidDesignError
     from whisker_opt.analysis.verify import VerifyError
     from whisker_opt.optimise.executors import MachineFailure
+    from whisker_opt.output.lock import RunDirectoryBusy
 
     return (ConfigError, FileNotFoundError, FileExistsError, InvalidDesignError, VerifyError, MachineFailure,
-            RunDirectoryError, OutputError, ArgumentError)
+            RunDirectoryError, OutputError, ArgumentError, RunDirectoryBusy)
 
 
 USER_ERRORS = _user_errors()
@@ -127,7 +128,8 @@ def _mesh_run(args: argparse.Namespace) -> int:
     _check_output(args, cfg)
     out = _out_dir(args, cfg, "mesh")
     try:
-        design, report = workflows.mesh(cfg, out, trim=args.trim, method=args.method, step=args.step)
+        design, report = workflows.mesh(cfg, out, trim=args.trim, method=args.method, step=args.step,
+                                        progress=not args.no_progress)
     except computation_errors() as exc:
         raise _failed(exc, "mesh") from exc
     width = max(len(k) for k in report)
@@ -175,7 +177,10 @@ def _simulate_run(args: argparse.Namespace) -> int:
 def _run_args(p: argparse.ArgumentParser) -> None:
     _config_args(p, "YAML run file with an `optimiser` section")
     p.add_argument("--out", type=nonempty_path, default=None,
-                   help="run directory (default: a new one under output.results_dir)")
+                   help="run directory (default: a new one under output.results_dir); it must be new, empty, or "
+                        "hold a run of the same config killed before its first checkpoint")
+    p.add_argument("--overwrite", action="store_true",
+                   help="--out holds a run: delete it and start again (a folder holding no run is never emptied)")
     _progress_arg(p)
     p.add_argument("--verify", choices=PRESET_NAMES, default=None,
                    help="after the run, re-evaluate the best designs at this preset (as `whisker-opt verify`)")
@@ -186,6 +191,7 @@ def _run_run(args: argparse.Namespace) -> int:
     from whisker_opt import wiring, workflows
     from whisker_opt.optimise.backend import preflight
     from whisker_opt.optimise.runner import check_new_run_dir, report
+    from whisker_opt.output.lock import RunDirLock
 
     cfg = _read(args)
     if args.verify:  # refuse bad --verify arguments before the run, not after it
@@ -193,22 +199,24 @@ def _run_run(args: argparse.Namespace) -> int:
 
         check_args(args.verify, args.verify_top)
     wiring.evaluator(cfg)  # an impossible design section is refused before the directory is made
-    if args.out is not None:
+    if args.out is not None and not args.overwrite:
         check_new_run_dir(args.out)  # a run already there: resume it instead
     _check_output(args, cfg)
     preflight(wiring.optimiser_of(cfg).executor)  # and an unreachable dask scheduler
     run_dir = _out_dir(args, cfg, "run")
-    try:
-        workflows.run(cfg, run_dir, progress=not args.no_progress)
-    except computation_errors() as exc:  # re-solving the best design for its meshes, after the GA
-        raise ComputationFailed(f"the GA run is complete in {run_dir}, but solving its best design again for its "
-                                f"meshes failed: {describe_failure(exc, 'run')}") from exc
-    print(report(run_dir))
-    if args.verify:
-        from whisker_opt.analysis.verify import format_rows, verify_run
+    run_dir.mkdir(parents=True, exist_ok=True)
+    with RunDirLock(run_dir, "run"):  # the run and its verification: one writer
+        try:
+            workflows.run(cfg, run_dir, progress=not args.no_progress, overwrite=args.overwrite)
+        except computation_errors() as exc:  # re-solving the best design for its meshes, after the GA
+            raise ComputationFailed(f"the GA run is complete in {run_dir}, but solving its best design again for "
+                                    f"its meshes failed: {describe_failure(exc, 'run')}") from exc
+        print(report(run_dir))
+        if args.verify:
+            from whisker_opt.analysis.verify import format_rows, verify_run
 
-        print(f"\nverification at preset {args.verify}")
-        print(format_rows(verify_run(run_dir, args.verify, args.verify_top), args.verify))
+            print(f"\nverification at preset {args.verify}")
+            print(format_rows(verify_run(run_dir, args.verify, args.verify_top), args.verify))
     print(f"written to {run_dir}")
     return 0
 
@@ -221,8 +229,14 @@ def _resume_args(p: argparse.ArgumentParser) -> None:
     _run_dir_args(p)
     _progress_arg(p)
     p.add_argument("--from-previous", action="store_true",
-                   help="continue from the previous checkpoint (checkpoint.prev.pkl) when the last one is damaged; "
-                        "the damaged one is kept as checkpoint.damaged.pkl")
+                   help="continue from the previous checkpoint (checkpoint.prev.json) when the last one is damaged; "
+                        "the damaged one is kept as checkpoint.damaged.json")
+    p.add_argument("--allow-config-change", action="store_true",
+                   help="continue although the run's config.yaml was edited since the run started: the remaining "
+                        "generations use the edited file, and the change is recorded (report, best.json, run.log)")
+    p.add_argument("--trust-pickle", action="store_true",
+                   help="convert the checkpoint.pkl of an earlier version to checkpoint.json, then resume; this "
+                        "loads a pickle: only for a run directory you wrote or trust")
     p.add_argument("--max-generations", type=_GENERATIONS, default=None, metavar="N",
                    help="extend the run to N generations (raises optimiser.stopping.max_generations; "
                         "a finished run continues), 0..1000000")
@@ -230,25 +244,40 @@ def _resume_args(p: argparse.ArgumentParser) -> None:
 
 def _resume_run(args: argparse.Namespace) -> int:
     from whisker_opt import workflows
-    from whisker_opt.optimise.checkpoint import restore_previous
+    from whisker_opt.optimise.checkpoint import (
+        DAMAGED_NAME,
+        OLDER_NAME,
+        convert_older_checkpoint,
+        has_older_checkpoint,
+        restore_previous,
+    )
     from whisker_opt.optimise.runner import report
+    from whisker_opt.output.lock import RunDirLock
 
-    run_dir = check_run_dir(args.run_dir, need_config=True, load_state=not args.from_previous, allow_unstarted=True)
+    if args.trust_pickle and not has_older_checkpoint(args.run_dir):
+        raise ArgumentError(f"--trust-pickle: {args.run_dir} holds no {OLDER_NAME} of an earlier version to convert")
+    run_dir = check_run_dir(args.run_dir, need_config=True, load_state=not (args.from_previous or args.trust_pickle),
+                            allow_unstarted=True, allow_older=args.trust_pickle)
     ensure_writable_dir(run_dir, "run_dir")
-    if args.from_previous:
-        gen = restore_previous(run_dir)
-        print(f"continuing from the previous checkpoint (generation {gen}); the replaced one is kept as "
-              f"checkpoint.damaged.pkl")
-    try:
-        workflows.resume(run_dir, progress=not args.no_progress, max_generations=args.max_generations)
-    except computation_errors() as exc:  # re-solving the best design for its meshes, after the GA
-        raise ComputationFailed(f"the GA run is complete in {run_dir}, but solving its best design again for its "
-                                f"meshes failed: {describe_failure(exc, 'resume')}") from exc
-    except ValueError as exc:
-        if not _raised_by(exc, "resume_optimisation") or isinstance(exc, USER_ERRORS):
-            raise
-        raise ArgumentError(str(exc)) from None  # N below the generations already run
-    print(report(run_dir))
+    with RunDirLock(run_dir, "resume"):
+        if args.trust_pickle:
+            gen = convert_older_checkpoint(run_dir)
+            print(f"converted {OLDER_NAME} (generation {gen}) to the checkpoint format of this version")
+        if args.from_previous:
+            gen = restore_previous(run_dir)
+            print(f"continuing from the previous checkpoint (generation {gen}); the replaced one is kept as "
+                  f"{DAMAGED_NAME}")
+        try:
+            workflows.resume(run_dir, progress=not args.no_progress, max_generations=args.max_generations,
+                             allow_config_change=args.allow_config_change)
+        except computation_errors() as exc:  # re-solving the best design for its meshes, after the GA
+            raise ComputationFailed(f"the GA run is complete in {run_dir}, but solving its best design again for "
+                                    f"its meshes failed: {describe_failure(exc, 'resume')}") from exc
+        except ValueError as exc:
+            if not _raised_by(exc, "resume_optimisation") or isinstance(exc, USER_ERRORS):
+                raise
+            raise ArgumentError(str(exc)) from None  # N below the generations already run
+        print(report(run_dir))
     return 0
 
 
@@ -264,9 +293,12 @@ def _verify_run(args: argparse.Namespace) -> int:
     from whisker_opt.analysis.verify import check_args, format_rows, verify_run
 
     check_args(args.preset, args.top)
+    from whisker_opt.output.lock import RunDirLock
+
     check_run_dir(args.run_dir, need_config=True)
     ensure_writable_dir(args.run_dir, f"run_dir (verify_{args.preset}.csv is written there)")
-    rows = verify_run(args.run_dir, args.preset, args.top)
+    with RunDirLock(args.run_dir, "verify"):
+        rows = verify_run(args.run_dir, args.preset, args.top)
     print(format_rows(rows, args.preset))
     print(f"written to {args.run_dir / f'verify_{args.preset}.csv'}")
     return 0

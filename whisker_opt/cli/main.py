@@ -4,8 +4,14 @@ Every error prints one line to stderr, ``whisker-opt <command>: error: <message>
 traceback: a bad input (an option value, a config, an output folder, a run directory) exits
 with status 2 before anything is computed, as does a file-system refusal (a name too long,
 no permission, a read-only or full disk); a computation that fails on valid inputs (a scene
-that does not converge, a mesh that cannot be made) exits with status 3. Any other
-exception is a bug and keeps its traceback.
+that does not converge, a mesh that cannot be made) exits with status 3; a calibration that
+wrote its outputs but did not converge exits with status 4
+(:data:`whisker_opt.cli.calibrate.NOT_CALIBRATED`). Any other exception is a bug and keeps its
+traceback.
+
+Progress: on a terminal a bar; when stderr is not a terminal (a batch job, ``nohup``, a
+scheduler) one line per generation, design, scene, model evaluation or step with elapsed
+time and ETA (:mod:`whisker_opt.output.progress`); ``--no-progress`` turns both off.
 
 ``-v/--verbose`` (counted) and ``--no-progress`` are accepted before or after the command
 (``whisker-opt -v run CFG`` and ``whisker-opt run CFG -v``; the counts add up). ``-v`` shows
@@ -21,6 +27,7 @@ import logging
 import sys
 
 from whisker_opt.cli import commands
+from whisker_opt.output.progress import show_progress_lines
 
 
 #: Third-party loggers kept at WARNING at ``-v`` and ``-vv`` (their DEBUG output drowns the program's).
@@ -79,12 +86,13 @@ def _parser() -> argparse.ArgumentParser:
     p = _Parser(
         prog="whisker-opt",
         description="Design optimiser for soft, pneumatically tunable whisker sensors.",
-        epilog="Exit status: 0 done; 2 a bad input (nothing computed); 3 a computation failed; 130 interrupted.",
+        epilog="Exit status: 0 done; 2 a bad input (nothing computed); 3 a computation failed; 4 a calibration did "
+               "not converge (its outputs say so); 130 interrupted.",
     )
     p.add_argument("--version", action=_Version, help="print the version and exit")
     p.add_argument("-v", "--verbose", action="count", default=0, help=_VERBOSE_HELP)
     p.add_argument("--no-progress", action="store_true", default=False,
-                   help="no progress bar (run, resume, compensate)")
+                   help="no progress bar on a terminal, no progress lines elsewhere")
     # after the command: counted apart (a subparser's namespace replaces the top-level value) and added up
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument("-v", "--verbose", dest="verbose_after", action="count", default=argparse.SUPPRESS,
@@ -118,7 +126,8 @@ def main(argv: list[str] | None = None) -> int:
     Returns
     -------
     int
-        0; 2 for a bad input; 3 for a failed computation; 130 when interrupted.
+        0; 2 for a bad input; 3 for a failed computation; 4 for a calibration that did not converge;
+        130 when interrupted.
     """
     try:
         args = _parser().parse_args(argv)
@@ -128,7 +137,8 @@ def main(argv: list[str] | None = None) -> int:
     _set_up_logging(args.verbose)
     _, _, run = commands.REGISTRY[args.command]
     try:
-        return int(run(args) or 0)
+        with show_progress_lines(not getattr(args, "no_progress", False)):
+            return int(run(args) or 0)
     except commands.USER_ERRORS as exc:
         print(f"whisker-opt {args.command}: error: {one_line(exc)}", file=sys.stderr)
         return 2

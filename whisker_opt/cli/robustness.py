@@ -93,6 +93,7 @@ def run(args: argparse.Namespace) -> int:
         else:
             cfg = load_config(source, allow_empty=args.defaults, settings=settings)
             designs = rb.config_designs(cfg, args.genes, str(source))
+        rb.check_sample_size(cfg, [cfg.robustness.method])
     except rb.RobustnessError as exc:
         raise ArgumentError(str(exc)) from None
     wiring.tolerance_half_widths(cfg)

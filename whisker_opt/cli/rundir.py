@@ -1,10 +1,12 @@
 """Checks of a run directory given to ``resume``, ``report`` and ``verify``, made before they compute.
 
 A run directory is what ``whisker-opt run`` writes (:mod:`whisker_opt.output.storage`):
-``config.yaml``, ``optimiser.json`` and, after the first generation, ``checkpoint.pkl``.
+``config.yaml``, ``optimiser.json`` and, after the first generation, ``checkpoint.json``.
 Each damaged or missing file is reported in one line naming it and what is wrong
 (:class:`whisker_opt.optimise.checkpoint.RunDirectoryError`, or :class:`FileNotFoundError`
-for a missing folder or file), so that no command reads a damaged file half-way.
+for a missing folder or file), so that no command reads a damaged file half-way. A run
+directory of an earlier version (a pickled ``checkpoint.pkl``) is refused with
+:class:`whisker_opt.optimise.checkpoint.OlderFormatError`, its pickle never loaded.
 """
 
 from __future__ import annotations
@@ -13,7 +15,13 @@ import json
 from pathlib import Path
 
 from whisker_opt.config.model import load_config
-from whisker_opt.optimise.checkpoint import CHECKPOINT_NAME, RunDirectoryError
+from whisker_opt.optimise.checkpoint import (
+    CHECKPOINT_NAME,
+    OlderFormatError,
+    RunDirectoryError,
+    has_older_checkpoint,
+    older_format_message,
+)
 from whisker_opt.output.storage import OPTIMISER_JSON
 
 
@@ -54,7 +62,7 @@ def _optimiser_json(run_dir: Path) -> None:
 
 
 def check_run_dir(run_dir: Path, need_config: bool = False, load_state: bool = False,
-                  allow_unstarted: bool = False) -> Path:
+                  allow_unstarted: bool = False, allow_older: bool = False) -> Path:
     """Refuse a folder that is not a usable run directory, naming the file at fault.
 
     Parameters
@@ -69,6 +77,8 @@ def check_run_dir(run_dir: Path, need_config: bool = False, load_state: bool = F
     allow_unstarted : bool
         Accept a run directory holding only ``config.yaml`` (a run killed before it wrote
         anything else, which ``resume`` starts again).
+    allow_older : bool
+        Accept a checkpoint of an earlier version (``resume --trust-pickle`` converts it).
 
     Returns
     -------
@@ -80,6 +90,8 @@ def check_run_dir(run_dir: Path, need_config: bool = False, load_state: bool = F
     FileNotFoundError
         No such folder, or it holds neither a checkpoint nor ``optimiser.json``, or no
         ``config.yaml`` when one is needed.
+    OlderFormatError
+        A checkpoint of an earlier version, unless ``allow_older``.
     RunDirectoryError
         Not a folder, or a damaged checkpoint or ``optimiser.json``.
     ConfigError
@@ -92,13 +104,18 @@ def check_run_dir(run_dir: Path, need_config: bool = False, load_state: bool = F
         raise FileNotFoundError(f"{run_dir}: no such run directory")
     if not run_dir.is_dir():
         raise RunDirectoryError(f"{run_dir}: not a folder; give a run directory written by `whisker-opt run`")
+    older = has_older_checkpoint(run_dir)
+    if older and not allow_older:
+        raise OlderFormatError(older_format_message(run_dir))
     if need_config:
         cfg = run_dir / "config.yaml"
         if not cfg.exists():
             raise FileNotFoundError(f"{cfg}: not found; is {run_dir} a run directory?")
         load_config(cfg)
     ck = run_dir / CHECKPOINT_NAME
-    if ck.exists():
+    if older:
+        pass  # converted by `resume --trust-pickle` before it is read
+    elif ck.exists() or ck.is_symlink():
         if not ck.is_file():
             raise RunDirectoryError(f"{ck}: not a whisker-opt checkpoint (not a regular file)")
         if load_state:

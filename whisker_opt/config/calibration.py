@@ -94,7 +94,8 @@ class CalibrationConfig(StrictModel):
     restore_xtol: float = Field(1e-5, gt=0, le=0.01, description="tolerance of the matching pressure",
                                 json_schema_extra={"unit": "MPa"})
     max_evaluations: int = Field(40, ge=1, le=100_000, description="largest number of model evaluations of the "
-                                 "least-squares fit (those of its finite-difference Jacobian included)",
+                                 "least-squares fit (those of its finite-difference Jacobian included); a fit that reaches it before it "
+                                 "converges is reported NOT CALIBRATED (exit status 4)",
                                  json_schema_extra={"unit": "-"})
     diff_step: float = Field(0.02, gt=0, le=0.5, description="step of the finite-difference Jacobian, as a "
                              "fraction of each parameter's range upper − lower", json_schema_extra={"unit": "-"})

@@ -50,7 +50,8 @@ class TolerancesConfig(StrictModel):
 class SampleConfig(StrictModel):
     """The seeded sample of estimator (a)."""
 
-    n: int = Field(32, ge=2, le=100_000, description="number of deviated designs evaluated",
+    n: int = Field(32, ge=2, le=100_000, description="number of deviated designs evaluated; the sensitivities "
+                   "(a linear fit) need at least the number of non-zero tolerances + 1, fewer is refused",
                    json_schema_extra={"unit": "-"})
     design: Literal["lhs", "monte_carlo"] = Field("lhs", description="Latin hypercube or plain Monte Carlo")
     seed: int | None = Field(None, ge=0, le=2**32 - 1, description="seed of the sample; null = the run file's "

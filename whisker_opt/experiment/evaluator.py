@@ -66,7 +66,11 @@ class SceneEvaluator:
         n = int(round(dm / self.delta_step))
         return np.arange(1, n + 1) * (dm / n)
 
-    def __call__(self, genes: dict) -> EvalOutcome:
+    #: The scenes of one evaluation, in the order they are solved.
+    SCENES = ("intact", "trimmed")
+
+    def __call__(self, genes: dict, on_scene=None) -> EvalOutcome:
+        """Evaluate a genome; ``on_scene(name, seconds)``, if given, after each scene of :data:`SCENES` solved."""
         from fem.newton import SolveFailed
         from geometry.design import InvalidDesignError
         from whisker_opt.experiment.scene import run_scene
@@ -79,7 +83,7 @@ class SceneEvaluator:
             return EvalOutcome.failure("invalid_geometry", str(exc), {"total": time.perf_counter() - t0},
                                        {"violation": _violation(genes, self.base_spec.design)})
         results = {}
-        for name, spec in (("intact", intact), ("trimmed", trimmed)):
+        for name, spec in zip(self.SCENES, (intact, trimmed)):
             t = time.perf_counter()
             try:
                 results[name] = run_scene(spec)
@@ -94,6 +98,8 @@ class SceneEvaluator:
                 return EvalOutcome.failure(kind, f"{name}: {type(exc).__name__}: {exc}",
                                            {"total": time.perf_counter() - t0})
             timings[name] = time.perf_counter() - t
+            if on_scene is not None:
+                on_scene(name, timings[name])
             for k, v in results[name].timings.items():
                 timings[f"{name}_{k}"] = v
         delta = self.samples()

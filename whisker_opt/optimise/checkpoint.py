@@ -2,26 +2,33 @@
 
 A checkpoint holds the population, the hall of fame, the logbook, every evaluation record,
 the evaluation cache, the Python ``random`` and NumPy RNG states, the counters and the
-generation index (the DEAP checkpointing recipe, plus the cache). It is a pickle written
-to a temporary file in the same directory, flushed and fsync'ed, then moved over the old
-one with :func:`os.replace`, so a kill at any instant leaves either the previous or the
-new checkpoint, never a torn one. Resuming restores the state exactly: the resumed run
-re-breeds the interrupted generation from the same RNG state, finds the same designs, and
-ends with the same population and best as an uninterrupted run.
+generation index (the DEAP checkpointing recipe, plus the cache), with the optimiser config,
+as JSON data of a versioned format (:mod:`whisker_opt.optimise.statefile`): reading one never
+runs code, so a run directory is safe to share. It is written to a temporary file in the same
+directory, flushed and fsync'ed, then moved over the old one with :func:`os.replace`, so a kill
+at any instant leaves either the previous or the new checkpoint, never a torn one. Resuming
+restores the state exactly: the resumed run re-breeds the interrupted generation from the
+same RNG state, finds the same designs, and ends with the same population and best as an
+uninterrupted run.
 
-Saving a new checkpoint keeps the one it replaces as ``checkpoint.prev.pkl`` (hard-linked,
-or copied, before the atomic replacement, so ``checkpoint.pkl`` exists at every instant).
-A checkpoint that cannot be read (truncated, empty, not a pickle, not a GA state) raises
+Saving a new checkpoint keeps the one it replaces as ``checkpoint.prev.json`` (hard-linked,
+or copied, before the atomic replacement, so ``checkpoint.json`` exists at every instant).
+A checkpoint that cannot be read (truncated, empty, not JSON, not a GA state) raises
 :class:`RunDirectoryError` naming the file and the damage, and offering the previous one when
 it is intact; :func:`restore_previous` puts the previous one back in place (``whisker-opt
 resume RUN_DIR --from-previous``).
 
-Individuals are pickled as DEAP ``creator`` instances; :mod:`whisker_opt.optimise.ga` (imported
-here) creates those classes at import, which is what makes the pickle loadable.
+Earlier versions pickled the state into ``checkpoint.pkl`` (format 1). Such a run directory
+is refused with :class:`OlderFormatError`, which names the format and what to do; the pickle
+is never loaded implicitly. :func:`convert_older_checkpoint` converts it when the user states
+that they trust the folder (``whisker-opt resume RUN_DIR --trust-pickle``), and even then
+unpickles only the classes a checkpoint of format 1 holds.
 """
 
 from __future__ import annotations
 
+import io
+import json
 import logging
 import os
 import pickle
@@ -29,20 +36,27 @@ import shutil
 from pathlib import Path
 from typing import Any
 
-from whisker_opt.optimise.evalcache import EvalCache
-from whisker_opt.optimise.ga import GAState  # noqa: F401 - also registers the creator classes
+from whisker_opt.optimise.ga import GAState
+from whisker_opt.optimise.statefile import (
+    FORMAT_VERSION,
+    INDIVIDUAL_CLASSES,
+    StateFormatError,
+    decode,
+    encode,
+    read_header,
+)
 from whisker_opt.output.storage import atomic_write_bytes
 
 logger = logging.getLogger(__name__)
 
-CHECKPOINT_NAME = "checkpoint.pkl"
-PREVIOUS_NAME = "checkpoint.prev.pkl"
-DAMAGED_NAME = "checkpoint.damaged.pkl"
-FORMAT_VERSION = 1
-
-#: Keys every checkpoint dictionary holds (``extra`` may be missing in old ones).
-_KEYS = ("format", "config", "seed", "generation", "population", "hof", "logbook", "records", "cache", "rng_py",
-         "rng_np", "n_evaluations", "n_cache_hits", "n_failures", "elapsed_s", "stop_reason")
+CHECKPOINT_NAME = "checkpoint.json"
+PREVIOUS_NAME = "checkpoint.prev.json"
+DAMAGED_NAME = "checkpoint.damaged.json"
+#: The pickled checkpoint of earlier versions (format 1), and the name it is kept under once converted.
+OLDER_NAME = "checkpoint.pkl"
+CONVERTED_NAME = "checkpoint.format1.pkl"
+#: The flag of ``whisker-opt resume`` that converts an older checkpoint.
+TRUST_FLAG = "--trust-pickle"
 
 
 class RunDirectoryError(ValueError):
@@ -51,66 +65,33 @@ class RunDirectoryError(ValueError):
     the file and what is wrong with it)."""
 
 
-def state_to_dict(state: GAState, config: dict[str, Any]) -> dict[str, Any]:
-    """Plain dictionary of a state (plus the optimiser config it was produced with)."""
-    return {
-        "format": FORMAT_VERSION,
-        "config": config,
-        "seed": state.seed,
-        "generation": state.generation,
-        "population": state.population,
-        "hof": state.hof,
-        "logbook": state.logbook,
-        "records": state.records,
-        "cache": state.cache.to_state(),
-        "rng_py": state.rng_py,
-        "rng_np": state.rng_np,
-        "n_evaluations": state.n_evaluations,
-        "n_cache_hits": state.n_cache_hits,
-        "n_failures": state.n_failures,
-        "elapsed_s": state.elapsed_s,
-        "stop_reason": state.stop_reason,
-        "extra": state.extra,
-    }
+class OlderFormatError(RunDirectoryError):
+    """A run directory written by an earlier version, whose checkpoint this version does not load."""
 
 
-def state_from_dict(d: dict[str, Any]) -> GAState:
-    """Inverse of :func:`state_to_dict` (the config is returned separately by :func:`load_checkpoint`)."""
-    if d.get("format") != FORMAT_VERSION:
-        raise ValueError(f"checkpoint format {d.get('format')!r} is not supported (expected {FORMAT_VERSION})")
-    return GAState(
-        seed=d["seed"],
-        generation=d["generation"],
-        population=d["population"],
-        hof=d["hof"],
-        logbook=d["logbook"],
-        records=d["records"],
-        cache=EvalCache.from_state(d["cache"]),
-        rng_py=d["rng_py"],
-        rng_np=d["rng_np"],
-        n_evaluations=d["n_evaluations"],
-        n_cache_hits=d["n_cache_hits"],
-        n_failures=d["n_failures"],
-        elapsed_s=d["elapsed_s"],
-        stop_reason=d["stop_reason"],
-        extra=d.get("extra", {}),
-    )
+def older_format_message(run_dir: Path) -> str:
+    """The one-line refusal of a run directory holding a format-1 ``checkpoint.pkl``."""
+    run_dir = Path(run_dir)
+    return (f"{run_dir / OLDER_NAME}: a checkpoint of an earlier whisker-opt (format 1, a Python pickle); this "
+            f"version reads format {FORMAT_VERSION} ({CHECKPOINT_NAME}) and does not load pickles, which can run "
+            f"code: start the run again with `whisker-opt run`, or, only if you trust whoever wrote this folder, "
+            f"convert it with `whisker-opt resume {run_dir} {TRUST_FLAG}`")
 
 
 def _looks_complete(path: Path) -> bool:
-    """Cheap check that ``path`` holds a whole pickle (protocol >= 2 header, STOP opcode at the end)."""
+    """Cheap check that ``path`` holds a whole JSON object (``{`` first, ``}`` last but for a newline)."""
     try:
         with path.open("rb") as fh:
             head = fh.read(1)
-            fh.seek(-1, os.SEEK_END)
-            tail = fh.read(1)
+            fh.seek(max(path.stat().st_size - 2, 0))
+            tail = fh.read(2).rstrip(b"\n")
     except OSError:
         return False
-    return head == b"\x80" and tail == b"."
+    return head == b"{" and tail.endswith(b"}")
 
 
 def _keep_previous(run_dir: Path) -> None:
-    """Make ``checkpoint.prev.pkl`` the current checkpoint's file (the current one stays in place)."""
+    """Make ``checkpoint.prev.json`` the current checkpoint's file (the current one stays in place)."""
     current = run_dir / CHECKPOINT_NAME
     if not current.is_file() or not _looks_complete(current):
         return  # nothing to keep, or a damaged file that must not replace a good previous one
@@ -139,15 +120,35 @@ def _keep_previous(run_dir: Path) -> None:
 
 
 def save_checkpoint(run_dir: Path, state: GAState, config: dict[str, Any]) -> Path:
-    """Write ``run_dir/checkpoint.pkl`` atomically, keeping the one it replaces as
-    ``checkpoint.prev.pkl``; returns its path."""
+    """Write ``run_dir/checkpoint.json`` atomically, keeping the one it replaces as
+    ``checkpoint.prev.json``; returns its path."""
     run_dir = Path(run_dir)
     path = run_dir / CHECKPOINT_NAME
-    data = pickle.dumps(state_to_dict(state, config), protocol=pickle.HIGHEST_PROTOCOL)
+    data = encode(state, config)
     _keep_previous(run_dir)
     atomic_write_bytes(path, data)
     logger.debug("checkpoint of generation %d written to %s", state.generation, path)
     return path
+
+
+def _damaged(path: Path, what: str) -> RunDirectoryError:
+    return RunDirectoryError(f"{path}: not a whisker-opt checkpoint ({what})")
+
+
+def _parse(path: Path, data: bytes) -> Any:
+    """The JSON document of a checkpoint file's bytes."""
+    if data[:1] == b"\x80":
+        raise _damaged(path, f"it holds a Python pickle, not the JSON state of format {FORMAT_VERSION}; it was not "
+                             "loaded, as loading a pickle can run code")
+    try:
+        return json.loads(data.decode("utf-8"))
+    except UnicodeDecodeError as exc:
+        raise _damaged(path, f"truncated or damaged: not UTF-8 text at byte {exc.start}; {len(data)} bytes") from None
+    except json.JSONDecodeError as exc:
+        raise _damaged(path, f"truncated or damaged: not valid JSON, {exc.msg} at line {exc.lineno} column "
+                             f"{exc.colno}; {len(data)} bytes") from None
+    except RecursionError:
+        raise _damaged(path, "truncated or damaged: nested too deeply") from None
 
 
 def _read(path: Path) -> tuple[GAState, dict[str, Any]]:
@@ -159,42 +160,33 @@ def _read(path: Path) -> tuple[GAState, dict[str, Any]]:
         The file is not a readable whisker-opt checkpoint (the message names it and the damage).
     """
     try:
-        size = path.stat().st_size
+        if not path.is_file():
+            raise _damaged(path, "not a regular file")
+        data = path.read_bytes()
     except OSError as exc:
         raise RunDirectoryError(f"{path}: cannot be read ({exc.strerror or exc})") from None
-    if not path.is_file():
-        raise RunDirectoryError(f"{path}: not a whisker-opt checkpoint (not a regular file)")
-    if size == 0:
-        raise RunDirectoryError(f"{path}: not a whisker-opt checkpoint (empty file)")
+    if not data:
+        raise _damaged(path, "empty file")
+    doc = _parse(path, data)
     try:
-        with path.open("rb") as fh:
-            d = pickle.load(fh)
-    except OSError as exc:
-        raise RunDirectoryError(f"{path}: cannot be read ({exc.strerror or exc})") from None
-    except Exception as exc:  # noqa: BLE001 - unpickling damaged bytes raises nearly anything
+        version = read_header(doc)
+    except StateFormatError as exc:
+        raise _damaged(path, str(exc)) from None
+    if version > FORMAT_VERSION:
+        raise RunDirectoryError(f"{path}: checkpoint format {version} was written by a later whisker-opt; this "
+                                f"version reads format {FORMAT_VERSION}: resume it with that version")
+    if version != FORMAT_VERSION:
+        raise RunDirectoryError(f"{path}: checkpoint format {version} is not supported (this version reads format "
+                                f"{FORMAT_VERSION}): start the run again with `whisker-opt run`")
+    try:
+        return decode(doc)
+    except (StateFormatError, RecursionError) as exc:
         msg = " ".join(str(exc).split())
-        if len(msg) > 120:
-            msg = msg[:117] + "..."
-        raise RunDirectoryError(f"{path}: not a whisker-opt checkpoint (truncated or damaged: "
-                                f"{type(exc).__name__}: {msg}; {size} bytes)") from None
-    if not isinstance(d, dict):
-        raise RunDirectoryError(f"{path}: not a whisker-opt checkpoint (it holds a {type(d).__name__}, "
-                                "not a GA state)")
-    if d.get("format") != FORMAT_VERSION:
-        raise RunDirectoryError(f"{path}: checkpoint format {d.get('format')!r} is not supported "
-                                f"(expected {FORMAT_VERSION})")
-    missing = [k for k in _KEYS if k not in d]
-    if missing:
-        raise RunDirectoryError(f"{path}: not a whisker-opt checkpoint (missing {', '.join(missing)})")
-    try:
-        return state_from_dict(d), d["config"]
-    except Exception as exc:  # noqa: BLE001 - a pickle of the right shape holding wrong values
-        raise RunDirectoryError(f"{path}: not a whisker-opt checkpoint (damaged GA state: "
-                                f"{type(exc).__name__}: {exc})") from None
+        raise _damaged(path, f"damaged GA state: {msg[:160]}") from None
 
 
 def previous_generation(run_dir: Path) -> int | None:
-    """Generation of ``run_dir/checkpoint.prev.pkl``, or None when it is missing or unreadable."""
+    """Generation of ``run_dir/checkpoint.prev.json``, or None when it is missing or unreadable."""
     path = Path(run_dir) / PREVIOUS_NAME
     if not path.is_file():
         return None
@@ -205,7 +197,7 @@ def previous_generation(run_dir: Path) -> int | None:
 
 
 def load_checkpoint(run_dir: Path, previous: bool = False) -> tuple[GAState, dict[str, Any]]:
-    """Read ``run_dir/checkpoint.pkl`` (or ``checkpoint.prev.pkl``).
+    """Read ``run_dir/checkpoint.json`` (or ``checkpoint.prev.json``).
 
     Parameters
     ----------
@@ -223,13 +215,17 @@ def load_checkpoint(run_dir: Path, previous: bool = False) -> tuple[GAState, dic
     ------
     FileNotFoundError
         No checkpoint in ``run_dir``.
+    OlderFormatError
+        Only a ``checkpoint.pkl`` of an earlier version (:func:`older_format_message`).
     RunDirectoryError
-        The checkpoint is damaged: truncated, empty, not a pickle, not a GA state or of another
+        The checkpoint is damaged: truncated, empty, not JSON, not a GA state or of another
         format. When the previous checkpoint is intact, the message says how to resume from it.
     """
     run_dir = Path(run_dir)
     path = run_dir / (PREVIOUS_NAME if previous else CHECKPOINT_NAME)
-    if not path.exists():
+    if not path.exists() and not path.is_symlink():
+        if has_older_checkpoint(run_dir):
+            raise OlderFormatError(older_format_message(run_dir))
         if previous:
             raise FileNotFoundError(f"{path}: no previous checkpoint (one is kept from the second generation on)")
         raise FileNotFoundError(f"{path}: no checkpoint (was the run started?)")
@@ -246,9 +242,9 @@ def load_checkpoint(run_dir: Path, previous: bool = False) -> tuple[GAState, dic
 
 
 def restore_previous(run_dir: Path) -> int:
-    """Put ``checkpoint.prev.pkl`` back as the current checkpoint; returns its generation.
+    """Put ``checkpoint.prev.json`` back as the current checkpoint; returns its generation.
 
-    The current checkpoint, if any, is kept as ``checkpoint.damaged.pkl``. Nothing is changed
+    The current checkpoint, if any, is kept as ``checkpoint.damaged.json``. Nothing is changed
     unless the previous checkpoint reads back.
 
     Parameters
@@ -263,7 +259,7 @@ def restore_previous(run_dir: Path) -> int:
     Raises
     ------
     FileNotFoundError
-        No ``checkpoint.prev.pkl``.
+        No ``checkpoint.prev.json``.
     RunDirectoryError
         It is damaged too.
     """
@@ -281,8 +277,16 @@ def restore_previous(run_dir: Path) -> int:
 
 
 def has_checkpoint(run_dir: Path) -> bool:
-    """True when ``run_dir`` holds a checkpoint."""
-    return (Path(run_dir) / CHECKPOINT_NAME).is_file()
+    """True when ``run_dir`` holds a checkpoint, of this format or an earlier one (a dangling link counts)."""
+    path = Path(run_dir) / CHECKPOINT_NAME
+    return path.exists() or path.is_symlink() or has_older_checkpoint(run_dir)
+
+
+def has_older_checkpoint(run_dir: Path) -> bool:
+    """True when ``run_dir`` holds a format-1 ``checkpoint.pkl`` and no checkpoint of this format."""
+    run_dir = Path(run_dir)
+    older = run_dir / OLDER_NAME
+    return (older.exists() or older.is_symlink()) and not (run_dir / CHECKPOINT_NAME).exists()
 
 
 def remove_stale_temporaries(run_dir: Path) -> int:
@@ -295,3 +299,72 @@ def remove_stale_temporaries(run_dir: Path) -> int:
         except OSError:
             pass
     return n
+
+
+# ----------------------------------------------------------------------------- format 1
+class _Format1Unpickler(pickle.Unpickler):
+    """Unpickles the classes a format-1 checkpoint holds, and nothing else."""
+
+    ALLOWED = frozenset({
+        ("builtins", "list"), ("deap.base", "Fitness"), ("deap.tools.support", "HallOfFame"), ("_operator", "eq"),
+        ("numpy", "dtype"), ("numpy", "ndarray"), ("whisker_opt.experiment.outcome", "EvalOutcome"),
+        *((f"numpy.{core}.{mod}", name) for core in ("core", "_core")
+          for mod, name in (("numeric", "_frombuffer"), ("multiarray", "scalar"), ("multiarray", "_reconstruct"))),
+    })
+
+    def find_class(self, module: str, name: str) -> Any:  # noqa: D102 - pickle.Unpickler
+        from deap import creator
+
+        if (module, name) == ("deap.creator", "meta_create"):
+            def existing(cname, base, dct):  # the classes exist (created by whisker_opt.optimise.ga)
+                fitness = {"WhiskerFitness"} | {f"WhiskerMOFitness{m}" for m in range(2, 6)}
+                if cname not in INDIVIDUAL_CLASSES and cname not in fitness:
+                    raise pickle.UnpicklingError(f"class deap.creator.{cname} is not one of a checkpoint")
+                return getattr(creator, cname)
+            return existing
+        if (module, name) in self.ALLOWED:
+            return super().find_class(module, name)
+        raise pickle.UnpicklingError(f"{module}.{name} is not part of a format-1 checkpoint")
+
+
+def convert_older_checkpoint(run_dir: Path) -> int:
+    """Convert the format-1 ``checkpoint.pkl`` of ``run_dir`` to ``checkpoint.json``; returns its generation.
+
+    Only for a run directory the user trusts: the pickle is loaded, though only the classes a
+    format-1 checkpoint holds are accepted. The pickle is kept as ``checkpoint.format1.pkl``.
+
+    Raises
+    ------
+    FileNotFoundError
+        No ``checkpoint.pkl`` in ``run_dir``.
+    RunDirectoryError
+        It is not a readable format-1 checkpoint.
+    """
+    from whisker_opt.optimise.evalcache import EvalCache
+
+    run_dir = Path(run_dir)
+    path = run_dir / OLDER_NAME
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no checkpoint of an earlier version to convert")
+    try:
+        d = _Format1Unpickler(io.BytesIO(path.read_bytes())).load()
+        if not isinstance(d, dict) or d.get("format") != 1:
+            raise ValueError(f"format {d.get('format') if isinstance(d, dict) else type(d).__name__!r}, expected 1")
+        state = GAState(seed=d["seed"], generation=d["generation"], population=d["population"], hof=d["hof"],
+                        logbook=d["logbook"], records=d["records"], cache=EvalCache.from_state(d["cache"]),
+                        rng_py=d["rng_py"], rng_np=d["rng_np"], n_evaluations=d["n_evaluations"],
+                        n_cache_hits=d["n_cache_hits"], n_failures=d["n_failures"], elapsed_s=d["elapsed_s"],
+                        stop_reason=d["stop_reason"], extra=d.get("extra", {}))
+        data = encode(state, d["config"])
+        decode(json.loads(data))  # what is written reads back
+    except Exception as exc:  # noqa: BLE001 - a refused or damaged pickle raises nearly anything
+        msg = " ".join(str(exc).split())[:160]
+        raise RunDirectoryError(f"{path}: cannot be converted ({type(exc).__name__}: {msg})") from None
+    atomic_write_bytes(run_dir / CHECKPOINT_NAME, data)
+    os.replace(path, run_dir / CONVERTED_NAME)
+    older_prev = run_dir / "checkpoint.prev.pkl"
+    if older_prev.is_file():
+        os.replace(older_prev, run_dir / "checkpoint.prev.format1.pkl")
+    logger.warning("%s: converted the format-1 checkpoint (generation %d) to %s; the pickle is kept as %s",
+                   run_dir, state.generation, CHECKPOINT_NAME, CONVERTED_NAME)
+    return state.generation

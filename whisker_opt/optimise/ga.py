@@ -43,8 +43,8 @@ Reproducibility
     continues the exact same stream.
 
 The DEAP ``creator`` classes are created once, at import of this module (guarded with
-``hasattr``), so that pickled individuals (checkpoints) load wherever this module is
-imported.
+``hasattr``), so that checkpoints (:mod:`whisker_opt.optimise.statefile`) and worker processes
+rebuild individuals wherever this module is imported.
 """
 
 from __future__ import annotations

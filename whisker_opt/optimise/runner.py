@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import logging
 import math
-import sys
 import time
 from collections import Counter
 from dataclasses import dataclass
@@ -36,13 +35,31 @@ from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence
 
 from whisker_opt.output import storage
-from whisker_opt.optimise.checkpoint import has_checkpoint, load_checkpoint, remove_stale_temporaries, save_checkpoint
+from whisker_opt.optimise.checkpoint import (
+    CHECKPOINT_NAME,
+    OLDER_NAME,
+    has_checkpoint,
+    has_older_checkpoint,
+    load_checkpoint,
+    remove_stale_temporaries,
+    save_checkpoint,
+)
 from whisker_opt.optimise.backend import make_executor
 from whisker_opt.optimise.ga import EvaluationProgress, GAState, GeneticAlgorithm, best_design
 from whisker_opt.optimise.nsga2 import make_algorithm
+from whisker_opt.optimise.rundir import (  # noqa: F401 - write_run_metadata: also the workflows'
+    ConfigChange,
+    change_lines,
+    complete_metadata,
+    record_config,
+    rewrite_optimiser_json,
+    write_run_metadata,
+)
+from whisker_opt.output.lock import RunDirLock
 from whisker_opt.config.optimiser import ExecutorConfig, OptimiserConfig
 from whisker_opt.experiment.outcome import EvalOutcome
 from whisker_opt.output.plots import design_label, plot_convergence, plot_curves, short_float, write_best_curves
+from whisker_opt.output.progress import progress_bar
 
 logger = logging.getLogger(__name__)
 
@@ -143,6 +160,7 @@ def _best_json(state: GAState) -> dict[str, Any]:
         "n_cache_hits": state.n_cache_hits,
         "n_failures": state.n_failures,
         "wall_time_s": state.elapsed_s,
+        "config_changes": list(state.extra.get("config_changes", [])),
     }
 
 
@@ -241,31 +259,6 @@ def write_plots(run_dir: Path, state: GAState, cfg: OptimiserConfig) -> list[Pat
             )
         )
     return out
-
-
-def progress_bar(total: int | None, desc: str, unit: str, enabled: bool = True, initial: int = 0):
-    """A tqdm bar on stderr, shown only when ``enabled`` and stderr is a terminal.
-
-    Parameters
-    ----------
-    total : int or None
-        Expected count.
-    desc, unit : str
-        Label and unit of the count.
-    enabled : bool
-        False hides it (``progress=False`` / ``--no-progress``).
-    initial : int
-        Count already done (a resumed job).
-
-    Returns
-    -------
-    tqdm.tqdm
-    """
-    from tqdm import tqdm
-
-    shown = bool(enabled) and bool(getattr(sys.stderr, "isatty", lambda: False)())
-    return tqdm(total=total, initial=initial, desc=desc, unit=unit, disable=not shown, dynamic_ncols=True,
-                file=sys.stderr)
 
 
 class _Progress(EvaluationProgress):
@@ -379,8 +372,11 @@ def run_optimisation(
     progress: bool = True,
     callbacks: Sequence[Callable[[GAState, dict], None]] = (),
     fidelity: Mapping[str, Any] | None = None,
+    run_config: Mapping[str, Any] | None = None,
 ) -> RunSummary:
     """Run the GA from scratch, writing results and a checkpoint per generation into ``run_dir``.
+
+    The run holds ``run_dir``'s writer lock (:class:`whisker_opt.output.lock.RunDirLock`) throughout.
 
     Parameters
     ----------
@@ -401,6 +397,9 @@ def run_optimisation(
         ``{"preset", "f1_resolution"}`` of the evaluator
         (:func:`whisker_opt.experiment.fidelity.describe`): kept in the state, written to
         ``best.json``, the plots and the report.
+    run_config : mapping, optional
+        The resolved run file (``config.yaml`` with its defaults): kept with the state with its
+        digest, against which ``resume`` checks ``config.yaml`` (:mod:`whisker_opt.optimise.rundir`).
 
     Returns
     -------
@@ -410,48 +409,21 @@ def run_optimisation(
     ------
     FileExistsError
         ``run_dir`` already holds a checkpoint (use :func:`resume_optimisation`).
+    whisker_opt.output.lock.RunDirectoryBusy
+        Another process writes into ``run_dir``.
     """
     run_dir = Path(run_dir)
     check_new_run_dir(run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
-    config = write_run_metadata(run_dir, cfg_opt, seed)
-    ga = make_algorithm(cfg_opt, seed)
-    state = ga.new_state()
-    if fidelity:
-        state.extra["fidelity"] = dict(fidelity)
-    return _drive(ga, state, run_dir, evaluator, cfg_opt.executor, config, progress, callbacks)
-
-
-def write_run_metadata(run_dir: Path, cfg_opt: OptimiserConfig, seed: int) -> dict[str, Any]:
-    """Write ``optimiser.json`` (what a resume needs), then ``environment.json``.
-
-    Parameters
-    ----------
-    run_dir : Path
-        An existing run directory.
-    cfg_opt : OptimiserConfig
-    seed : int
-        Master seed of the run.
-
-    Returns
-    -------
-    dict
-        The optimiser config as stored (``cfg_opt.model_dump(mode="json")``).
-    """
-    config = cfg_opt.model_dump(mode="json")
-    storage.write_json(Path(run_dir) / storage.OPTIMISER_JSON, {"seed": int(seed), "optimiser": config})
-    storage.write_environment(run_dir, seed)
-    return config
-
-
-def _complete_metadata(run_dir: Path, config: dict[str, Any], seed: int) -> None:
-    """Write ``optimiser.json`` and ``environment.json`` when a kill came before them."""
-    if not (run_dir / storage.OPTIMISER_JSON).is_file():
-        storage.write_json(run_dir / storage.OPTIMISER_JSON, {"seed": int(seed), "optimiser": config})
-        logger.info("wrote the missing %s", storage.OPTIMISER_JSON)
-    if not (run_dir / storage.ENVIRONMENT_JSON).is_file():
-        storage.write_environment(run_dir, seed)
-        logger.info("wrote the missing %s", storage.ENVIRONMENT_JSON)
+    with RunDirLock(run_dir, "run"):
+        check_new_run_dir(run_dir)  # again, now that no other writer can start one
+        config = write_run_metadata(run_dir, cfg_opt, seed, run_config)
+        ga = make_algorithm(cfg_opt, seed)
+        state = ga.new_state()
+        if fidelity:
+            state.extra["fidelity"] = dict(fidelity)
+        record_config(state, run_config, None)
+        return _drive(ga, state, run_dir, evaluator, cfg_opt.executor, config, progress, callbacks)
 
 
 def remove_run_temporaries(run_dir: Path) -> int:
@@ -472,8 +444,9 @@ def remove_run_temporaries(run_dir: Path) -> int:
 def check_new_run_dir(run_dir: Path) -> None:
     """Raise FileExistsError (naming ``whisker-opt resume``) if ``run_dir`` already holds a run."""
     if has_checkpoint(run_dir):
-        raise FileExistsError(f"{run_dir} already holds a run (checkpoint.pkl): continue it with "
-                              f"`whisker-opt resume {run_dir}` or choose another --out")
+        name = OLDER_NAME if has_older_checkpoint(run_dir) else CHECKPOINT_NAME
+        raise FileExistsError(f"{run_dir} already holds a run ({name}): continue it with `whisker-opt resume "
+                              f"{run_dir}`, choose another --out, or pass --overwrite to delete it and start again")
 
 
 def run_config_path(run_dir: Path) -> Path:
@@ -498,7 +471,7 @@ def load_run(run_dir: Path) -> tuple[GAState | None, OptimiserConfig, dict[str, 
         return state, OptimiserConfig.model_validate(config), config, state.seed
     meta_path = run_dir / storage.OPTIMISER_JSON
     if not meta_path.is_file():
-        raise FileNotFoundError(f"{run_dir}: not a run directory (no checkpoint.pkl nor {storage.OPTIMISER_JSON})")
+        raise FileNotFoundError(f"{run_dir}: not a run directory (no {CHECKPOINT_NAME} nor {storage.OPTIMISER_JSON})")
     import json
 
     meta = json.loads(meta_path.read_text())
@@ -513,10 +486,13 @@ def resume_optimisation(
     callbacks: Sequence[Callable[[GAState, dict], None]] = (),
     fidelity: Mapping[str, Any] | None = None,
     max_generations: int | None = None,
+    run_config: Mapping[str, Any] | None = None,
+    config_change: ConfigChange | None = None,
 ) -> RunSummary:
     """Continue a run from its last checkpoint; the result equals an uninterrupted run.
 
-    Temporaries left by a kill are deleted first, and ``optimiser.json`` or
+    The resume holds ``run_dir``'s writer lock (:class:`whisker_opt.output.lock.RunDirLock`)
+    throughout. Temporaries left by a kill are deleted first, and ``optimiser.json`` or
     ``environment.json`` are written when a kill came before them.
 
     Parameters
@@ -533,12 +509,18 @@ def resume_optimisation(
     callbacks : sequence of callable
         Extra per-generation callbacks.
     fidelity : mapping, optional
-        As in :func:`run_optimisation`; fills in a state that does not hold it yet (a run
-        killed before its first checkpoint, or one made before the fidelity was recorded).
+        As in :func:`run_optimisation`; fills in a state that does not hold it yet, and
+        replaces it after an allowed ``config_change``.
     max_generations : int, optional
         Raise the run's ``stopping.max_generations`` to this (stored for later resumes): a run
         that stopped on that rule continues, and ends as an uninterrupted run with this limit
         would have (the GA's random state is in the checkpoint).
+    run_config : mapping, optional
+        The resolved run file the run continues with (recorded with its digest when the state
+        holds none yet, or after ``config_change``).
+    config_change : ConfigChange, optional
+        An allowed change of ``config.yaml`` (:func:`whisker_opt.optimise.rundir.check_config`):
+        the run continues with its optimiser section, and the change is recorded in the state.
 
     Returns
     -------
@@ -549,33 +531,42 @@ def resume_optimisation(
     ------
     ValueError
         ``max_generations`` is below the generations already run.
+    whisker_opt.output.lock.RunDirectoryBusy
+        Another process writes into ``run_dir``.
     """
     run_dir = Path(run_dir)
-    state, cfg, config, seed = load_run(run_dir)  # first: nothing is deleted in a folder that is no run
-    remove_run_temporaries(run_dir)
-    if max_generations is not None:
-        done = state.generation if state is not None else -1
-        if max_generations < max(done, 0):
-            raise ValueError(f"--max-generations {max_generations}: the run has already bred {done} generations; "
-                             f"give at least {max(done, 0)}")
-        cfg = cfg.model_copy(update={"stopping": cfg.stopping.model_copy(update={"max_generations": max_generations})})
-        config = cfg.model_dump(mode="json")
-        storage.write_json(run_dir / storage.OPTIMISER_JSON, {"seed": int(seed), "optimiser": config})
-    _complete_metadata(run_dir, config, seed)
-    ga = make_algorithm(cfg, seed)
-    if state is None:
-        state = ga.new_state()
-    elif max_generations is not None and state.logbook:
-        state.stop_reason = ga.stop_reason(state)
-        logger.info("max_generations now %d: the run %s", max_generations,
-                    "continues" if state.stop_reason is None else f"stays stopped ({state.stop_reason})")
-
-    if fidelity and not state.extra.get("fidelity"):
-        state.extra["fidelity"] = dict(fidelity)
-    if state.generation >= 0:
-        _RunWriter(run_dir, ga, config).write_tables(state)
-        logger.info("resuming %s after generation %d", run_dir, state.generation)
-    return _drive(ga, state, run_dir, evaluator, executor or cfg.executor, config, progress, callbacks)
+    load_run(run_dir)  # first: nothing is locked or deleted in a folder that is no run
+    with RunDirLock(run_dir, "resume"):
+        state, cfg, config, seed = load_run(run_dir)  # the last state, read under the lock
+        remove_run_temporaries(run_dir)
+        cfg = cfg if config_change is None else config_change.optimiser
+        if max_generations is not None:
+            done = state.generation if state is not None else -1
+            if max_generations < max(done, 0):
+                raise ValueError(f"--max-generations {max_generations}: the run has already bred {done} "
+                                 f"generations; give at least {max(done, 0)}")
+            cfg = cfg.model_copy(update={"stopping": cfg.stopping.model_copy(
+                update={"max_generations": max_generations})})
+        changed = config_change is not None or max_generations is not None
+        if changed:
+            config = cfg.model_dump(mode="json")
+            rewrite_optimiser_json(run_dir, seed, config, run_config if config_change is not None else None)
+        complete_metadata(run_dir, config, seed)
+        ga = make_algorithm(cfg, seed)
+        if state is None:
+            state = ga.new_state()
+        elif changed and state.logbook:
+            state.stop_reason = ga.stop_reason(state)
+            logger.info("%s: the run %s", f"max_generations {cfg.stopping.max_generations}",
+                        "continues" if state.stop_reason is None else f"stays stopped ({state.stop_reason})")
+        if fidelity and (config_change is not None or not state.extra.get("fidelity")):
+            state.extra["fidelity"] = dict(fidelity)
+        if config_change is not None or not state.extra.get("run_config_sha256"):
+            record_config(state, run_config, config_change)
+        if state.generation >= 0:
+            _RunWriter(run_dir, ga, config).write_tables(state)
+            logger.info("resuming %s after generation %d", run_dir, state.generation)
+        return _drive(ga, state, run_dir, evaluator, executor or cfg.executor, config, progress, callbacks)
 
 
 def _fmt(x: Any, spec: str = ".6g") -> str:
@@ -627,6 +618,7 @@ def report(run_dir: Path, max_rows: int = 60) -> str:
         f"seed           {seed}",
         f"status         {'finished: ' + state.stop_reason if state.stop_reason else 'interrupted (resume it)'}",
         f"fidelity       {fid_line}",
+        *(f"config         {line}" for line in change_lines(state.extra)),
         f"generations    {state.generation} (+ initial population), population {cfg.ga.population}",
         f"evaluations    {state.n_evaluations} solved, {state.n_cache_hits} cache hits, "
         f"{state.n_failures} failed" + (f" ({', '.join(f'{k} {v}' for k, v in sorted(statuses.items()))})" if statuses else ""),

@@ -4,7 +4,8 @@ A run directory written by :func:`whisker_opt.optimise.runner.run_optimisation` 
 
     optimiser.json     the resolved optimiser config and the seed (what resume needs)
     environment.json   Python, platform, library versions, git commit, seed
-    checkpoint.pkl     GA state after the last completed generation (whisker_opt.optimise.checkpoint)
+    checkpoint.json    GA state after the last completed generation, JSON (whisker_opt.optimise.checkpoint)
+    run.lock           while a process writes into the folder: its PID and host (whisker_opt.output.lock)
     evaluations.csv    one row per evaluated individual: generation, genes, f1, κ_j, F_p,
                        status, reason, time, cache_hit
     generations.csv    one row per generation: evaluations, cache hits, failures, best /

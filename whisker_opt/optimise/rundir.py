@@ -1,0 +1,299 @@
+"""A run directory's config as part of its state, and the folder a new run may be written into.
+
+Config
+    A run records its resolved run file (``config.yaml`` read back with every default filled in)
+    and the SHA-256 of its canonical JSON (:func:`config_digest`) in ``optimiser.json`` and in
+    every checkpoint (``state.extra["run_config"]``, ``state.extra["run_config_sha256"]``).
+    ``resume`` compares ``config.yaml`` with it (:func:`check_config`): an edited file is
+    refused with :class:`ConfigChanged`, naming the keys that differ, unless the user allows
+    the change; an allowed change is applied from the next generation on and recorded in
+    ``state.extra["config_changes"]`` (shown by ``whisker-opt report`` and in ``best.json``).
+
+Target folder of ``run``
+    :func:`check_run_target` accepts a missing or empty folder, or one holding only a run of the
+    same config killed before its first checkpoint (which starts again). A folder holding a run
+    is refused unless ``overwrite`` is given, which empties it first (:func:`clear_run_dir`); a
+    non-empty folder holding no run is refused, and is never emptied.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Mapping
+
+from whisker_opt.config.optimiser import OptimiserConfig
+from whisker_opt.optimise.checkpoint import CHECKPOINT_NAME, OLDER_NAME, RunDirectoryError, has_checkpoint
+from whisker_opt.output import storage
+from whisker_opt.output.lock import LOCK_NAME
+
+logger = logging.getLogger(__name__)
+
+CONFIG_YAML = "config.yaml"
+#: Sections of the run file a running GA cannot take over (its individuals and streams depend on them).
+FIXED_KEYS = ("optimiser.algorithm", "optimiser.objectives", "seed")
+#: The flag of ``whisker-opt resume`` that continues with an edited ``config.yaml``.
+ALLOW_FLAG = "--allow-config-change"
+
+
+class ConfigChanged(RunDirectoryError):
+    """``config.yaml`` of a run directory differs from the config the run was started with."""
+
+
+def config_digest(resolved: Mapping[str, Any]) -> str:
+    """SHA-256 (hex) of a resolved config's canonical JSON (sorted keys, no spaces)."""
+    text = json.dumps(resolved, sort_keys=True, separators=(",", ":"), allow_nan=True, default=str)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def _flat(d: Any, prefix: str = "") -> dict[str, Any]:
+    if isinstance(d, Mapping) and d:
+        out: dict[str, Any] = {}
+        for k, v in d.items():
+            out.update(_flat(v, f"{prefix}.{k}" if prefix else str(k)))
+        return out
+    return {prefix: d}
+
+
+def config_differences(old: Mapping[str, Any] | None, new: Mapping[str, Any]) -> list[str]:
+    """``key: old -> new`` for every leaf that differs (``key: changed`` when the old config is unknown)."""
+    if old is None:
+        return ["(the config the run started with is not recorded)"]
+    a, b = _flat(old), _flat(new)
+    missing = object()
+    return [f"{k}: {a.get(k, 'absent')!r} -> {b.get(k, 'absent')!r}" for k in sorted(set(a) | set(b))
+            if a.get(k, missing) != b.get(k, missing)]
+
+
+@dataclass(frozen=True)
+class ConfigChange:
+    """An allowed change of a run's ``config.yaml``, applied from the next generation on.
+
+    Attributes
+    ----------
+    after_generation : int
+        The last generation run with the old config (−1: none).
+    sha256_before, sha256_after : str
+        Digests of the old and the new resolved config.
+    differences : tuple of str
+        ``key: old -> new`` per changed key.
+    optimiser : OptimiserConfig
+        The new config's optimiser section, which the run continues with.
+    """
+
+    after_generation: int
+    sha256_before: str
+    sha256_after: str
+    differences: tuple[str, ...]
+    optimiser: OptimiserConfig
+
+    def record(self) -> dict[str, Any]:
+        """What ``state.extra["config_changes"]`` keeps of it."""
+        return {"after_generation": self.after_generation, "sha256_before": self.sha256_before,
+                "sha256_after": self.sha256_after, "differences": list(self.differences)}
+
+
+def stored_config(run_dir: Path, extra: Mapping[str, Any] | None) -> tuple[str | None, dict | None]:
+    """(digest, resolved config) a run recorded: from its state's ``extra``, else ``optimiser.json``."""
+    if extra and extra.get("run_config_sha256"):
+        return extra["run_config_sha256"], extra.get("run_config")
+    try:
+        meta = json.loads((Path(run_dir) / storage.OPTIMISER_JSON).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None, None
+    if not isinstance(meta, dict) or not isinstance(meta.get("run_config_sha256"), str):
+        return None, None
+    return meta["run_config_sha256"], meta.get("run_config")
+
+
+def check_config(run_dir: Path, extra: Mapping[str, Any] | None, generation: int, resolved: Mapping[str, Any],
+                 optimiser: OptimiserConfig, allow: bool) -> ConfigChange | None:
+    """Compare ``config.yaml`` (``resolved``) with the config the run recorded.
+
+    Parameters
+    ----------
+    run_dir : Path
+    extra : mapping or None
+        ``state.extra`` of the run's checkpoint (None before its first one).
+    generation : int
+        The run's last completed generation (−1 before its first checkpoint).
+    resolved : mapping
+        ``config.yaml`` as it is now, resolved (``model_dump(mode="json")``).
+    optimiser : OptimiserConfig
+        Its optimiser section.
+    allow : bool
+        Continue with a changed config (``--allow-config-change``).
+
+    Returns
+    -------
+    ConfigChange or None
+        None when nothing changed (or the run recorded no config).
+
+    Raises
+    ------
+    ConfigChanged
+        The config changed and ``allow`` is False, or a key of :data:`FIXED_KEYS` changed.
+    """
+    digest, old = stored_config(run_dir, extra)
+    new_digest = config_digest(resolved)
+    if digest is None or digest == new_digest:
+        return None
+    diffs = config_differences(old, resolved)
+    path = Path(run_dir) / CONFIG_YAML
+    shown = "; ".join(diffs[:6]) + (f"; and {len(diffs) - 6} more" if len(diffs) > 6 else "")
+    fixed = [d for d in diffs if any(d.startswith(k + ":") or d.startswith(k + ".") for k in FIXED_KEYS)]
+    if fixed:
+        raise ConfigChanged(f"{path}: edited since the run started ({'; '.join(fixed[:3])}); a run cannot continue "
+                            f"under another {', '.join(FIXED_KEYS)}: restore the file, or start a new run")
+    if not allow:
+        raise ConfigChanged(f"{path}: edited since the run started ({shown}); restore it, or continue with the new "
+                            f"config with `whisker-opt resume {run_dir} {ALLOW_FLAG}` (the change is recorded)")
+    return ConfigChange(generation, digest, new_digest, tuple(diffs), optimiser)
+
+
+def record_config(state: Any, resolved: Mapping[str, Any] | None, change: ConfigChange | None) -> None:
+    """Keep the resolved config and its digest in ``state.extra``; append an allowed change."""
+    if resolved is None:
+        return
+    if change is not None:
+        state.extra.setdefault("config_changes", []).append(change.record())
+        logger.warning("config.yaml changed after generation %d and the run continues with it (%s): %s",
+                       change.after_generation, ALLOW_FLAG, "; ".join(change.differences))
+    state.extra["run_config"] = dict(resolved)
+    state.extra["run_config_sha256"] = config_digest(resolved)
+
+
+def write_run_metadata(run_dir: Path, cfg_opt: OptimiserConfig, seed: int,
+                       run_config: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """Write ``optimiser.json`` (what a resume needs), then ``environment.json``.
+
+    Parameters
+    ----------
+    run_dir : Path
+        An existing run directory.
+    cfg_opt : OptimiserConfig
+    seed : int
+        Master seed of the run.
+    run_config : mapping, optional
+        The resolved run file, stored with its digest (``run_config``, ``run_config_sha256``).
+
+    Returns
+    -------
+    dict
+        The optimiser config as stored (``cfg_opt.model_dump(mode="json")``).
+    """
+    config = cfg_opt.model_dump(mode="json")
+    meta: dict[str, Any] = {"seed": int(seed), "optimiser": config}
+    if run_config is not None:
+        meta.update(run_config=dict(run_config), run_config_sha256=config_digest(run_config))
+    storage.write_json(Path(run_dir) / storage.OPTIMISER_JSON, meta)
+    storage.write_environment(run_dir, seed)
+    return config
+
+
+def complete_metadata(run_dir: Path, config: dict[str, Any], seed: int) -> None:
+    """Write ``optimiser.json`` and ``environment.json`` when a kill came before them."""
+    run_dir = Path(run_dir)
+    if not (run_dir / storage.OPTIMISER_JSON).is_file():
+        storage.write_json(run_dir / storage.OPTIMISER_JSON, {"seed": int(seed), "optimiser": config})
+        logger.info("wrote the missing %s", storage.OPTIMISER_JSON)
+    if not (run_dir / storage.ENVIRONMENT_JSON).is_file():
+        storage.write_environment(run_dir, seed)
+        logger.info("wrote the missing %s", storage.ENVIRONMENT_JSON)
+
+
+def rewrite_optimiser_json(run_dir: Path, seed: int, config: dict[str, Any],
+                           run_config: Mapping[str, Any] | None = None) -> None:
+    """Store a changed optimiser config in ``optimiser.json``, keeping the recorded run file (replaced
+    by ``run_config`` when given)."""
+    path = Path(run_dir) / storage.OPTIMISER_JSON
+    try:
+        meta = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        meta = {}
+    keep = {k: meta[k] for k in ("run_config", "run_config_sha256") if isinstance(meta, dict) and k in meta}
+    if run_config is not None:
+        keep = {"run_config": dict(run_config), "run_config_sha256": config_digest(run_config)}
+    storage.write_json(path, {"seed": int(seed), "optimiser": config, **keep})
+
+
+def change_lines(extra: Mapping[str, Any] | None) -> list[str]:
+    """Report lines of the recorded config changes (none when the config never changed)."""
+    lines = []
+    for c in (extra or {}).get("config_changes", []):
+        lines.append(f"config changed after generation {c.get('after_generation')} ({ALLOW_FLAG}): "
+                     + "; ".join(c.get("differences", [])))
+    return lines
+
+
+# ----------------------------------------------------------------------------- the target of `run`
+def _ignored(name: str) -> bool:
+    return name == LOCK_NAME or storage.is_temporary(name)
+
+
+def check_run_target(run_dir: Path, same_config: Callable[[Path], bool], overwrite: bool = False) -> bool:
+    """Refuse a folder a new run must not be written into (module docstring).
+
+    Parameters
+    ----------
+    run_dir : Path
+    same_config : callable
+        ``same_config(config_yaml_path)``: the file holds the config of the new run.
+    overwrite : bool
+        Accept a folder holding a run (it is to be emptied with :func:`clear_run_dir`).
+
+    Returns
+    -------
+    bool
+        True when the folder holds a run that ``overwrite`` is to replace.
+
+    Raises
+    ------
+    FileExistsError
+        One line naming the folder, what it holds and the way out.
+    """
+    run_dir = Path(run_dir)
+    if not run_dir.is_dir():
+        return False
+    names = sorted(p.name for p in run_dir.iterdir() if not _ignored(p.name))
+    if not names:
+        return False
+    cfg_path = run_dir / CONFIG_YAML
+    is_run = cfg_path.is_file() or (run_dir / storage.OPTIMISER_JSON).is_file() or has_checkpoint(run_dir)
+    if not is_run:
+        shown = ", ".join(names[:5]) + (", ..." if len(names) > 5 else "")
+        raise FileExistsError(f"{run_dir}: not empty ({len(names)} entries: {shown}) and not a run directory; "
+                              f"choose a new or empty folder for --out")
+    if overwrite:
+        return True
+    if has_checkpoint(run_dir):
+        name = CHECKPOINT_NAME if (run_dir / CHECKPOINT_NAME).exists() else OLDER_NAME
+        raise FileExistsError(f"{run_dir} already holds a run ({name}): continue it with `whisker-opt resume "
+                              f"{run_dir}`, choose another --out, or pass --overwrite to delete it and start again")
+    if cfg_path.exists() and not same_config(cfg_path):
+        raise FileExistsError(f"{run_dir} already holds a run of another config ({cfg_path} differs): continue it "
+                              f"with `whisker-opt resume {run_dir}`, choose another --out, or pass --overwrite to "
+                              f"delete it and start again")
+    return False  # a run of this config killed before its first checkpoint: it starts again
+
+
+def clear_run_dir(run_dir: Path) -> int:
+    """Delete everything in a run directory but its lock file; returns how many entries.
+
+    Call it only while holding the folder's lock, after :func:`check_run_target` said it holds a run.
+    """
+    n = 0
+    for p in sorted(Path(run_dir).iterdir()):
+        if p.name == LOCK_NAME:
+            continue
+        if p.is_dir() and not p.is_symlink():
+            shutil.rmtree(p)
+        else:
+            p.unlink()
+        n += 1
+    logger.warning("%s: deleted the %d entries of the run it held (--overwrite)", run_dir, n)
+    return n
