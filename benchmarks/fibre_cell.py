@@ -19,6 +19,10 @@ Fibre models on the same cell:
   fibre is axially stiff and bends as a beam but its section deforms as rubber does;
 * ``resolved-rigid``: the same elements stiff in nine directions (hoop, radial, axial and the diagonals
   of each pair), a section that does not deform, as a nylon fibre does not against the rubber;
+* ``weak-ring``: ``resolved`` with the ring of grid cells around the fibre's square of rubber ten times
+  softer (a weak interphase one element thick);
+* ``band``: the ring's E_f A_f spread along the hoop over a thin band |r − r_f| < side/2 the whole length of
+  the cell (a continuous sleeve in place of the discrete ring);
 * ``embedded``: a truss ring whose points move with their host tets, as ``material.fibre_model:
   embedded`` (segments of min(h/2, 0.5) mm, E_f A_f);
 * ``smeared``: the ring's stiffness spread uniformly over the wall, k = E_f A_f r_f /(s · t · r), one
@@ -183,7 +187,31 @@ def embedded_ring(cell: Cell, mesh: TetMesh, h: float) -> EmbeddedTrusses:
     return EmbeddedTrusses(loc.host_elements, loc.local_coords, seg, cell.E_f, cell.A_f)
 
 
-def cell_problem(cell: Cell, mesh: TetMesh, trusses=(), fields=()) -> tuple[Problem, np.ndarray]:
+def band_field(cell: Cell, mesh: TetMesh, degree: int) -> SmearedFibres:
+    """The ring's E_f A_f spread over a thin band |r − r_f| < side/2 along the whole cell, along the hoop."""
+    X = mesh.points[mesh.cells[:, :4]].mean(axis=1)
+    el = np.nonzero(np.abs(np.hypot(X[:, 0], X[:, 1]) - cell.r_f) < cell.side / 2)[0]
+    Xq = _quadrature_points(mesh, degree)[el]
+    k = np.full(Xq.shape[:2], cell.E_f * cell.A_f / (cell.side * cell.s))
+    return SmearedFibres(el, k, _frame(Xq)["h"], name="band")
+
+
+def weak_ring_material(cell: Cell, mesh: TetMesh, r_grid: np.ndarray, z_grid: np.ndarray, factor: float = 0.1):
+    """Rubber C10 everywhere but in the ring of grid cells around the fibre's square, C10 × ``factor``."""
+    from fem.material import ElementwiseMaterial
+
+    a = cell.side / 2
+    dr = np.diff(r_grid)[np.searchsorted(r_grid, cell.r_f - a) - 1]
+    dz = np.diff(z_grid)[np.searchsorted(z_grid, cell.s / 2 - a) - 1]
+    X = mesh.points[mesh.cells[:, :4]].mean(axis=1)
+    r, z = np.hypot(X[:, 0], X[:, 1]), X[:, 2]
+    near = (np.abs(r - cell.r_f) < a + dr) & (np.abs(z - cell.s / 2) < a + dz)
+    fibre = (np.abs(r - cell.r_f) < a) & (np.abs(z - cell.s / 2) < a)
+    return ElementwiseMaterial((NeoHookean(cell.c10, 0.0), NeoHookean(cell.c10 * factor, 0.0)),
+                               (near & ~fibre).astype(np.int64))
+
+
+def cell_problem(cell: Cell, mesh: TetMesh, trusses=(), fields=(), material=None) -> tuple[Problem, np.ndarray]:
     """Mirror planes y = 0 and z = 0, prescribed u_z on z = s, one u_x pin, pressure on the cavity."""
     X = mesh.points
     R = np.hypot(X[:, 0], X[:, 1])
@@ -191,7 +219,7 @@ def cell_problem(cell: Cell, mesh: TetMesh, trusses=(), fields=()) -> tuple[Prob
     inner = f6[np.all(np.abs(R[f6] - cell.r_i) < 1e-6, axis=1)]
     top = np.nonzero(np.abs(X[:, 2] - cell.s) < TOL)[0]
     pin = np.nonzero((np.abs(X[:, 0]) < 1e-9) & (np.abs(X[:, 2]) < TOL) & (np.abs(R - cell.r_i) < 1e-6))[0][:1]
-    prob = Problem(mesh, NeoHookean(cell.c10, 0.0),
+    prob = Problem(mesh, material or NeoHookean(cell.c10, 0.0),
                    dirichlet=(Dirichlet(np.nonzero(np.abs(X[:, 1]) < TOL)[0], (1,), "y=0"),
                               Dirichlet(np.nonzero(np.abs(X[:, 2]) < TOL)[0], (2,), "z=0"),
                               Dirichlet(top, (2,), "z=s"),
@@ -278,16 +306,21 @@ class CellRun:
 def measure(cell: Cell, model: str, level: int, n_phi: int, smeared_scale: float = 1.0) -> dict:
     """One model on one mesh: U/s at each pressure, EI(0) and EI(Q)/EI(0)."""
     t0 = time.perf_counter()
-    if model.startswith("resolved"):
+    if model.startswith("resolved") or model in ("weak-ring", "band"):
         r_grid, z_grid = resolved_grids(cell, level)
     else:
         r_grid, z_grid = uniform_grids(cell, level)
     mesh = cell_mesh(cell, r_grid, z_grid, n_phi)
     h = cell.t / (len(r_grid) - 1)
     deg = Problem.quadrature_degree  # the default rule, which cell_problem uses
-    trusses, fields = (), ()
+    trusses, fields, material = (), (), None
     if model == "resolved":
         fields = resolved_fields(cell, mesh, deg, rigid=False)
+    elif model == "weak-ring":
+        fields = resolved_fields(cell, mesh, deg, rigid=False)
+        material = weak_ring_material(cell, mesh, r_grid, z_grid)
+    elif model == "band":
+        fields = (band_field(cell, mesh, deg),)
     elif model == "resolved-rigid":
         fields = resolved_fields(cell, mesh, deg, rigid=True)
     elif model == "embedded":
@@ -295,8 +328,9 @@ def measure(cell: Cell, model: str, level: int, n_phi: int, smeared_scale: float
     elif model == "smeared":
         fields = (smeared_field(cell, mesh, deg, smeared_scale),)
     elif model != "none":
-        raise ValueError(f"--models: unknown model {model!r}; allowed resolved, resolved-rigid, embedded, smeared, none")
-    prob, top = cell_problem(cell, mesh, trusses, fields)
+        raise ValueError(f"--models: unknown model {model!r}; allowed resolved, resolved-rigid, weak-ring, band, "
+                         "embedded, smeared, none")
+    prob, top = cell_problem(cell, mesh, trusses, fields, material)
     run = CellRun(cell, prob, top)
     row = {"model": model, "level": level, "n_el": mesh.n_elements, "n_r": len(r_grid) - 1, "n_z": len(z_grid) - 1}
     ei0 = run.bending_stiffness(0.0, 0.0)[1]

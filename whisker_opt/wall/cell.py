@@ -25,12 +25,12 @@ from __future__ import annotations
 import logging
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from fem.harmonic import HarmonicSolid, HoopFibre, Region
-from fem.harmonic_solve import AxisymmetricPath, EndThrust, Reduction, harmonic_response
+from fem.harmonic_solve import AxisymmetricPath, EndThrust, HarmonicSolveFailed, Reduction, harmonic_response
 from fem.material import NeoHookean
 from fem.meshgen2d import QuadMesh, grid_mesh, inclusion_mesh
 from fem.quad9 import line_shape
@@ -104,17 +104,24 @@ def cell_mesh(geo: WallGeometry, mech: WallMechanism, res: Resolution) -> QuadMe
     """The cell's Q9 mesh: regions 'fibre', 'layer' (if any), 'inner' and 'outer' rubber (split at r_f)."""
     a, rf, zc = geo.fibre_diameter / 2, geo.fibre_r, geo.s / 2
     names = ("fibre", "layer", "inner", "outer")
-    if mech.section == "square":
+    if mech.section in ("square", "band"):
         h = math.sqrt(geo.fibre_area) / 2
         if res.grid:
             counts_r, counts_z, br, bz = [5, 2, 5], [3, 2, 3], [0.0] * 3, [0.0] * 3
         else:
             counts_r, counts_z = [res.n_side + 2, res.n_core, res.n_side + 2], [res.n_gap, res.n_core, res.n_gap]
             br, bz = [-1.5, 0.0, 1.5], [-1.5, 0.0, 1.5]
+        if mech.bond == "layer" and not res.grid:
+            raise ValueError("cell_mesh: a layer around a square section is one cell of the 3-D cell's grid "
+                             "(Resolution(grid=True))")
+        dr = (rf - h - geo.r_i) / (counts_r[0] * res.level)  # the grid cells next to the fibre
+        dz = (zc - h) / (counts_z[0] * res.level)
 
         def inside(r, z):
-            if abs(r - rf) < h and abs(z - zc) < h:
+            if abs(r - rf) < h and (mech.section == "band" or abs(z - zc) < h):
                 return "fibre"
+            if mech.bond == "layer" and abs(r - rf) < h + dr and abs(z - zc) < h + dz:
+                return "layer"
             return "inner" if r < rf else "outer"
 
         return grid_mesh([geo.r_i, rf - h, rf + h, geo.r_o], [0.0, zc - h, zc + h, geo.s], counts_r, counts_z,
@@ -146,7 +153,10 @@ def cell_solid(geo: WallGeometry, mech: WallMechanism, mesh: QuadMesh) -> Harmon
     laws = _laws(mech)
     regions = [Region(mesh.elements_of(n), laws[n]) for n in mesh.region_names if len(mesh.elements_of(n))]
     fib = mesh.elements_of("fibre")
-    hoop = (HoopFibre(fib, mech.fibre_modulus),) if mech.fibre_law == "hoop" else ()
+    k = mech.fibre_modulus
+    if mech.section == "band":  # E_f A_f per ring spread over the band's section 2h × s
+        k *= geo.fibre_area / (math.sqrt(geo.fibre_area) * geo.s)
+    hoop = (HoopFibre(fib, k),) if mech.fibre_law == "hoop" else ()
     cavity = mesh.edges_where(lambda P: np.abs(P[:, 0] - geo.r_i) < 1e-9 * geo.r_o)
     slide = None
     if mech.bond == "sliding":
@@ -160,6 +170,8 @@ class WallCell:
     """Pressurise the cell and measure its bending stiffness and gauge transfer along the way."""
 
     def __init__(self, geo: WallGeometry, mech: WallMechanism, res: Resolution = Resolution()) -> None:
+        if mech.fibre_offset is not None:
+            geo = replace(geo, r_f=geo.r_i + mech.fibre_offset)
         self.geo, self.mech, self.res = geo, mech, res
         self.mesh = cell_mesh(geo, mech, res)
         self.solid = cell_solid(geo, mech, self.mesh)
@@ -209,12 +221,22 @@ class WallCell:
                 "ur_ring": float(u[ring, 0]), "ur_gap": float(u[gap, 0]), "g": float(np.mean(g)),
                 "g_min": float(np.min(g)), "g_max": float(np.max(g))}
 
-    def sweep(self, pressures=PRESSURES) -> list[dict]:
-        """Readings at each pressure (increasing), with the time since the start in 't_s'."""
+    def sweep(self, pressures=PRESSURES, stop_on_failure: bool = False) -> list[dict]:
+        """Readings at each pressure (increasing), with the time since the start in 't_s'.
+
+        With ``stop_on_failure`` a pressure the path cannot reach (the wall balloons past its limit point)
+        ends the sweep with the readings so far, the failure logged; otherwise it raises.
+        """
         t0 = time.perf_counter()
         rows = []
         for Q in pressures:
-            self.pressurise(Q)
+            try:
+                self.pressurise(Q)
+            except (HarmonicSolveFailed, FloatingPointError) as exc:
+                if not stop_on_failure:
+                    raise
+                log.warning("wall cell %s: Q = %.3g MPa not reached (%s)", self.mech.name, Q, exc)
+                break
             row = self.readings()
             row["t_s"] = time.perf_counter() - t0
             rows.append(row)

@@ -15,11 +15,20 @@ rubber, rubber_outer
     of :data:`whisker_opt.experiment.spec.RUBBER_LAWS`); ``rubber_outer`` the coat outside the fibre radius
     (``same`` = the body's): the thesis moulded an inner layer, wound the fibre, then coated it.
 section, fibre_law, fibre_modulus, fibre_poisson
-    ``round`` (the fibre as made) or ``square`` of equal area (the 3-D cell's section). ``solid``: the
+    ``round`` (the fibre as made) or ``square`` of equal area (the 3-D cell's section); ``band``: the ring's
+    E_f A_f spread along the hoop over a band of the square's width the whole length of the cell (a sleeve,
+    a cross-check of the 3-D cell). ``solid``: the
     section is an isotropic compressible solid of E_f, ν_f (small-strain limit of a neo-Hookean law).
     ``hoop``: rubber carrying E_f along the hoop only (one mean fibre strain per element), as the 3-D
     reference cell modelled it. ``none``: the section is rubber (the bare tube, a check). E_f = 31 067 MPa is the thesis' FE value (an aramid's, per its source);
     :data:`NYLON_MODULUS` a nylon 6,6 monofilament's.
+fibre_offset
+    Distance of the fibre's centre from the cavity [mm]; None keeps the design's fibre radius (mid-wall by
+    default). The thesis wound the fibre in a trench of the inner layer; its depth is not stated.
+thrust, plane
+    Definitions, not physics: the closed-end thrust on the current cavity area (``current``) or on the
+    reference one, and the end plane rotated about current or reference positions. ``reference`` for both
+    reproduces the 3-D reference cell's loading (:mod:`whisker_opt.wall.cell`).
 """
 
 from __future__ import annotations
@@ -36,7 +45,7 @@ THESIS_FIBRE_MODULUS = 31067.0
 THESIS_FIBRE_POISSON = 0.36
 
 BONDS = ("bonded", "sliding", "layer")
-SECTIONS = ("round", "square")
+SECTIONS = ("round", "square", "band")
 FIBRE_LAWS = ("solid", "hoop", "none")
 THRUSTS = ("current", "reference")
 
@@ -58,6 +67,7 @@ class WallMechanism:
     fibre_poisson: float = THESIS_FIBRE_POISSON
     thrust: str = "current"
     plane: str = "current"
+    fibre_offset: float | None = None
 
     def __post_init__(self) -> None:
         for field, value, allowed in (("bond", self.bond, BONDS), ("section", self.section, SECTIONS),
@@ -69,10 +79,12 @@ class WallMechanism:
                                      ("layer_shear_modulus", self.layer_shear_modulus, 1e-5, 1e3),
                                      ("c10", self.c10, 1e-6, 10.0), ("fibre_modulus", self.fibre_modulus, 1.0, 1e6),
                                      ("fibre_poisson", self.fibre_poisson, 0.0, 0.49)):
-            if not lo <= value <= hi:
+            if not (isinstance(value, (int, float)) and lo <= value <= hi):
                 raise ValueError(f"WallMechanism.{field}={value!r} outside [{lo}, {hi}]")
-        if self.bond == "layer" and self.section != "round":
-            raise ValueError("WallMechanism.bond='layer' needs section='round'")
+        if self.fibre_offset is not None and not 0.0 < self.fibre_offset < 50.0:
+            raise ValueError(f"WallMechanism.fibre_offset={self.fibre_offset!r} outside (0, 50) mm")
+        if self.section == "band" and self.fibre_law != "hoop":
+            raise ValueError("WallMechanism.section='band' needs fibre_law='hoop'")
 
     def with_(self, **changes) -> "WallMechanism":
         return replace(self, **changes)
@@ -87,9 +99,11 @@ def _variants() -> dict[str, WallMechanism]:
         base.with_(name="nylon", fibre_modulus=NYLON_MODULUS, fibre_poisson=NYLON_POISSON),
         base.with_(name="sliding_nylon", bond="sliding", fibre_modulus=NYLON_MODULUS, fibre_poisson=NYLON_POISSON),
         base.with_(name="square", section="square"),
+        base.with_(name="hoop", section="square", fibre_law="hoop"),
+        base.with_(name="fibre_inner", fibre_offset=0.29),
         base.with_(name="yeoh_ds30", rubber="yeoh_dragon_skin_30"),
         base.with_(name="yeoh_ds10", rubber="yeoh_dragon_skin_10"),
-        base.with_(name="ecoflex_coat", rubber="yeoh_dragon_skin_30", rubber_outer="yeoh_ecoflex_00_30"),
+        base.with_(name="ecoflex", rubber="yeoh_ecoflex_00_30"),
     ]
     return {m.name: m for m in out}
 

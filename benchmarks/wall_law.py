@@ -1,0 +1,275 @@
+"""The wall-law study: converged wall cells per mechanism and wall geometry, the stored table, its plot.
+
+Sub-commands (each prints markdown tables; progress on stderr):
+
+* ``convergence``: the default design's mid-chamber wall at refinement levels (default 1–4), per variant:
+  EI(0), ε_z(0.2), EI(Q)/EI(0), g(0.2), time, and the observed order of the last three levels.
+* ``cross3d``: the 3-D reference cell's own model (square section, fibre stiff along the hoop on rubber,
+  thrust on the reference cavity area, end plane rotated about reference positions) on the 3-D cell's own
+  grid and refined, to set beside ``benchmarks/fibre_cell.py --models resolved --levels 1``.
+* ``table``: every variant at the default wall and at the GA box's walls (t = 2 … 6 mm at the box's
+  smallest and largest outer radius), written to ``whisker_opt/wall/data/wall_law.json`` with its
+  provenance; the prototype comparison (the k the thesis' beam model would infer from each law, and
+  whether the gauge reading rises with Q at every contact ratio) and the plot ``docs/figures/wall_law.png``.
+
+Usage::
+
+    OMP_NUM_THREADS=1 python3 benchmarks/wall_law.py convergence [--variants bonded,sliding] [--levels 1,2,3,4]
+    OMP_NUM_THREADS=1 python3 benchmarks/wall_law.py cross3d [--levels 1,2,3]
+    OMP_NUM_THREADS=1 python3 benchmarks/wall_law.py table [--level 3] [--variants ...] [--jobs 2]
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import math
+import subprocess
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import asdict
+from pathlib import Path
+
+import numpy as np
+from scipy.optimize import brentq
+
+from geometry.design import WhiskerDesign
+from whisker_opt.experiment.spec import rubber_law
+from whisker_opt.wall.cell import PRESSURES, Resolution, WallCell, WallGeometry
+from whisker_opt.wall.mechanisms import VARIANTS, WallMechanism
+from whisker_opt.wall.reading import inferred_k, reading_ratios
+from whisker_opt.wall.table import WallTable, default_path
+
+ROOT = Path(__file__).resolve().parents[1]
+#: The prototypes' modulus factor inferred from their gauge signals, k(Q) = −1.337 Q + 0.9958 (Q in MPa).
+PROTOTYPE_K = {q: -1.337 * q + 0.9958 for q in PRESSURES}
+CONTACT_RATIOS = (0.45, 0.55, 0.65, 0.75, 0.85, 1.0)
+#: The GA box: α ∈ [2.5°, 6°], l ∈ [10, 15], t ∈ [2, 6]; the chamber's outer radius spans 7.42 (x = l = 15 at
+#: α = 6°) to 8.91 mm (x = c = 2 at α = 2.5°).
+BOX_R_O = (7.42, 8.91)
+BOX_T = (2.0, 3.0, 4.0, 5.0, 6.0)
+CELL3D = WallMechanism(name="cell3d", section="square", fibre_law="hoop", thrust="reference", plane="reference")
+
+
+def log(msg: str) -> None:
+    print(msg, file=sys.stderr, flush=True)
+
+
+def md(rows: list[dict], cols: list[str], fmt: str = "{:.5g}") -> str:
+    def cell(v):
+        return fmt.format(v) if isinstance(v, float) else str(v)
+    lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+    lines += ["| " + " | ".join(cell(r.get(c, "")) for c in cols) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def default_geometry() -> WallGeometry:
+    return WallGeometry.of_design(WhiskerDesign())
+
+
+def sweep(geo: WallGeometry, mech: WallMechanism, res: Resolution) -> dict:
+    t0 = time.perf_counter()
+    cell = WallCell(geo, mech, res)
+    rows = cell.sweep(PRESSURES, stop_on_failure=True)
+    nan = [math.nan] * (len(PRESSURES) - len(rows))  # pressures the wall did not reach (ballooned)
+    out = {k: [r[k] for r in rows] + nan for k in ("EI", "ez", "g", "g_min", "g_max", "ur_ring", "ur_gap")}
+    out.update(variant=mech.name, r_i=geo.r_i, t=geo.t, r_f=cell.geo.fibre_r, s=geo.s, n_el=cell.mesh.n_elements,
+               time_s=time.perf_counter() - t0)
+    log(f"  {mech.name} r_i = {geo.r_i:.3f} t = {geo.t:.3f} level {res.level}: EI(0.2)/EI(0) = "
+        f"{out['EI'][-1] / out['EI'][0]:.4f}, eps_z(0.2) = {out['ez'][-1]:.4f} ({out['time_s']:.0f} s)")
+    return out
+
+
+def observed_order(levels, values) -> float:
+    """p with e ∝ level^(−p) from the last three (levels, values): (L1^−p − L2^−p)/(L2^−p − L3^−p) = d12/d23."""
+    (l1, l2, l3), (v1, v2, v3) = levels[-3:], values[-3:]
+    r = (v1 - v2) / (v2 - v3)
+    if not np.isfinite(r) or r <= 0:
+        return float("nan")
+    f = lambda p: (l1**-p - l2**-p) / (l2**-p - l3**-p) - r  # noqa: E731
+    try:
+        return float(brentq(f, 0.05, 12.0))
+    except ValueError:
+        return float("nan")
+
+
+def convergence(variants, levels, geo=None, grid=False) -> list[dict]:
+    geo = geo or default_geometry()
+    out = []
+    for name in variants:
+        mech = CELL3D if name == "cell3d" else VARIANTS[name]
+        rows = []
+        for L in levels:
+            s = sweep(geo, mech, Resolution(level=L, grid=grid))
+            ei = np.array(s["EI"])
+            rows.append({"variant": name, "level": L, "n_el": s["n_el"], "EI0": ei[0], "ez_0.1": s["ez"][2],
+                         "ez_0.2": s["ez"][-1], **{f"EIr_{q}": ei[k] / ei[0] for k, q in enumerate(PRESSURES) if q},
+                         "g_0.2": s["g"][-1], "t_s": s["time_s"]})
+        if len(rows) >= 3:
+            order = {c: observed_order(levels, [r[c] for r in rows]) for c in ("EI0", "ez_0.2", "EIr_0.2")}
+            rows.append({"variant": name, "level": "order", **order})
+        if len(rows) >= 2:
+            last, prev = [r for r in rows if r["level"] != "order"][-2:][::-1]
+            rows.append({"variant": name, "level": "last change",
+                         **{c: last[c] / prev[c] - 1 for c in ("EI0", "ez_0.2", "EIr_0.2")}})
+        out += rows
+        print(md(rows, list(rows[0])), flush=True)
+    return out
+
+
+def _table_job(args):
+    name, geo, level = args
+    return sweep(geo, VARIANTS[name], Resolution(level=level))
+
+
+def table_geometries() -> list[WallGeometry]:
+    geos = [default_geometry()]
+    for r_o in BOX_R_O:
+        for t in BOX_T:
+            geos.append(WallGeometry(r_i=r_o - t, t=t))
+    return geos
+
+
+def commit() -> str:
+    try:
+        sha = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True,
+                             check=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--", "fem", "whisker_opt/wall"], cwd=ROOT,
+                               capture_output=True, text=True, check=True).stdout.strip()
+        return sha + ("+modified" if dirty else "")
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown"
+
+
+def build_table(variants, level: int, jobs: int) -> WallTable:
+    geos = table_geometries()
+    work = [(v, g, level) for v in variants for g in geos]
+    t0 = time.perf_counter()
+    if jobs > 1:
+        with ProcessPoolExecutor(jobs) as ex:
+            entries = list(ex.map(_table_job, work))
+    else:
+        entries = [_table_job(w) for w in work]
+    for e in entries:
+        law = rubber_law(VARIANTS[e["variant"]].rubber, VARIANTS[e["variant"]].c10, 0.0)
+        e["mu"] = law.shear_modulus
+        e["EI_bare"] = 3 * e["mu"] * math.pi * ((e["r_i"] + e["t"]) ** 4 - e["r_i"] ** 4) / 4
+    prov = {"code": commit(), "command": "python3 benchmarks/wall_law.py table --level %d" % level,
+            "created": datetime.date.today().isoformat(), "resolution": asdict(Resolution(level=level)),
+            "wall_time_s": time.perf_counter() - t0, "variants": {v: asdict(VARIANTS[v]) for v in variants}}
+    return WallTable(tuple(PRESSURES), tuple(entries), prov)
+
+
+def prototype_comparison(table: WallTable) -> list[dict]:
+    """Per variant at the default wall: EI ratio, the k the thesis' beam model would infer, reading ratios."""
+    design = WhiskerDesign()
+    geo = default_geometry()
+    x_cell = 0.5 * (design.c + design.l)
+    rows = []
+    for v in table.variants:
+        e = next(x for x in table.points(v) if math.isclose(x["r_i"], geo.r_i) and math.isclose(x["t"], geo.t))
+        ratio = np.array(e["EI"]) / e["EI"][0]
+        rr = reading_ratios(design, e, x_cell, e["mu"], CONTACT_RATIOS)  # (n_a, n_Q)
+        ks = [inferred_k(design, rr[-1, j], q) if q else 1.0 for j, q in enumerate(PRESSURES)]
+        row = {"variant": v}
+        for j, q in enumerate(PRESSURES[1:], start=1):
+            row[f"EIr_{q}"] = float(ratio[j])
+            row[f"k_{q}"] = ks[j]
+        row["reading_min"] = float(rr[:, 1:].min())
+        row["rises_everywhere"] = bool(np.all(np.diff(np.hstack([np.ones((len(CONTACT_RATIOS), 1)), rr[:, 1:]]),
+                                                      axis=1) > 0))
+        row["ez_0.2"] = e["ez"][-1]
+        rows.append(row)
+    rows.append({"variant": "prototype", **{f"k_{q}": PROTOTYPE_K[q] for q in PRESSURES[1:]},
+                 "rises_everywhere": True})
+    return rows
+
+
+def plot(table: WallTable, comparison: list[dict], path: Path) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    geo = default_geometry()
+    fig, axs = plt.subplots(1, 2, figsize=(12, 4.8))
+    Q = np.array(PRESSURES)
+    for v in table.variants:
+        e = next(x for x in table.points(v) if math.isclose(x["r_i"], geo.r_i) and math.isclose(x["t"], geo.t))
+        axs[0].plot(Q, np.array(e["EI"]) / e["EI"][0], "o-", ms=3, label=v)
+        row = next(r for r in comparison if r["variant"] == v)
+        axs[1].plot(Q, [1.0] + [row[f"k_{q}"] for q in PRESSURES[1:]], "o-", ms=3, label=v)
+    for ax in axs:
+        ax.plot(Q, [PROTOTYPE_K[q] for q in Q], "k--", lw=2, label="prototypes' k(Q)")
+        ax.set_xlabel("chamber pressure Q [MPa]")
+        ax.grid(alpha=0.3)
+    axs[0].set_ylabel("EI(Q) / EI(0) of the wall cell")
+    axs[0].set_title(f"Wall cell, default design mid-chamber (r_i = {geo.r_i:.2f}, t = {geo.t:g} mm)")
+    axs[1].set_ylabel("k(Q) the thesis' beam model infers from the reading")
+    axs[1].set_title("Like-for-like with the prototypes: inferred k at a = 1")
+    axs[1].legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    c = sub.add_parser("convergence")
+    c.add_argument("--variants", default="bonded")
+    c.add_argument("--levels", default="1,2,3,4")
+    x = sub.add_parser("cross3d")
+    x.add_argument("--levels", default="1,2,3")
+    t = sub.add_parser("table")
+    t.add_argument("--variants", default=",".join(VARIANTS))
+    t.add_argument("--level", type=int, default=3)
+    t.add_argument("--jobs", type=int, default=1)
+    t.add_argument("--out", default=str(default_path()))
+    t.add_argument("--plot", default=str(ROOT / "docs" / "figures" / "wall_law.png"))
+    r = sub.add_parser("report", help="the comparison and plot of an existing table")
+    r.add_argument("--table", default=str(default_path()))
+    r.add_argument("--plot", default=str(ROOT / "docs" / "figures" / "wall_law.png"))
+    args = ap.parse_args(argv)
+    if args.cmd == "convergence":
+        names = args.variants.split(",")
+        bad = [n for n in names if n not in VARIANTS and n != "cell3d"]
+        if bad:
+            ap.error(f"--variants: unknown {bad}; allowed {', '.join(VARIANTS)}, cell3d")
+        convergence(names, [int(v) for v in args.levels.split(",")])
+    elif args.cmd == "cross3d":
+        print("3-D cell's grid (square fibre 2 × 2 cells, 12 across the wall, 8 along):")
+        convergence(["cell3d"], [1], grid=True)
+        print("refined (graded mesh):")
+        convergence(["cell3d"], [int(v) for v in args.levels.split(",")])
+    else:
+        if args.cmd == "table":
+            names = args.variants.split(",")
+            bad = [n for n in names if n not in VARIANTS]
+            if bad:
+                ap.error(f"--variants: unknown {bad}; allowed {', '.join(VARIANTS)}")
+            table = build_table(names, args.level, args.jobs)
+            table.save(args.out)
+            log(f"wrote {args.out}")
+        else:
+            table = WallTable.load(args.table)
+        rows = []
+        for e in table.entries:
+            ei = np.array(e["EI"])
+            rows.append({"variant": e["variant"], "r_i": e["r_i"], "t": e["t"], "EI0": ei[0],
+                         "EI0/bare": ei[0] / e["EI_bare"], **{f"EIr_{q}": ei[k] / ei[0] for k, q in enumerate(PRESSURES) if q},
+                         "ez_0.2": e["ez"][-1], "g_0.2": e["g"][-1],
+                         "g_spread_0.2": e["g_max"][-1] - e["g_min"][-1], "t_s": e["time_s"]})
+        print(md(rows, list(rows[0])))
+        comp = prototype_comparison(table)
+        print()
+        print(md(comp, list(dict.fromkeys(k for r in comp for k in r))))
+        plot(table, comp, Path(args.plot))
+        log(f"wrote {args.plot}")
+        print(json.dumps({"provenance": table.provenance}, indent=1)[:2000])
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
