@@ -29,6 +29,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
+from fem.linsolve import SOLVER_NAMES  # noqa: E402
 from fem.meshgen import box_mesh  # noqa: E402
 from fem.newton import SolveFailed, SolveOptions  # noqa: E402
 from tests.test_fem_cantilever import cantilever, elastica  # noqa: E402
@@ -119,7 +120,7 @@ def cook_table(opts: SolveOptions, quick: bool) -> None:
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="skip the largest meshes")
-    ap.add_argument("--solver", default="auto", choices=("auto", "pardiso", "superlu"))
+    ap.add_argument("--solver", default="auto", choices=SOLVER_NAMES)
     ap.add_argument("--only", default="tube,cantilever,cook", help="comma-separated subset of tables")
     args = ap.parse_args(argv)
     opts = SolveOptions(linear_solver=args.solver)

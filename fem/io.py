@@ -8,9 +8,11 @@ The VTU files are written by meshio and stay readable by meshio, VTK, ParaView a
 Two VTK features that meshio does not write are added to its output:
 
 * field data (``<FieldData>``, the data set's metadata): numbers as ``Float64``/``Int64``
-  arrays; text as ``UInt8`` arrays holding the UTF-8 bytes of each string followed by a NUL
-  byte (the bytes VTK writes for a string array). meshio cannot read VTK's ``String`` arrays,
-  so text is stored as bytes; :func:`decode_text` turns such an array back into strings;
+  arrays; text as VTK string arrays (``<Array type="String">``, the UTF-8 bytes of each string
+  followed by a NUL byte), which ParaView, VTK and pyvista show as text. meshio (5.3) cannot
+  read string arrays and refuses such a file: read the VTUs with pyvista or VTK.
+  :func:`decode_text` gives the strings of a text entry as pyvista returns it, or of the
+  ``UInt8`` byte arrays older files hold;
 * component names (the ``ComponentName<i>`` attributes of a data array), which ParaView
   shows in its component menus, e.g. ``XX`` … ``XZ`` of a symmetric tensor.
 """
@@ -137,8 +139,7 @@ def write_grid(path: str | Path, points: np.ndarray, cells: list, point_data: di
     return atomic_write(path, produce)
 
 
-def write_pvd(path: str | Path, datasets: Sequence[tuple[float, str | Path]] | Sequence[tuple[float, str | Path, int]]
-              ) -> Path:
+def write_pvd(path: str | Path, datasets: Sequence[tuple]) -> Path:
     """Write a ParaView collection (``.pvd``) of data sets at time steps, atomically.
 
     ParaView opens it as one source whose time steps are ``timestep`` (its time slider and
@@ -152,9 +153,10 @@ def write_pvd(path: str | Path, datasets: Sequence[tuple[float, str | Path]] | S
     Parameters
     ----------
     path : path-like
-    datasets : sequence of (timestep, file) or (timestep, file, part)
+    datasets : sequence of (timestep, file), (timestep, file, part) or (timestep, file, part, name)
         Files relative to the ``.pvd`` file's folder (absolute paths are made relative when
-        inside it); written in the given order.
+        inside it); written in the given order. The data sets of one ``part`` form a block of
+        ParaView's multiblock output, labelled ``name`` when given.
 
     Returns
     -------
@@ -171,7 +173,10 @@ def write_pvd(path: str | Path, datasets: Sequence[tuple[float, str | Path]] | S
                 f = f.resolve().relative_to(path.parent.resolve())
             except ValueError:
                 pass
-        ET.SubElement(coll, "DataSet", timestep=repr(t), group="", part=str(part), file=f.as_posix())
+        attrs = {"timestep": repr(t), "group": "", "part": str(part), "file": f.as_posix()}
+        if len(item) > 3:
+            attrs["name"] = str(item[3])
+        ET.SubElement(coll, "DataSet", **attrs)
     ET.indent(root)
     text = '<?xml version="1.0"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
     return atomic_write(path, lambda tmp: Path(tmp).write_text(text))
@@ -203,16 +208,20 @@ def encode_text(strings: str | Sequence[str]) -> np.ndarray:
 
 
 def decode_text(array) -> list[str]:
-    """The strings of an array made by :func:`encode_text` (as read back by meshio or pyvista).
+    """The strings of a text field-data entry: a string array as pyvista reads it, or the bytes of
+    :func:`encode_text` (how older files stored text).
 
     Parameters
     ----------
-    array : array-like of uint8
+    array : array-like of str, or of uint8
 
     Returns
     -------
     list of str
     """
+    arr = np.asarray(array)
+    if arr.dtype.kind in "US" or arr.dtype == object:
+        return [str(v) for v in arr.ravel()]
     data = np.asarray(array, dtype=np.uint8).tobytes()
     parts = data.split(b"\0")
     if parts and parts[-1] == b"":
@@ -241,6 +250,18 @@ def field_array(value) -> np.ndarray:
     return arr.astype(np.float64).ravel()
 
 
+def _is_text(value) -> bool:
+    return isinstance(value, str) or (isinstance(value, (list, tuple)) and bool(value)
+                                      and all(isinstance(v, str) for v in value))
+
+
+def _string_array(parent: ET.Element, name: str, strings) -> None:
+    """A VTK string array: the UTF-8 bytes of each string and a NUL, as VTK's XML writer stores one."""
+    strings = [strings] if isinstance(strings, str) else list(strings)
+    da = ET.SubElement(parent, "Array", type="String", Name=name, NumberOfTuples=str(len(strings)), format="ascii")
+    da.text = " ".join(str(b) for b in encode_text(strings).tolist())
+
+
 def _data_array(parent: ET.Element, name: str, arr: np.ndarray) -> None:
     vtk_type = {"u": "UInt8", "i": "Int64", "f": "Float64"}[arr.dtype.kind]
     da = ET.SubElement(parent, "DataArray", type=vtk_type, Name=name, NumberOfTuples=str(len(arr)), format="ascii")
@@ -256,7 +277,10 @@ def _add_vtk_extras(file: str | Path, field_data: Mapping, component_names: Mapp
     if field_data:
         fd = ET.Element("FieldData")
         for name, value in field_data.items():
-            _data_array(fd, str(name), field_array(value))
+            if _is_text(value):
+                _string_array(fd, str(name), value)
+            else:
+                _data_array(fd, str(name), field_array(value))
         grid.insert(0, fd)
     for section in ("PointData", "CellData"):
         for da in grid.iter(section):

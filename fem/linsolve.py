@@ -11,6 +11,13 @@ pivot perturbation, and each solve is followed by iterative refinement on the tr
 residual until ‖A x − b‖ ≤ 1e-9 ‖b‖.
 
 ``superlu`` (scipy) is a last-resort fallback and warns.
+
+Every solver follows :class:`LinearSolver` (``factorize``, ``solve``, ``release``, a ``name``
+and a ``stats`` dict) and is registered by name in :data:`SOLVERS`; :func:`make_solver` builds
+one by name and :data:`SOLVER_NAMES` (``auto`` first) is what a run file's
+``fidelity.linear_solver`` accepts. Another solver (an iterative one, say) is one class that
+follows the protocol plus one entry in :data:`SOLVERS`; ``solve`` must raise
+:class:`LinearSolverError` rather than return an inaccurate solution.
 """
 
 from __future__ import annotations
@@ -19,6 +26,8 @@ import functools
 import logging
 import time
 import warnings
+from types import MappingProxyType
+from typing import Callable, Mapping, Protocol, runtime_checkable
 
 import numpy as np
 import scipy.sparse as sp
@@ -29,6 +38,31 @@ logger = logging.getLogger(__name__)
 
 class LinearSolverError(RuntimeError):
     """The factorisation failed or the solve did not reach the requested accuracy."""
+
+
+@runtime_checkable
+class LinearSolver(Protocol):
+    """What the Newton solver needs of a linear solver.
+
+    Attributes
+    ----------
+    name : str
+        Its key in :data:`SOLVERS`.
+    stats : dict
+        Seconds and counts, at least ``factorize``, ``solve`` and ``n_factorize``.
+    """
+
+    name: str
+    stats: dict
+
+    def factorize(self, A: sp.csr_matrix, symmetric: bool | None = None) -> None:
+        """Prepare solves with ``A`` (``symmetric``: a hint; None lets the solver decide)."""
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        """x with A x = b for the last factorised A; :class:`LinearSolverError` when it cannot."""
+
+    def release(self) -> None:
+        """Free the factors; the solver can factorise again afterwards."""
 
 
 class PardisoSolver:
@@ -74,7 +108,7 @@ class PardisoSolver:
 
     def __init__(self, tol: float = 1e-9) -> None:
         _mkl_rt_name()  # before the import: pypardiso searches for MKL at import time
-        import pypardiso  # noqa: F401  (ImportError -> fallback in make_solver)
+        import pypardiso  # noqa: F401  (ImportError -> the next solver of AUTO_ORDER)
 
         self.tol = tol
         self._solvers: dict[tuple, object] = {}
@@ -313,20 +347,51 @@ class SuperLUSolver:
         self._lu = None
 
 
-def make_solver(name: str = "auto"):
-    """A linear solver by name: 'auto' (PARDISO if importable), 'pardiso' or 'superlu'."""
-    if name not in ("auto", "pardiso", "superlu"):
-        raise ValueError(f"linear_solver={name!r}: allowed 'auto', 'pardiso', 'superlu'")
-    if name in ("auto", "pardiso"):
+#: The linear solvers by name: name -> constructor (no arguments) of a :class:`LinearSolver`.
+SOLVERS: Mapping[str, Callable[[], LinearSolver]] = MappingProxyType({
+    PardisoSolver.name: PardisoSolver,
+    SuperLUSolver.name: SuperLUSolver,
+})
+#: The solvers ``auto`` tries, in order: the first that can be built is used.
+AUTO_ORDER: tuple[str, ...] = (PardisoSolver.name, SuperLUSolver.name)
+#: Every name :func:`make_solver` accepts (the choices of ``fidelity.linear_solver``).
+SOLVER_NAMES: tuple[str, ...] = ("auto",) + tuple(SOLVERS)
+
+
+def make_solver(name: str = "auto") -> LinearSolver:
+    """A linear solver by name.
+
+    Parameters
+    ----------
+    name : str
+        One of :data:`SOLVER_NAMES`: a key of :data:`SOLVERS`, or ``'auto'``: the first of
+        :data:`AUTO_ORDER` that can be built (PARDISO when pypardiso and MKL load), with a
+        ``RuntimeWarning`` when it is not the first.
+
+    Returns
+    -------
+    LinearSolver
+
+    Raises
+    ------
+    ValueError
+        An unknown name (the message lists the allowed ones).
+    """
+    if name not in SOLVER_NAMES:
+        allowed = ", ".join(repr(n) for n in SOLVER_NAMES)
+        raise ValueError(f"linear_solver={name!r}: allowed {allowed}")
+    if name != "auto":
+        return SOLVERS[name]()
+    failed = []
+    for candidate in AUTO_ORDER:
         try:
-            return PardisoSolver()
+            solver = SOLVERS[candidate]()
         except Exception as exc:  # ImportError, or MKL failing to load
-            if name == "pardiso":
-                raise
-            warnings.warn(
-                f"PARDISO unavailable ({exc}); falling back to scipy SuperLU, which is 10-40x slower "
-                "on 3-D P2 problems. Install pypardiso (pip install pypardiso).",
-                RuntimeWarning,
-                stacklevel=2,
-            )
-    return SuperLUSolver()
+            failed.append(f"{candidate} unavailable ({exc})")
+            continue
+        if failed:
+            warnings.warn(f"{'; '.join(failed)}; falling back to {candidate}, which is 10-40x slower on 3-D P2 "
+                          "problems than PARDISO. Install pypardiso (pip install pypardiso).",
+                          RuntimeWarning, stacklevel=2)
+        return solver
+    raise LinearSolverError(f"no linear solver could be built: {'; '.join(failed)}")

@@ -5,19 +5,40 @@ One *increment* drives the state from the last converged load level to the next 
 increment through the tangent (a consistent linear predictor), so the previous
 converged state is the warm start.
 
-Convergence of an increment needs both (Wriggers 2008, §5.1; Abaqus' criteria):
-  * residual: ‖R_u,free‖ ≤ rtol · F_ref + atol (F_ref = the larger of the first
-    residual of the increment and the current reaction/load norm) and
-    ‖R_p‖ ≤ vtol · V (volume constraint);
-  * energy: |Δx · R| ≤ etol · |Δx₀ · R₀| (first iteration of the increment).
-The residual criterion alone suffices when the residual has reached its round-off floor: it
-meets the criterion and the last iteration reduced it by less than a factor of 10 (Newton's
-quadratic rate would have reduced it by far more). A small increment (a secant correction of a
-prescribed displacement) starts with an energy |Δx₀ · R₀| near round-off, so its energy ratio
-cannot reach etol.
-An increment that diverges, inverts an element or exceeds the iteration limit returns
-its start state with an unconverged :class:`IncrementReport`; the load stepping
-(:mod:`fem.loadpath`) then cuts back, and raises :class:`SolveFailed` when it cannot.
+Measures of an iteration (:class:`Iterate`; Wriggers 2008, §5.1; Abaqus' criteria): the
+residual ‖R_u‖ on the free DOFs after the step, the force scale F_ref (the largest of the
+increment's first residual and the reaction norms so far), the volume residual ‖R_p‖ against
+V (the mesh volume), and the energy |Δx · R| of the step against the largest of the increment
+(the first iteration of a displacement-driven increment has no free residual, so its energy is
+0). With tol = rtol · F_ref, an iteration ends the increment by the first of these rules
+(:func:`acceptance_rule`; the name is kept in :attr:`IncrementReport.rule`):
+
+``energy``
+    |Δx · R| ≤ etol · max |Δx · R| (or ≤ 1e-30) and ‖R_u‖ ≤ 1000 · tol; ‖R_p‖ is not checked.
+    The rule that ends most increments: Newton's energy converges quadratically, and the
+    residual may stop a little above tol where round-off sets its floor (stiff fibres put it
+    near 1e-16 times the fibre force scale; scene tests end increments at 3.6 tol). Without it
+    an increment whose tol lies below the floor never ends (``tests/test_fem_newton.py``).
+``residual``
+    ‖R_u‖ ≤ 1e-3 · tol + atol and ‖R_p‖ ≤ vtol · V: the residual far below its tolerance, whatever
+    the energy ratio (still far from etol one step after a large first step). Without it such
+    increments take one more iteration: an assembly and a linear solve (``tests/test_fem_newton.py``).
+``residual_floor``
+    ‖R_u‖ ≤ tol + atol, ‖R_p‖ ≤ vtol · V, from the second iteration on, and the last iteration
+    reduced ‖R_u‖ by less than a factor of 10: the residual at its round-off floor (Newton's
+    quadratic rate would reduce it by far more). A small increment (a secant correction of a
+    prescribed displacement) starts with an energy near round-off, so its energy ratio cannot
+    reach etol; without the rule it fails (``tests/test_fibre_cell.py``, the tiny increment).
+
+The two criteria together (‖R_u‖ ≤ tol + atol, ‖R_p‖ ≤ vtol · V and the energy) are not a rule
+of their own: ``energy`` and ``residual`` accept everything they accept except residuals in
+(1e-3 · tol + atol, tol + atol] that also exceed 1000 · tol, a band that exists only when
+atol > 999 tol and is narrower than tol.
+
+An increment that diverges (a residual above 1000 times the first, from the third iteration
+on), inverts an element along the whole Newton step, fails its linear solve or exceeds the
+iteration limit returns its start state with an unconverged :class:`IncrementReport`; the load
+stepping (:mod:`fem.loadpath`) then cuts back, and raises :class:`SolveFailed` when it cannot.
 """
 
 from __future__ import annotations
@@ -28,7 +49,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from fem.assembly import Assembler, InvertedElements
-from fem.linsolve import LinearSolverError, make_solver
+from fem.linsolve import SOLVER_NAMES, LinearSolverError, make_solver
 from fem.loads import LoadState
 from fem.problem import Problem
 
@@ -56,7 +77,7 @@ class SolveOptions:
     line_search : bool
         Backtracking on the residual norm (and on inverted elements).
     linear_solver : str
-        'auto' | 'pardiso' | 'superlu'.
+        One of :data:`fem.linsolve.SOLVER_NAMES` ('auto', then the registered solvers).
     reuse_tangent : float
         0 = full Newton (factorise every iteration). r in (0, 1): modified Newton that
         keeps the last factorisation, across iterations and increments, as long as each
@@ -98,6 +119,9 @@ class SolveOptions:
         for name, v, lo, hi in checks:
             if not (lo <= v <= hi):
                 raise ValueError(f"SolveOptions.{name}={v!r} outside the allowed range [{lo}, {hi}]")
+        if self.linear_solver not in SOLVER_NAMES:
+            raise ValueError(f"SolveOptions.linear_solver={self.linear_solver!r}: allowed "
+                             f"{', '.join(repr(n) for n in SOLVER_NAMES)}")
         if self.intermediate_rtol is not None and not (self.rtol <= self.intermediate_rtol < 1.0):
             raise ValueError(f"SolveOptions.intermediate_rtol={self.intermediate_rtol!r} outside the allowed "
                              f"range [rtol={self.rtol}, 1)")
@@ -105,7 +129,8 @@ class SolveOptions:
 
 @dataclass
 class IncrementReport:
-    """One increment: load parameter interval, iterations and residual history."""
+    """One increment: load parameter interval, iterations, residual history and the acceptance ``rule``
+    (one of :data:`ACCEPTANCE_RULES`; ``''`` when not converged)."""
 
     s_start: float
     s_end: float
@@ -115,6 +140,7 @@ class IncrementReport:
     energies: list = field(default_factory=list)
     min_j: float = float("nan")
     reason: str = ""
+    rule: str = ""
 
 
 class SolveFailed(RuntimeError):
@@ -177,7 +203,7 @@ class NewtonSolver:
     ----------
     problem : Problem
     linear_solver : str
-        'auto' | 'pardiso' | 'superlu' (see :func:`fem.linsolve.make_solver`).
+        One of :data:`fem.linsolve.SOLVER_NAMES` (see :func:`fem.linsolve.make_solver`).
     """
 
     def __init__(self, problem: Problem, linear_solver: str = "auto") -> None:
@@ -204,6 +230,14 @@ class NewtonSolver:
     def solve(self, x0: np.ndarray, load: LoadState, opts: SolveOptions, timer) -> tuple[np.ndarray, IncrementReport]:
         """Newton iterations from ``x0`` to equilibrium under ``load``.
 
+        Each iteration: a Newton step (:meth:`_newton_step`: factorise when full Newton, when the
+        last factorisation is stale or when the last iteration reduced the residual by less than
+        ``opts.reuse_tangent``; the first iteration also applies the prescribed-displacement
+        increment), a line search along it (:meth:`_line_search`), then the acceptance test
+        (:func:`acceptance_rule`, the rules of the module docstring, first match wins, recorded
+        in ``report.rule``). The increment fails when an iteration's residual exceeds 1000 times
+        the first iteration's (from iteration 3 on) or after ``opts.max_iterations`` iterations.
+
         Parameters
         ----------
         x0 : ndarray, shape (n_dofs,)
@@ -221,33 +255,31 @@ class NewtonSolver:
         x : ndarray
             The converged state, or ``x0`` when the increment failed.
         report : IncrementReport
-            ``converged`` and, on failure, ``reason``.
+            ``converged``, the acceptance ``rule`` and, on failure, ``reason``.
         """
-        asm, con, solver, fact = self.assembler, self.constraint, self.linear, self._fact
-        vol, rep = self.volume, timer
-        prob = asm.problem
-        n_u, n_nodes = prob.n_u, prob.mesh.n_nodes
         inc = IncrementReport(0.0, 0.0, False)
-        cd, cv_new = load.prescribed_vector(prob)
+        try:
+            x = self._iterate(x0, load, opts, timer, inc)
+        except _IncrementFailed as exc:
+            inc.reason = exc.reason
+            if exc.stale:
+                self._fact["valid"] = False
+            return x0, inc
+        inc.converged = True
+        return x, inc
+
+    def _iterate(self, x0: np.ndarray, load: LoadState, opts: SolveOptions, timer, inc: IncrementReport) -> np.ndarray:
+        """The Newton loop of :meth:`solve`: the converged state, filling ``inc``; raises :class:`_IncrementFailed`."""
+        con, fact = self.constraint, self._fact
+        modified = opts.reuse_tangent > 0
+        cd, cv_new = load.prescribed_vector(self.problem)
         x = x0.copy()
         du_c = np.zeros(len(x))
         du_c[cd] = cv_new - x0[cd]
-        pres = load.pressures
-
-        def evaluate(xv, tangent):
-            t = time.perf_counter()
-            try:
-                out = asm.evaluate(xv[:n_u].reshape(n_nodes, 3), xv[n_u:], pres, tangent, load.tractions)
-            finally:
-                rep.time_assembly += time.perf_counter() - t
-            return out
-
-        modified = opts.reuse_tangent > 0
         try:
-            R, data, min_j = evaluate(x, not (modified and fact["valid"]))
+            R, data, min_j = self._evaluate(x, load, not (modified and fact["valid"]), timer)
         except InvertedElements as exc:
-            inc.reason = f"start state: {exc}"
-            return x0, inc
+            raise _IncrementFailed(f"start state: {exc}", stale=False) from None
         ru0, _, rc0 = _norms(R, con)
         f_ref = max(ru0, rc0, 1e-300)
         e0 = None
@@ -258,77 +290,15 @@ class NewtonSolver:
             refactor = (not modified) or (not fact["valid"]) or ratio > opts.reuse_tangent
             if refactor and data is None:
                 try:
-                    R, data, min_j = evaluate(x, True)
+                    R, data, min_j = self._evaluate(x, load, True, timer)
                 except InvertedElements as exc:  # pragma: no cover - x was evaluated before
-                    inc.reason = f"iteration {it}: {exc}"
-                    fact["valid"] = False
-                    return x0, inc
-            # linear system  K Δx = −R (with the prescribed increment on the first iteration)
-            rhs = -R
-            if it == 1 and np.any(du_c):
-                rhs = rhs - pat_matvec(asm, data if refactor else fact["data"], du_c)
-            rhs = rhs.copy()
-            rhs[con.dofs] = du_c[con.dofs] if it == 1 else 0.0
-            t = time.perf_counter()
-            try:
-                if refactor:
-                    # the solver probes the symmetry itself (relative 1e-11): a follower-pressure
-                    # tangent that is non-symmetric only at that level (the whisker's, dominated by
-                    # the fibres) is factorised as symmetric and the checked refinement on the full
-                    # matrix removes the difference: 2.9 s instead of 3.7 s for the intact default
-                    # scene with the same reading to 1e-11 (telling it "non-symmetric" forced LU)
-                    solver.factorize(asm.pattern.matrix(con.apply(data)))
-                    fact["valid"], fact["data"] = True, data
-                    rep.time_factorize += time.perf_counter() - t
-                t = time.perf_counter()
-                dx = solver.solve(rhs)
-                rep.time_solve += time.perf_counter() - t
-            except (LinearSolverError, RuntimeError, ValueError) as exc:
-                inc.reason = f"linear solve failed: {exc}"
-                fact["valid"] = False
-                return x0, inc
-            if not np.all(np.isfinite(dx)):
-                inc.reason = "non-finite Newton update"
-                return x0, inc
+                    raise _IncrementFailed(f"iteration {it}: {exc}") from None
+            dx = self._newton_step(it, R, data, refactor, du_c, timer)
             energy = abs(float(np.dot(dx, np.where(con.is_c, 0.0, R))))
             # reference energy: the largest seen in this increment (the first iteration of a
             # displacement-driven increment has no free residual, so its energy is 0)
             e0 = max(energy, 1e-300) if e0 is None else max(e0, energy)
-            # line search (Crisfield 1991, §9.3): accept the full step unless the directional
-            # derivative s(α) = Δx·R(x + αΔx) fails to drop below 0.8|s(0)|; then take the
-            # secant zero of s; always back off from inverted elements. The residual-norm
-            # backtracking it replaces stalled with stiff fibres (1e5 stiffness contrast).
-            free = ~con.is_c
-            s0 = float(np.dot(dx[free], R[free]))
-            alpha = 1.0
-            accepted = False
-            best = None
-            for _ls in range(10):
-                x_try = x + alpha * dx
-                if it == 1 and alpha < 1.0:
-                    x_try[con.dofs] = x[con.dofs] + dx[con.dofs]  # keep the prescribed values exact
-                try:
-                    R_try, data_try, mj = evaluate(x_try, not modified)
-                except InvertedElements:
-                    alpha *= 0.5
-                    if alpha < 1e-3:
-                        break
-                    continue
-                best = (x_try, R_try, data_try, mj)
-                accepted = True
-                if not opts.line_search or it == 1 or s0 >= 0:
-                    break
-                s1 = float(np.dot(dx[free], R_try[free]))
-                if abs(s1) <= 0.8 * abs(s0) or _ls >= 2:
-                    break
-                # secant zero of s(α) between 0 and α, kept in [0.1, 1] of the current α
-                alpha = alpha * min(1.0, max(0.1, s0 / (s0 - s1)))
-            if not accepted:
-                inc.reason = f"iteration {it}: inverted elements along the whole Newton step"
-                fact["valid"] = False
-                return x0, inc
-            x_try, R_try, data_try, mj = best
-            x, R, data, min_j = x_try, R_try, data_try, mj
+            x, R, data, min_j = self._line_search(x, dx, R, it, load, opts, timer)
             ru, rp, rc = _norms(R, con)
             ratio = ru / max(ru_prev, 1e-300)
             ru_prev = ru
@@ -336,23 +306,161 @@ class NewtonSolver:
             inc.residuals.append(ru)
             inc.energies.append(energy / e0)
             inc.min_j = min_j
-            res_ok = ru <= opts.rtol * f_ref + opts.atol and rp <= opts.vtol * vol
-            en_ok = energy / e0 <= opts.etol or energy <= 1e-30
-            # both criteria; or one of them far exceeded while the other sits at round-off level
-            # (stiff fibres put the residual's floor near 1e-16 · fibre force scale)
-            stalled = res_ok and it >= 2 and ratio > 0.1  # at the residual's round-off floor
-            if (res_ok and en_ok) or (en_ok and ru <= 1e3 * opts.rtol * f_ref) or (
-                    res_ok and ru <= 1e-3 * opts.rtol * f_ref + opts.atol) or stalled:
-                inc.converged = True
-                return x, inc
-            if it >= 3 and len(inc.residuals) >= 3 and inc.residuals[-1] > 1e3 * inc.residuals[0]:
-                inc.reason = f"iteration {it}: residual diverging ({inc.residuals[-1]:.3g})"
-                fact["valid"] = False
-                return x0, inc
-        fact["valid"] = False
-        inc.reason = (f"no convergence in {opts.max_iterations} iterations (residual {inc.residuals[-1]:.3g}, "
-                      f"ref {f_ref:.3g})")
-        return x0, inc
+            inc.rule = acceptance_rule(Iterate(it, ru, rp, energy, e0, ratio, f_ref), opts, self.volume)
+            if inc.rule:
+                return x
+            if it >= 3 and inc.residuals[-1] > 1e3 * inc.residuals[0]:
+                raise _IncrementFailed(f"iteration {it}: residual diverging ({inc.residuals[-1]:.3g})")
+        raise _IncrementFailed(f"no convergence in {opts.max_iterations} iterations (residual {inc.residuals[-1]:.3g}, "
+                               f"ref {f_ref:.3g})")
+
+    def _evaluate(self, x: np.ndarray, load: LoadState, tangent: bool, timer):
+        """(R, tangent data or None, min det F) at the state ``x``; raises :class:`InvertedElements`."""
+        n_u = self.problem.n_u
+        t = time.perf_counter()
+        try:
+            return self.assembler.evaluate(x[:n_u].reshape(-1, 3), x[n_u:], load.pressures, tangent, load.tractions)
+        finally:
+            timer.time_assembly += time.perf_counter() - t
+
+    def _newton_step(self, it: int, R: np.ndarray, data, refactor: bool, du_c: np.ndarray, timer) -> np.ndarray:
+        """Δx of K Δx = −R (with the prescribed increment ``du_c`` on the first iteration), factorising K
+        first when ``refactor`` (else the last factorisation's K); raises :class:`_IncrementFailed`."""
+        asm, con, solver, fact = self.assembler, self.constraint, self.linear, self._fact
+        rhs = -R
+        if it == 1 and np.any(du_c):
+            rhs = rhs - pat_matvec(asm, data if refactor else fact["data"], du_c)
+        rhs = rhs.copy()
+        rhs[con.dofs] = du_c[con.dofs] if it == 1 else 0.0
+        t = time.perf_counter()
+        try:
+            if refactor:
+                # the solver probes the symmetry itself (relative 1e-11): a follower-pressure
+                # tangent that is non-symmetric only at that level (the whisker's, dominated by
+                # the fibres) is factorised as symmetric and the checked refinement on the full
+                # matrix removes the difference: 2.9 s instead of 3.7 s for the intact default
+                # scene with the same reading to 1e-11 (telling it "non-symmetric" forced LU)
+                solver.factorize(asm.pattern.matrix(con.apply(data)))
+                fact["valid"], fact["data"] = True, data
+                timer.time_factorize += time.perf_counter() - t
+            t = time.perf_counter()
+            dx = solver.solve(rhs)
+            timer.time_solve += time.perf_counter() - t
+        except (LinearSolverError, RuntimeError, ValueError) as exc:
+            raise _IncrementFailed(f"linear solve failed: {exc}") from None
+        if not np.all(np.isfinite(dx)):
+            raise _IncrementFailed("non-finite Newton update", stale=False)
+        return dx
+
+    def _line_search(self, x: np.ndarray, dx: np.ndarray, R: np.ndarray, it: int, load: LoadState,
+                     opts: SolveOptions, timer) -> tuple:
+        """The state along ``x + α Δx`` that the iteration moves to: (x, R, data, min det F).
+
+        Line search (Crisfield 1991, §9.3): accept the full step unless the directional
+        derivative s(α) = Δx·R(x + αΔx) fails to drop below 0.8|s(0)|; then take the secant
+        zero of s (at most two secant steps); always halve α away from inverted elements
+        (down to 1e-3). The residual-norm backtracking it replaces stalled with stiff fibres
+        (1e5 stiffness contrast). The first iteration, ``opts.line_search`` False or an ascent
+        direction (s(0) >= 0) take the first step without inverted elements. Raises
+        :class:`_IncrementFailed` when every trial inverts an element.
+        """
+        con = self.constraint
+        modified = opts.reuse_tangent > 0
+        free = ~con.is_c
+        s0 = float(np.dot(dx[free], R[free]))
+        alpha = 1.0
+        best = None
+        for trial in range(10):
+            x_try = x + alpha * dx
+            if it == 1 and alpha < 1.0:
+                x_try[con.dofs] = x[con.dofs] + dx[con.dofs]  # keep the prescribed values exact
+            try:
+                R_try, data_try, mj = self._evaluate(x_try, load, not modified, timer)
+            except InvertedElements:
+                alpha *= 0.5
+                if alpha < 1e-3:
+                    break
+                continue
+            best = (x_try, R_try, data_try, mj)
+            if not opts.line_search or it == 1 or s0 >= 0:
+                break
+            s1 = float(np.dot(dx[free], R_try[free]))
+            if abs(s1) <= 0.8 * abs(s0) or trial >= 2:
+                break
+            # secant zero of s(α) between 0 and α, kept in [0.1, 1] of the current α
+            alpha = alpha * min(1.0, max(0.1, s0 / (s0 - s1)))
+        if best is None:
+            raise _IncrementFailed(f"iteration {it}: inverted elements along the whole Newton step")
+        return best
+
+
+class _IncrementFailed(Exception):
+    """An increment that cannot converge: ``reason``, and whether the kept factorisation is ``stale``."""
+
+    def __init__(self, reason: str, stale: bool = True) -> None:
+        super().__init__(reason)
+        self.reason = reason
+        self.stale = stale
+
+
+@dataclass(frozen=True)
+class Iterate:
+    """The measures of one Newton iteration that decide acceptance.
+
+    Attributes
+    ----------
+    iteration : int
+        1 for the first iteration of the increment.
+    ru, rp : float
+        ‖R_u‖ on the free DOFs [N] and ‖R_p‖ (volume constraint) after the step.
+    energy : float
+        |Δx · R| of the step, with R before the step (free DOFs).
+    e0 : float
+        The increment's reference energy: the largest ``energy`` so far.
+    ratio : float
+        ``ru`` over the previous iteration's (the first iteration's: over the start residual).
+    f_ref : float
+        Force scale: the largest of the start residual and the reaction norms so far.
+    """
+
+    iteration: int
+    ru: float
+    rp: float
+    energy: float
+    e0: float
+    ratio: float
+    f_ref: float
+
+
+def acceptance_rule(m: Iterate, opts: SolveOptions, volume: float) -> str:
+    """The first acceptance rule of the module docstring that ``m`` meets, or ``''``.
+
+    Parameters
+    ----------
+    m : Iterate
+    opts : SolveOptions
+        ``rtol``, ``atol``, ``etol`` and ``vtol``.
+    volume : float
+        Mesh volume V (the scale of ``vtol``).
+
+    Returns
+    -------
+    str
+        One of :data:`ACCEPTANCE_RULES`, or ``''`` when the iteration is not converged.
+    """
+    tol = opts.rtol * m.f_ref
+    volume_ok = m.rp <= opts.vtol * volume
+    if (m.energy / m.e0 <= opts.etol or m.energy <= 1e-30) and m.ru <= 1e3 * tol:
+        return "energy"
+    if volume_ok and m.ru <= 1e-3 * tol + opts.atol:
+        return "residual"
+    if volume_ok and m.ru <= tol + opts.atol and m.iteration >= 2 and m.ratio > 0.1:
+        return "residual_floor"
+    return ""
+
+
+#: The acceptance rules in the order :func:`acceptance_rule` tries them (module docstring).
+ACCEPTANCE_RULES: tuple[str, ...] = ("energy", "residual", "residual_floor")
 
 
 def pat_matvec(asm: Assembler, data: np.ndarray, v: np.ndarray) -> np.ndarray:

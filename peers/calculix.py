@@ -1,7 +1,7 @@
 """CalculiX (``ccx``) as an independent peer solver for 10-node tet hyperelastic problems.
 
 The in-house solver is cross-checked by running *the same mesh, material and loads*
-through CalculiX: :mod:`peers.calculix_deck` writes the input deck (its docstring
+through CalculiX: :mod:`whisker_opt.output.calculix_deck` writes the input deck (its docstring
 holds the conventions and tolerances), :func:`run_ccx` runs ``ccx`` and parses the
 nodal displacements and reaction forces back into our node order.
 
@@ -42,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-from peers.calculix_deck import (  # noqa: F401  (the deck API, re-exported)
+from whisker_opt.output.calculix_deck import (  # noqa: F401  (the deck API, re-exported)
     CcxCase,
     _fmt,
     element_faces,

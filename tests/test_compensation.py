@@ -223,6 +223,15 @@ class _FakeResult:
         s = beam.sensitivity(self.spec.design, self.spec.contact_ratio, self.spec.Q, self.model)
         return s * np.asarray(deltas, dtype=float)
 
+    @property
+    def contact_stiffness(self):
+        """The beam's P/δ: 1 / deflection under a unit load at the contact."""
+        return 1.0 / beam.deflection_at_contact(self.spec.design, 1.0, self.spec.contact_ratio, self.spec.Q,
+                                                model=self.model)
+
+    def force(self, deltas, which="contact"):
+        return self.contact_stiffness * np.asarray(deltas, dtype=float)
+
 
 class _FakeRunner:
     """SceneRunner stand-in: the beam model (ξ = 3.9) as the 'FE' scene; records the specs it ran."""
@@ -257,6 +266,15 @@ def test_compensate_command_writes_table_and_comparison(tmp_path, monkeypatch, c
     for r in rows[1:]:
         assert abs(float(r["Q_minus_Q_analytic_MPa"])) < 2e-4
         assert float(r["recovery_rate_ref_pct"]) > 99.0
+    # the contact forces of each row's three scenes: the 'FE' (beam) P = k δ, k in the CSV
+    meta = json.loads((out / "compensation_table.json").read_text())
+    model = BeamModel(calibration=3.9)
+    for r, c in zip(rows, meta["curves"]):
+        d = WhiskerDesign().trimmed(float(r["trim_mm"]))
+        k_c = 1.0 / beam.deflection_at_contact(d, 1.0, 1.0, c["Q_MPa"], model=model)
+        assert float(r["stiffness_c_N_per_mm"]) == pytest.approx(k_c, rel=1e-9)  # CSV: 10 digits
+        assert c["force_c_N"] == pytest.approx(k_c * np.asarray(meta["deltas_mm"]), rel=1e-12)
+        assert float(r["stiffness_o_N_per_mm"]) > 0 and len(c["force_o_N"]) == len(meta["deltas_mm"])
     cmp = list(csv.DictReader((out / "sensitivity_comparison.csv").open()))
     assert len(cmp) == 4 and max(abs(float(r["rel_diff"])) for r in cmp) < 1e-12
     # off-tip contact: the scene is asked for a = 0.5 at each Q (it places the ring itself)

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import pytest
 
+from fem.linsolve import SOLVERS
 from fem.loadpath import solve_path
 from fem.newton import SolveOptions
 
@@ -51,7 +52,7 @@ def test_stiff_embedded_ring_solves_with_scaled_pardiso_factors(cell, monkeypatc
     """The 4-layer cell with its ring: PARDISO falls back to the scaled factors and agrees with SuperLU."""
     pytest.importorskip("pypardiso")
     results = {}
-    for solver in ("pardiso", "superlu"):
+    for solver in SOLVERS:  # every registered solver: the same answer
         run, mesh = _run(cell, trusses=lambda m: (fc.embedded_ring(cell, m, cell.t / 4),), n_r=4)
         opts = SolveOptions(linear_solver=solver)
         monkeypatch.setattr(fc, "solve_path", lambda *a, _o=opts, **k: solve_path(*a, options=_o, **k))

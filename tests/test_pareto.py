@@ -94,13 +94,40 @@ def test_hypervolume_equals_inclusion_exclusion(m):
         assert hypervolume(pts, ref) == pytest.approx(_inclusion_exclusion_hv(pts, ref), rel=1e-12, abs=1e-15)
 
 
+def _grid_hv(pts: np.ndarray, ref: float, h: float) -> float:
+    """HV of points on a grid of spacing h, by counting the dominated cells of [0, ref]^m."""
+    m = pts.shape[1]
+    k = int(round(ref / h))
+    corners = np.stack(np.meshgrid(*[np.arange(k) * h] * m, indexing="ij"), axis=-1).reshape(-1, m)
+    dominated = np.zeros(len(corners), dtype=bool)
+    for p in pts:
+        dominated |= np.all(corners >= p - 1e-12, axis=1)
+    return float(dominated.sum()) * h**m
+
+
 @pytest.mark.parametrize("m", [2, 3, 4])
-def test_hypervolume_matches_moocore_on_larger_sets(m):
-    moocore = pytest.importorskip("moocore")  # DEAP's own hypervolume back end: an independent code
+def test_hypervolume_of_larger_sets_equals_a_cell_count(m):
     rng = np.random.default_rng(20 + m)
-    pts = rng.random((80, m))
-    ref = [1.1] * m
-    assert hypervolume(pts, ref) == pytest.approx(float(moocore.hypervolume(pts, ref=ref)), rel=1e-12)
+    h = 0.05
+    pts = rng.integers(0, 20, size=(80, m)) * h  # on the grid, with ties and duplicates
+    assert hypervolume(pts, [1.0] * m) == pytest.approx(_grid_hv(pts, 1.0, h), rel=1e-12)
+
+
+@pytest.mark.parametrize("m", [1, 2, 3])
+def test_front_ranks_with_ties_equal_peeling_by_brute_force(m):
+    rng = np.random.default_rng(30 + m)
+    pts = rng.integers(0, 4, size=(25, m)).astype(float)
+    want = [-1] * len(pts)
+    left = list(range(len(pts)))
+    rank = 0
+    while left:
+        front = [left[j] for j in _brute_non_dominated(pts[left])]
+        for i in front:
+            want[i] = rank
+        left = [i for i in left if i not in front]
+        rank += 1
+    assert front_ranks(pts) == want
+    assert front_ranks([]) == []
 
 
 def test_hypervolume_refuses_mismatched_dimensions():

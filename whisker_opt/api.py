@@ -124,9 +124,12 @@ def simulate(cfg: WhiskerConfig, out: str | Path | None = None) -> Simulation:
     -------
     whisker_opt.workflows.Simulation
         ``results[name]`` (a :class:`~whisker_opt.experiment.scene.SceneResult`: ``delta_l``
-        [mm], ``delta``, ``eps_line`` ...), ``columns`` (the ``curve.csv`` columns
-        ``delta_mm`` and ``eps_<scene>``), ``f1`` and ``f1_uncompensated`` for a pair, and
-        ``out``. Written: one VTU per solved state, ``curve.csv``, ``scenes.json``.
+        [mm], ``delta``, ``eps_line``, ``contact_force`` [N] and ``base_reaction`` [N] at each
+        solved δ, ``contact_stiffness`` = F(δ₁)/δ₁ [N/mm] over the first solved step ...),
+        ``columns`` (the ``curve.csv`` columns ``delta_mm``, ``eps_<scene>``,
+        ``force_<scene>_N`` and ``base_reaction_y_<scene>_N``), ``f1`` and ``f1_uncompensated``
+        for a pair, and ``out``. Written: one VTU per solved state, ``scenes.pvd``, ``curve.csv``,
+        ``scenes.json``, ``force.png``.
 
     Raises
     ------
@@ -141,6 +144,8 @@ def simulate(cfg: WhiskerConfig, out: str | Path | None = None) -> Simulation:
     >>> sim = simulate(cfg, "out/scene")                                 # doctest: +SKIP
     >>> sim.results["intact"].delta_l, sim.columns["eps_intact"][-1], sim.f1  # doctest: +SKIP
     (4.397..., 0.0678..., 0.00300...)
+    >>> sim.results["intact"].contact_force[-1], sim.results["intact"].contact_stiffness  # doctest: +SKIP
+    (0.0892..., 0.0174...)
     """
     from whisker_opt.workflows import simulate as _simulate, simulation_specs
 

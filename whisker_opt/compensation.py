@@ -167,7 +167,8 @@ def compensate(cfg: WhiskerConfig, out: Path, step: float = 1.0, delta_ref: floa
         logger.info("compensate: trim Δ = %g mm: Q = %.6g MPa%s, recovery %.4g %%, analytic Q = %.6g MPa", r.trim,
                     r.Q, f" (at its bound, {'0' if r.at_bound == 'lower' else 'Q_i'})" if r.at_bound and r.trim > 0
                     else "", r.recovery_rate, r.Q_analytic)
-    paths = write_table(out, table, delta_ref=dref, fidelity=fidelity)
+    paths = write_table(out, table, delta_ref=dref, fidelity=fidelity,
+                        forces=table_forces(cfg, runner, design, table))
     result = Compensation(design, table, paths, time.perf_counter() - t0)
     if compare:
         t0 = time.perf_counter()
@@ -180,6 +181,31 @@ def compensate(cfg: WhiskerConfig, out: Path, step: float = 1.0, delta_ref: floa
         paths.update({f"comparison_{k}": v for k, v in cpaths.items()})
         result.comparison_seconds = time.perf_counter() - t0
     return result
+
+
+def table_forces(cfg: WhiskerConfig, runner, design, table) -> list[dict]:
+    """Contact forces of each row of a compensation table at its deflections [N], and the secant
+    stiffness over the first solved step, k = F(δ₁)/δ₁ [N/mm] (:attr:`SceneResult.contact_stiffness`).
+
+    Per row: ``o`` the intact whisker at Q_i, ``b`` the trimmed one at Q_i, ``c`` the trimmed one at the
+    row's Q; from the runner's memo (the table solved them) or solved now.
+
+    Returns
+    -------
+    list of dict
+        ``{"force_<w>_N": list, "stiffness_<w>_N_per_mm": float}`` for w in o, b, c.
+    """
+    deltas = np.asarray(table.deltas, dtype=float)
+    out = []
+    for r in table.rows:
+        row = {}
+        for w, d, Q in (("o", design.trimmed(0.0), table.Q_i), ("b", design.trimmed(r.trim), table.Q_i),
+                        ("c", design.trimmed(r.trim), r.Q)):
+            res = runner.run(wiring.scene_spec(cfg, d, float(Q)))
+            row[f"force_{w}_N"] = [float(v) for v in res.force(deltas)]
+            row[f"stiffness_{w}_N_per_mm"] = res.contact_stiffness
+        out.append(row)
+    return out
 
 
 class _CellProgress:
@@ -329,6 +355,10 @@ class _MapProgress:
                     cell["recovery_rate"])
 
 
+#: The finished cells of a stopped map, in its output folder (:class:`whisker_opt.output.journal.StudyJournal`).
+MAP_JOURNAL = "compensation_map.partial.json"
+
+
 def compensate_map(cfg: WhiskerConfig, out: Path | None, step: float = 1.0, a_values=MAP_CONTACT_RATIOS,
                    warm: bool = True, source: str = "config", progress: bool = True, runner=None) -> MapRun:
     """The compensation map Q(Δ, a), Δ = 0, step, …, ``optimiser.trim`` and a in ``a_values``.
@@ -337,7 +367,11 @@ def compensate_map(cfg: WhiskerConfig, out: Path | None, step: float = 1.0, a_va
     with the scene at contact ratio a (:func:`whisker_opt.analysis.compensation_map.solve_map`).
     ``warm``: trim by trim through one runner whose pressurise step is a :class:`WarmPressurise`;
     otherwise cold scenes contact ratio by contact ratio (the independent reference). Writes
-    ``compensation_map.{csv,json,png}`` into ``out`` unless it is None.
+    ``compensation_map.{csv,json,png}`` into ``out`` unless it is None. Each solved cell is kept in
+    :data:`MAP_JOURNAL` in ``out`` until the map is written: the same command into the same folder
+    after a kill reads those cells back and solves only the rest (with ``warm``, the cells solved
+    after the stop start their Newton solves cold, so they equal the uninterrupted map's within the
+    Newton tolerances; otherwise bit for bit).
 
     Raises
     ------
@@ -363,14 +397,25 @@ def compensate_map(cfg: WhiskerConfig, out: Path | None, step: float = 1.0, a_va
     cells = _MapProgress(len(trims) * a.size, progress)
     response = scene_map_response(cfg, runner)
     hits0 = getattr(runner, "memo_hits", 0)
+    journal = None
+    if out is not None:
+        from whisker_opt.output.journal import StudyJournal
+
+        journal = StudyJournal(Path(out), MAP_JOURNAL, "compensation_map", {
+            "config": cfg.model_dump(mode="json"), "trims": trims, "a": a.tolist(), "deltas": deltas.tolist(),
+            "warm": bool(warm)})
     t0 = time.perf_counter()
     try:
         cmap = solve_map(design, cfg.scene.Q_i, trims, a, response, deltas=deltas,
-                         by="trim" if warm else "a", fidelity=fidelity, on_cell=cells)
+                         by="trim" if warm else "a", fidelity=fidelity, on_cell=cells, journal=journal)
     finally:
         cells.bar.close()
+        if journal is not None:
+            journal.flush()
     seconds = time.perf_counter() - t0
     paths = write_map(out, cmap) if out is not None else {}
+    if journal is not None:
+        journal.finish()
     return MapRun(cmap, paths, seconds, dict(hook.counts) if hook is not None else {},
                   response.calls - (getattr(runner, "memo_hits", 0) - hits0))
 

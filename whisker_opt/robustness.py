@@ -37,6 +37,8 @@ OUTPUTS: tuple[str, ...] = ("f1", "recovery_rate")
 #: +1: a larger value is worse (f1); −1: a smaller one is (the recovery rate).
 WORSE: tuple[float, ...] = (1.0, -1.0)
 METHODS: tuple[str, ...] = ("expansion", "sample")
+#: The deviated designs solved by a stopped study, in its output folder.
+JOURNAL = "robustness.partial.json"
 
 
 class RobustnessError(ValueError):
@@ -90,8 +92,9 @@ class DesignPoints:
     runner : whisker_opt.experiment.scene.SceneRunner
     """
 
-    def __init__(self, cfg: WhiskerConfig, genes: Mapping[str, float], runner) -> None:
+    def __init__(self, cfg: WhiskerConfig, genes: Mapping[str, float], runner, journal=None) -> None:
         self.cfg, self.genes, self.runner = cfg, {k: float(v) for k, v in genes.items()}, runner
+        self.journal = journal
         self.ev = wiring.evaluator(cfg, robust=False)
         self.delta = self.ev.samples()
         self.scalar = cfg.robustness.recovery_scalar
@@ -113,6 +116,15 @@ class DesignPoints:
         key = tuple(float(v) for v in x[:-1])
         if key in self.curves:
             return self.curves[key]
+        stored_key = f"{sorted(self.genes.items())!r} {key!r}"
+        stored = self.journal.get(stored_key) if self.journal is not None else None
+        if stored is not None:  # solved before the study was stopped
+            if "failure" in stored:
+                self.failures.append(stored["failure"])
+                logger.warning("robustness: %s", stored["failure"])
+            value = None if "failure" in stored else tuple(np.asarray(c, dtype=float) for c in stored["curves"])
+            self.curves[key] = value
+            return value
         ev, genes, _ = wiring.deviated(self.ev, self.genes, x)
         variant = self.cfg.scene.gauge_variant
         try:
@@ -128,6 +140,9 @@ class DesignPoints:
             self.failures.append(text)
             value = None
         self.curves[key] = value
+        if self.journal is not None:
+            self.journal.record(stored_key, {"failure": self.failures[-1]} if value is None else
+                                {"curves": [np.asarray(c, dtype=float).tolist() for c in value]})
         return value
 
     def __call__(self, x) -> list[float]:
@@ -246,7 +261,7 @@ def _expected_points(method: str, cfg: WhiskerConfig, half) -> int:
 
 
 def study_design(cfg: WhiskerConfig, design: StudyDesign, methods: Sequence[str] = ("expansion",),
-                 runner=None, progress: bool = False) -> DesignRobustness:
+                 runner=None, progress: bool = False, journal=None) -> DesignRobustness:
     """Propagate the tolerances of ``cfg.robustness`` to f1 and the recovery rate of one design.
 
     Parameters
@@ -258,6 +273,9 @@ def study_design(cfg: WhiskerConfig, design: StudyDesign, methods: Sequence[str]
     progress : bool
         Passed on to the progress lines, one per evaluated point (deviated design) of each method
         (:class:`whisker_opt.output.progress.Progress`, log lines only).
+    journal : whisker_opt.output.journal.StudyJournal, optional
+        The deviated designs solved before the study was stopped (read back, not solved again);
+        each newly solved one is recorded there.
 
     Returns
     -------
@@ -274,7 +292,7 @@ def study_design(cfg: WhiskerConfig, design: StudyDesign, methods: Sequence[str]
 
     rob = cfg.robustness
     half = wiring.tolerance_half_widths(cfg)
-    points = DesignPoints(cfg, design.genes, runner or SceneRunner())
+    points = DesignPoints(cfg, design.genes, runner or SceneRunner(), journal)
     t0 = time.perf_counter()
     zero = np.zeros(len(half))
     points.curves_at(zero, strict=True)
@@ -306,9 +324,9 @@ def study_design(cfg: WhiskerConfig, design: StudyDesign, methods: Sequence[str]
 
 
 def study(cfg: WhiskerConfig, designs: Sequence[StudyDesign], methods: Sequence[str] = ("expansion",),
-          progress: bool = True) -> list[DesignRobustness]:
+          progress: bool = True, journal=None) -> list[DesignRobustness]:
     """:func:`study_design` for every design, with a progress bar and a progress line per design
-    (and a line per evaluated point, :func:`study_design`)."""
+    (and a line per evaluated point, :func:`study_design`); ``journal`` as there."""
     from whisker_opt.experiment.scene import SceneRunner
     from whisker_opt.output.progress import Progress
 
@@ -316,7 +334,7 @@ def study(cfg: WhiskerConfig, designs: Sequence[StudyDesign], methods: Sequence[
     out = []
     with Progress(len(designs), "robustness", "design", progress) as steps:
         for d in designs:
-            out.append(study_design(cfg, d, methods, runner, progress))
+            out.append(study_design(cfg, d, methods, runner, progress, journal))
             steps.step(f"({d.label})")
     return out
 
@@ -387,6 +405,11 @@ def robustness(cfg: WhiskerConfig, designs: Sequence[StudyDesign], out: Path, me
     """Study ``designs`` and write ``robustness.csv``, ``robustness_sensitivities.csv``,
     ``robustness.json`` and ``robustness.png`` into ``out``.
 
+    Every deviated design solved is kept in :data:`JOURNAL` in ``out`` until the outputs are
+    written (at most a second apart, and when the study stops): the same study into the same
+    folder after a kill reads them back and ends with the same result
+    (:class:`whisker_opt.output.journal.StudyJournal`).
+
     Parameters
     ----------
     methods : sequence of str, optional
@@ -408,9 +431,18 @@ def robustness(cfg: WhiskerConfig, designs: Sequence[StudyDesign], out: Path, me
     methods = check_methods([cfg.robustness.method] if methods is None else methods)
     check_sample_size(cfg, methods)
     wiring.tolerance_half_widths(cfg)
-    results = study(cfg, designs, methods, progress)
+    from whisker_opt.output.journal import StudyJournal
+
+    journal = StudyJournal(Path(out), JOURNAL, "robustness", {
+        "config": cfg.model_dump(mode="json"), "methods": list(methods),
+        "designs": [[d.label, sorted(d.genes.items())] for d in designs]}, min_interval=1.0)
+    try:
+        results = study(cfg, designs, methods, progress, journal)
+    finally:
+        journal.flush()
     paths = write_outputs(Path(out), summary_rows(results), sensitivity_rows(results, cfg), _json(results, cfg),
                           _plot_data(results, wiring.tolerance_half_widths(cfg)), _fidelity(cfg))
+    journal.finish()
     return results, paths
 
 

@@ -158,7 +158,7 @@ def design_from_config(cfg: WhiskerConfig, trim: float = 0.0, validate: bool = T
 def scene_spec(cfg: WhiskerConfig, design, Q: float):
     """The :class:`whisker_opt.experiment.spec.SceneSpec` of a config for one design and pressure."""
     from whisker_opt.experiment.fidelity import resolve
-    from whisker_opt.experiment.spec import SceneSpec
+    from whisker_opt.experiment.spec import SceneSpec, default_solve_options
 
     preset = resolve(cfg.fidelity)
     return SceneSpec(
@@ -179,6 +179,7 @@ def scene_spec(cfg: WhiskerConfig, design, Q: float):
         n_deflection_steps=preset.n_deflection_steps,
         sizing=preset.sizing,
         mesh_method=cfg.fidelity.mesh_method,
+        solve_options=replace(default_solve_options(), linear_solver=cfg.fidelity.linear_solver),
     )
 
 
@@ -386,8 +387,8 @@ class RobustEvaluator:
 
 def with_preset(cfg: WhiskerConfig, preset: str) -> WhiskerConfig:
     """``cfg`` with its fidelity replaced by the named preset (other fidelity overrides dropped,
-    the mesh method kept)."""
-    fid = FidelityConfig(preset=preset, mesh_method=cfg.fidelity.mesh_method)
+    the mesh method and the linear solver kept)."""
+    fid = FidelityConfig(preset=preset, mesh_method=cfg.fidelity.mesh_method, linear_solver=cfg.fidelity.linear_solver)
     return cfg.model_copy(update={"fidelity": fid})
 
 

@@ -122,7 +122,9 @@ class Simulation:
     summary : dict
         ``scenes.json``: one entry per scene, plus ``f1`` (and ``f1_uncompensated``) for a pair.
     columns : dict of str -> ndarray
-        ``curve.csv`` columns: ``delta_mm``, ``eps_<scene>`` and ``eps_<scene>_solved_line``.
+        ``curve.csv`` columns: ``delta_mm``, ``eps_<scene>``, ``eps_<scene>_solved_line``, the
+        contact force ``force_<scene>_N`` and the base reaction's y component
+        ``base_reaction_y_<scene>_N`` [N] (splined through the solved deflections like ε).
     out : Path
     """
 
@@ -154,7 +156,8 @@ def simulation_specs(cfg: WhiskerConfig, source: str = "config") -> dict:
 
 
 def simulate(cfg: WhiskerConfig, out: Path, source: str = "config") -> Simulation:
-    """Solve the config's scenes (:func:`simulation_specs`); write VTUs, ``curve.csv`` and ``scenes.json``.
+    """Solve the config's scenes (:func:`simulation_specs`); write VTUs, ``curve.csv``, ``scenes.json``,
+    ``force.png`` (contact force against δ) and, for a pair, ``curves.png``.
 
     For a pair, f1 (:func:`whisker_opt.experiment.objective.f1`) compares ``intact`` with ``trimmed``
     over δ = Δδ … δ_max, and ``f1_uncompensated`` ``intact`` with ``trimmed_uncompensated``.
@@ -172,6 +175,9 @@ def simulate(cfg: WhiskerConfig, out: Path, source: str = "config") -> Simulatio
     for name, res in results.items():
         cols[f"eps_{name}"] = res.curve(delta, sc.gauge_variant)
         cols[f"eps_{name}_solved_line"] = np.interp(delta, res.delta, res.eps_line)
+    for name, res in results.items():
+        cols[f"force_{name}_N"] = res.force(delta)
+        cols[f"base_reaction_y_{name}_N"] = res.force(delta, "base_y")
     sim = Simulation(specs, results, summary, cols, out)
     if sc.pair:
         sim.f1 = summary["f1"] = objective.f1(cols["eps_intact"][1:], cols["eps_trimmed"][1:])
@@ -181,13 +187,15 @@ def simulate(cfg: WhiskerConfig, out: Path, source: str = "config") -> Simulatio
     header = ",".join(cols)
     np.savetxt(out / "curve.csv", np.column_stack(list(cols.values())), delimiter=",", header=header, comments="")
     storage.atomic_write_text(out / SCENES_JSON, json.dumps(summary, indent=2, default=float))
-    if sc.pair:
-        from whisker_opt.output.plots import design_label, plot_curves
+    from whisker_opt.output.plots import design_label, plot_curves, plot_forces
 
-        d = specs[wiring.INTACT].design
-        plot_curves(out / "curves.png", delta, cols["eps_intact"], cols["eps_trimmed"],
-                    f"{design_label({'alpha': d.alpha, 'l': d.l, 't': d.t, 'Q_i': sc.Q_i}, sc.trim)}",
-                    cols.get(f"eps_{wiring.UNCOMPENSATED}"), fidelity_of(cfg))
+    forces = {name: cols[f"force_{name}_N"] for name in results}
+    d = next(iter(specs.values())).design
+    title = design_label({'alpha': d.alpha, 'l': d.l, 't': d.t, 'Q_i': sc.Q_i}, sc.trim)
+    plot_forces(out / "force.png", delta, forces, title, fidelity_of(cfg))
+    if sc.pair:
+        plot_curves(out / "curves.png", delta, cols["eps_intact"], cols["eps_trimmed"], title,
+                    cols.get(f"eps_{wiring.UNCOMPENSATED}"), fidelity_of(cfg), forces)
     return sim
 
 

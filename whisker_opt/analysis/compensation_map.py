@@ -259,9 +259,22 @@ class _Cell:
     n_responses: int
 
 
+def _intact_response(response: MapResponseFn, intact: WhiskerDesign, Q_i: float, a: float, ds: np.ndarray,
+                     journal) -> np.ndarray:
+    """The intact target ε_o(δ) at contact ratio ``a``: read back from ``journal`` or solved (and recorded)."""
+    key = f"intact {a!r}"
+    stored = journal.get(key) if journal is not None else None
+    if stored is not None:
+        return np.asarray(stored, dtype=float)
+    eps = np.asarray(response(intact, Q_i, a, ds), dtype=float)
+    if journal is not None:
+        journal.record(key, eps.tolist())
+    return eps
+
+
 def solve_map(design: WhiskerDesign, Q_i: float, trims, a_values, response: MapResponseFn, *, deltas=None,
               scalar: Scalar = "mean", xatol: float = 1e-4, maxiter: int = 60, by: str = "trim",
-              fidelity: Mapping[str, Any] | None = None, on_cell=None) -> CompensationMap:
+              fidelity: Mapping[str, Any] | None = None, on_cell=None, journal=None) -> CompensationMap:
     """The compensation map Q(Δ, a) on trims × contact ratios.
 
     Parameters
@@ -290,6 +303,9 @@ def solve_map(design: WhiskerDesign, Q_i: float, trims, a_values, response: MapR
         Recorded in the map.
     on_cell : callable, optional
         ``on_cell(trim, a, cell_dict)`` after each solved cell (progress, logging).
+    journal : whisker_opt.output.journal.StudyJournal, optional
+        The finished work of a stopped map: the intact responses and cells stored there are read
+        back instead of solved, and every newly solved one is recorded.
 
     Returns
     -------
@@ -307,7 +323,7 @@ def solve_map(design: WhiskerDesign, Q_i: float, trims, a_values, response: MapR
     ds = np.asarray(DEFAULT_DELTAS if deltas is None else deltas, dtype=float)
     intact = design.trimmed(0.0)
     cells: dict[tuple[int, int], _Cell] = {}
-    eps_o = {j: np.asarray(response(intact, Q_i, float(aj), ds), dtype=float) for j, aj in enumerate(a)}
+    eps_o = {j: _intact_response(response, intact, Q_i, float(aj), ds, journal) for j, aj in enumerate(a)}
 
     def record(k: int, j: int, cell: _Cell) -> None:
         cells[k, j] = cell
@@ -316,13 +332,21 @@ def solve_map(design: WhiskerDesign, Q_i: float, trims, a_values, response: MapR
 
     def solve(k: int, j: int) -> None:
         aj = float(a[j])
+        key = f"cell {tr[k]!r} {aj!r}"
+        stored = journal.get(key) if journal is not None else None
+        if stored is not None:
+            record(k, j, _Cell(**stored))
+            return
         if tr[k] == 0.0:
             record(k, j, _Cell(Q_i, float("nan"), float("nan"), 0.0, 0.0, "upper", 0))
             return
         r = fe_compensation(design, Q_i, tr[k], lambda d, q, x: response(d, q, aj, x), ds, scalar=scalar,
                             method="root", xatol=xatol, maxiter=maxiter, eps_target=eps_o[j])
-        record(k, j, _Cell(r.Q, r.recovery_rate, r.compensation_error, r.gap_before, r.gap_after,
-                           r.at_bound or "", r.n_evaluations))
+        cell = _Cell(float(r.Q), float(r.recovery_rate), float(r.compensation_error), float(r.gap_before),
+                     float(r.gap_after), r.at_bound or "", int(r.n_evaluations))
+        if journal is not None:
+            journal.record(key, dict(cell.__dict__))
+        record(k, j, cell)
 
     order = ([(k, j) for k in range(len(tr)) for j in range(a.size)] if by == "trim"
              else [(k, j) for j in range(a.size) for k in range(len(tr))])

@@ -42,6 +42,7 @@ uncertainties stated too small), and ``std`` is too small; ``std_scaled`` allows
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import time
@@ -295,6 +296,11 @@ class Problem:
         self._memo: dict[tuple, np.ndarray] = {}
         #: Counts the evaluations when set (:func:`fit`): a progress line each.
         self.progress = None
+        #: The predictions of a stopped fit (:class:`whisker_opt.output.journal.StudyJournal`), when set.
+        self.journal = None
+        #: Scenes the predictions read back from :attr:`journal` cost when they were made.
+        self.replayed_scenes = 0
+        self._replayed: set[str] = set()
 
     def theta(self, u) -> np.ndarray:
         """θ = lower + u·(upper − lower)."""
@@ -308,9 +314,26 @@ class Problem:
         return configure(self.data, self.parameters, theta, self.source)
 
     def predictions(self, theta, observations: Sequence[Weighted] | None = None) -> list[Prediction]:
-        cfg = self.config(theta)
+        """The model's value of each observation (default the fitted ones) at θ; read back from
+        :attr:`journal` when a stopped fit made them, recorded there otherwise."""
         obs = self.observations if observations is None else observations
-        return [predict(w.observation, cfg, self.sim, self.search) for w in obs]
+        key = None
+        if self.journal is not None:
+            which = "fitted" if observations is None else repr([w.observation.name for w in obs])
+            key = f"{np.asarray(theta, dtype=float).tolist()!r} {which}"
+            stored = self.journal.get(key)
+            if stored is not None:
+                if key not in self._replayed:
+                    self._replayed.add(key)
+                    self.replayed_scenes += int(stored["scenes"])
+                return [Prediction(**p) for p in stored["predictions"]]
+        solved = int(getattr(self.sim, "solved", 0))
+        cfg = self.config(theta)
+        preds = [predict(w.observation, cfg, self.sim, self.search) for w in obs]
+        if key is not None:
+            self.journal.record(key, {"predictions": [dataclasses.asdict(p) for p in preds],
+                                      "scenes": int(getattr(self.sim, "solved", 0)) - solved})
+        return preds
 
     def residuals_at(self, theta) -> np.ndarray:
         """r(θ), shape (m,): w (m − y)/σ of every fitted observation."""
@@ -447,7 +470,8 @@ def fit(problem: Problem, held_out: Sequence[Weighted] = (), *, max_evaluations:
     outcome = FitOutcome(
         parameters=params, values=theta, std=std, std_scaled=std_scaled, correlation=corr, at_bound=at_bound,
         cost_start=0.5 * float(r0 @ r0), cost=0.5 * chi2, chi2=chi2, dof=dof, observations=tuple(results),
-        evaluations=problem.evaluations, scenes=int(getattr(problem.sim, "solved", 0)), status=int(res.status),
+        evaluations=problem.evaluations, scenes=int(getattr(problem.sim, "solved", 0)) + problem.replayed_scenes,
+        status=int(res.status),
         message=str(res.message), seconds=time.perf_counter() - t0, singular_values=s,
         max_evaluations=int(max_evaluations), tolerance=float(tolerance),
     )

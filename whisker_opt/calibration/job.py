@@ -26,6 +26,8 @@ from whisker_opt.config.model import ConfigError, WhiskerConfig
 
 logger = logging.getLogger(__name__)
 
+#: The model evaluations of a stopped calibration, in its output folder.
+JOURNAL = "calibration.partial.json"
 #: Largest deflection a measurement may ask for [mm] (the range of ``scene.deflection``).
 MAX_DELTA = 30.0
 
@@ -154,17 +156,31 @@ def calibrate(prepared: Prepared, out: str | Path, sim=None, progress: bool = Fa
     Returns
     -------
     CalibrationRun
+
+    Notes
+    -----
+    The predictions of every model evaluation are kept in :data:`JOURNAL` in ``out`` until the
+    outputs are written: the same calibration into the same folder after a kill reads them back
+    (the fit then takes the same path) and ends with the same result.
     """
     from whisker_opt.experiment.fidelity import describe
+    from whisker_opt.output.journal import StudyJournal
 
     sec = prepared.section
     sim = simulator(prepared) if sim is None else sim
     search = RestoreSearch(Q_max=sec.restore_Q_max, scan=sec.restore_scan, xtol=sec.restore_xtol)
     problem = Problem(prepared.data, prepared.parameters, prepared.fitted, sim, search, prepared.source_file)
-    outcome = fit(problem, prepared.held_out, max_evaluations=sec.max_evaluations, diff_step=sec.diff_step,
-                  tolerance=sec.tolerance, progress=progress)
+    problem.journal = StudyJournal(Path(out), JOURNAL, "calibration", {
+        "config": prepared.cfg.model_dump(mode="json"), "model": type(sim).__name__,
+        "observations": [repr(w) for w in prepared.fitted + prepared.held_out]})
+    try:
+        outcome = fit(problem, prepared.held_out, max_evaluations=sec.max_evaluations, diff_step=sec.diff_step,
+                      tolerance=sec.tolerance, progress=progress)
+    finally:
+        problem.journal.flush()
     cfg = problem.config(outcome.values)
     fidelity = describe(prepared.cfg.fidelity, prepared.cfg.scene.calibration) if sec.model == "fe" else None
     paths = write_outputs(Path(out), cfg, outcome, source=sec.source, config=prepared.source_file, model=sec.model,
                           fidelity=fidelity)
+    problem.journal.finish()
     return CalibrationRun(outcome, cfg, paths, format_summary(outcome, source=sec.source))

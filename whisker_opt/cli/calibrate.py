@@ -6,7 +6,8 @@ every measurement file and the held-out names are checked before the results fol
 one exits with status 2 and one line naming the file, row and column, or the key); a scene that does
 not converge during the fit exits with status 3. A fit that stops at its evaluation budget before it
 converges (or before any parameter moves) writes its outputs headed ``NOT CALIBRATED`` and exits with
-status :data:`NOT_CALIBRATED` (4). A fit that converges but cannot reach the observations is not a
+status :data:`NOT_CALIBRATED` (4). A calibration stopped by a kill continues where it stopped
+when started again with ``--out`` at the same folder (:data:`whisker_opt.calibration.job.JOURNAL`). A fit that converges but cannot reach the observations is not a
 failure: the summary and ``calibration.json`` say which observation is missed and by how much, and
 warn of a parameter at a bound or a χ²/ν above its limit.
 """
@@ -21,6 +22,7 @@ from whisker_opt.cli.arguments import ensure_writable_dir, nonempty_path, preset
 from whisker_opt.cli.failures import ComputationFailed, computation_errors, describe_failure
 from whisker_opt.config.model import load_config
 from whisker_opt.experiment.fidelity import PRESET_NAMES
+from whisker_opt.output.lock import RunDirLock
 
 #: Exit status of a fit that wrote its outputs but did not converge (budget exhausted, nothing moved).
 NOT_CALIBRATED = 4
@@ -60,7 +62,8 @@ def run(args: argparse.Namespace) -> int:
     out = args.out or new_run_dir(cfg, args.config, "calibrate")
     Path(out).mkdir(parents=True, exist_ok=True)
     try:
-        result = calibrate(prepared, out, progress=not getattr(args, "no_progress", False))
+        with RunDirLock(out, "calibrate"):
+            result = calibrate(prepared, out, progress=not getattr(args, "no_progress", False))
     except computation_errors() as exc:
         raise ComputationFailed(describe_failure(exc, "calibrate", Path(out))) from exc
     except FloatingPointError as exc:

@@ -35,6 +35,7 @@ from whisker_opt.cli.rundir import check_run_dir
 from whisker_opt.config.model import ConfigError, load_config
 from whisker_opt.experiment.fidelity import PRESET_NAMES
 from whisker_opt.optimise.checkpoint import RunDirectoryError
+from whisker_opt.output.lock import RunDirLock
 
 
 def _user_errors() -> tuple[type[BaseException], ...]:
@@ -163,12 +164,40 @@ def _simulate_run(args: argparse.Namespace) -> int:
         print(
             f"{name:8s} Q={spec.Q:.4g} MPa  L={spec.design.length:.4g} mm  dl(Q)={res.delta_l:.5g} mm  "
             f"eps(deflection)={res.eps_line[-1]:.6g} (centroid {res.eps_centroid[-1]:.6g})  "
+            f"F(deflection)={res.contact_force[-1]:.5g} N  k=F(d1)/d1={res.contact_stiffness:.5g} N/mm  "
             f"{sim.summary[name]['wall_s']:.2f} s"
         )
     if sim.f1 is not None:
         print(f"f1 = mean |eps_i - eps_c| = {sim.f1:.6g}")
     if sim.f1_uncompensated is not None:
         print(f"uncompensated (trimmed at Q_i): mean |eps_i - eps_u| = {sim.f1_uncompensated:.6g}")
+    print(f"written to {out}")
+    return 0
+
+
+# ----------------------------------------------------------------------------- export
+def _export_args(p: argparse.ArgumentParser) -> None:
+    _config_args(p, "YAML run file (design, material, scene, fidelity)")
+    p.add_argument("--out", type=nonempty_path, default=None, help="output directory (default: a new run directory)")
+    p.add_argument("--increments", type=int_in(1, 10_000, name="increments"), default=10,
+                   help="deck: initial and largest increment 1/N of each phase (default 10)")
+
+
+def _export_run(args: argparse.Namespace) -> int:
+    from whisker_opt import export, workflows
+
+    cfg = _read(args)
+    specs = workflows.simulation_specs(cfg, str(args.config))  # refuse a bad pair before creating the directory
+    _check_output(args, cfg)
+    out = _out_dir(args, cfg, "export")
+    try:
+        res = export.export(cfg, out, str(args.config), n_increments=args.increments)
+    except computation_errors() as exc:
+        raise _failed(exc, "export", out, list(specs)) from exc
+    for name, path in res.decks.items():
+        print(f"{name:8s} deck {path.name}")
+    for name, (step, stl) in res.solids.items():
+        print(f"{name:8s} solid {step.name}, {stl.name}")
     print(f"written to {out}")
     return 0
 
@@ -336,6 +365,19 @@ def _compensate_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", type=nonempty_path, default=None, help="output directory")
 
 
+#: Most trims ``compensate`` solves (each a root search of FE scenes): a smaller --step is surely a slip.
+MAX_TRIMS = 1000
+
+
+def _check_step(step: float, trim_max: float, source: str) -> None:
+    """Refuse a ``--step`` that makes more than :data:`MAX_TRIMS` trims of 0 … ``optimiser.trim``."""
+    n = int(trim_max / step) + 1
+    if n > MAX_TRIMS:
+        raise ArgumentError(f"--step: {step:g} mm makes {n} trims of 0 … optimiser.trim = {trim_max:g} mm of {source} "
+                            f"(each a compensation of FE scenes); at most {MAX_TRIMS} are allowed: a step of at least "
+                            f"{trim_max / (MAX_TRIMS - 1):.3g} mm")
+
+
 def _compensate_map_run(args: argparse.Namespace, cfg) -> int:
     """The map Q(Δ, a) (``--map``/``--a``): solve, write, print the Q table."""
     from whisker_opt import compensation
@@ -346,9 +388,11 @@ def _compensate_map_run(args: argparse.Namespace, cfg) -> int:
                             f"ratios in (0, 1]")
     _check_output(args, cfg)
     out = _out_dir(args, cfg, "compensate")
+    Path(out).mkdir(parents=True, exist_ok=True)
     try:
-        res = compensation.compensate_map(cfg, out, step=args.step, a_values=a_values, source=str(args.config),
-                                          progress=not args.no_progress)
+        with RunDirLock(out, "compensate --map"):
+            res = compensation.compensate_map(cfg, out, step=args.step, a_values=a_values, source=str(args.config),
+                                              progress=not args.no_progress)
     except computation_errors() as exc:
         raise _failed(exc, "compensate", out) from exc
     m = res.map
@@ -378,6 +422,7 @@ def _compensate_run(args: argparse.Namespace) -> int:
         raise ArgumentError(f"--delta-ref: {args.delta_ref:g} is outside the allowed range (0, scene.deflection = "
                             f"{cfg.scene.deflection:g}] mm of {args.config}")
     wiring.design_from_config(cfg, wiring.optimiser_of(cfg).trim)  # the largest trim must leave a whisker
+    _check_step(args.step, float(wiring.optimiser_of(cfg).trim), str(args.config))
     if args.map or args.a is not None:
         return _compensate_map_run(args, cfg)
     _check_output(args, cfg)
@@ -423,6 +468,9 @@ def _init_run(args: argparse.Namespace) -> int:
     path = Path(args.path)
     if path.is_dir():
         raise OutputError(f"{path}: is a folder; give a file name such as {path / 'whisker.yaml'}")
+    if path.exists() and not path.is_file():  # a device node, FIFO or socket: never replaced, even with --force
+        raise OutputError(f"{path}: not a regular file (a device, FIFO or socket); give the name of a run file "
+                          "such as whisker.yaml")
     if path.exists() and not args.force:
         raise FileExistsError(f"{path} already exists; pass --force to overwrite it")
     ensure_writable_dir(path.parent, f"{path}: its folder")
@@ -448,6 +496,8 @@ def _view_args(p: argparse.ArgumentParser) -> None:
         p.add_argument("path", type=Path, help=f"run directory or VTU (viewer unavailable: {exc})")
         return
     add(p, types=VIEW_TYPES)
+    if "--no-progress" not in p._option_string_actions:  # accepted as by every command (the viewer shows none)
+        _progress_arg(p)
 
 
 def _view_run(args: argparse.Namespace) -> int:
@@ -478,6 +528,8 @@ REGISTRY: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None], Callab
                _verify_args, _verify_run),
     "compensate": ("FE compensation table (vent pressure per trim, recovery rates, plot), or with --map the map "
                    "over trims x contact ratios", _compensate_args, _compensate_run),
+    "export": ("write a design's scenes as CalculiX/Abaqus decks (.inp) and its solid as STEP and STL",
+               _export_args, _export_run),
     "view": ("view result meshes with pyvista (or save a screenshot off-screen)", _view_args, _view_run),
     "calibrate": __import__("whisker_opt.cli.calibrate", fromlist=["COMMAND"]).COMMAND,
     "robustness": (_robustness.HELP, _robustness.add_arguments, _robustness.run),

@@ -5,7 +5,11 @@ Every bad input is refused in one line before anything is computed (exit status 
 options by their types, the run file (with ``--set``) by its models, the designs by their
 geometry checks, the output folder by :func:`~whisker_opt.cli.arguments.ensure_writable_dir`.
 A nominal design whose scenes fail ends with exit status 3; a deviated design that fails is
-reported in the table and the files (its outputs NaN).
+reported in the table and the files (its outputs NaN). The output folder (a run directory by
+default) is locked while the study writes (:class:`~whisker_opt.output.lock.RunDirLock`): a run,
+resume or study writing there at the same time is refused in one line. A study stopped by a kill
+continues where it stopped when started again into the same folder
+(:data:`whisker_opt.robustness.JOURNAL`).
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ from whisker_opt.cli.arguments import (
 )
 from whisker_opt.cli.failures import ComputationFailed, computation_errors, describe_failure
 from whisker_opt.experiment.fidelity import PRESET_NAMES
+from whisker_opt.output.lock import RunDirLock
 
 HELP = "propagate fabrication tolerances to f1 and the recovery rate of a run's best designs or a config's design"
 
@@ -106,8 +111,10 @@ def run(args: argparse.Namespace) -> int:
     else:
         ensure_writable_dir(cfg.output.results_dir, f"{source}: output.results_dir")
         out = new_run_dir(cfg, source, "robustness")
+    Path(out).mkdir(parents=True, exist_ok=True)
     try:
-        results, paths = rb.robustness(cfg, designs, out, progress=not getattr(args, "no_progress", False))
+        with RunDirLock(out, "robustness"):  # one writer: a run or resume of a run directory, another study
+            results, paths = rb.robustness(cfg, designs, out, progress=not getattr(args, "no_progress", False))
     except computation_errors() as exc:
         raise ComputationFailed(f"the nominal design failed: {describe_failure(exc, 'robustness')}") from exc
     tol = cfg.robustness.tolerances

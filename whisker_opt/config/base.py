@@ -6,12 +6,14 @@ an immutable value that can be hashed, pickled to workers and written next to re
 A section may list keys it has renamed (``RENAMED``): the old key is still read, with a
 deprecation warning that names the new one, and a file giving both is an error.
 ``allow_inf_nan=False``: NaN and infinities are never values of a run file (``.nan`` or
-``.inf`` in YAML is an error that says "not a finite number").
+``.inf`` in YAML is an error that says "not a finite number"). A boolean given for a number
+(``t: yes``, which YAML reads as true) is taken as 1 or 0 with a warning naming the key.
 """
 
 from __future__ import annotations
 
 import logging
+import typing
 import warnings
 from typing import Any, ClassVar
 
@@ -55,3 +57,23 @@ class StrictModel(BaseModel):
             logger.warning(msg)
             data[new] = data.pop(old)
         return data
+
+    @model_validator(mode="before")
+    @classmethod
+    def _booleans_for_numbers(cls, data: Any) -> Any:
+        if not isinstance(data, dict):
+            return data
+        for name, f in cls.model_fields.items():
+            value = data.get(name)
+            if isinstance(value, bool) and _is_number(f.annotation):
+                where = f"{cls.SECTION}." if cls.SECTION else ""
+                logger.warning("config key '%s%s': %r is a boolean (YAML reads yes/no/on/off so), taken as the "
+                               "number %d; write a number", where, name, value, int(value))
+        return data
+
+
+def _is_number(annotation: Any) -> bool:
+    """Whether a field's type is a number (``float``, ``int``, or one of them or None)."""
+    args = typing.get_args(annotation)
+    kinds = [a for a in args if a is not type(None)] if args else [annotation]
+    return bool(kinds) and all(k in (float, int) for k in kinds)

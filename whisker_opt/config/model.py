@@ -13,7 +13,7 @@ A YAML file has these top-level sections, each optional (an empty file is refuse
     design:     the whisker geometry and fibres
     material:   rubber law
     scene:      the simulated experiment (pressurise, deflect, read the gauge)
-    fidelity:   preset name and optional overrides of mesh size / increments
+    fidelity:   preset name, optional overrides of mesh size / increments, linear solver
     optimiser:  genes, penalties, GA, stopping, executor, see whisker_opt.config.optimiser
     robustness: fabrication tolerances, see whisker_opt.config.robustness
     output:     where results go
@@ -26,9 +26,10 @@ from pathlib import Path
 from typing import Any, Literal, Sequence
 
 import yaml
-from pydantic import BaseModel, Field, ValidationError, create_model
+from pydantic import BaseModel, Field, ValidationError, create_model, field_validator
 
 from geometry.design import WhiskerDesign, user_parameters
+from fem.linsolve import SOLVER_NAMES
 from whisker_opt.config.base import StrictModel
 from whisker_opt.config.calibration import CalibrationConfig
 from whisker_opt.config.fields import is_model, item_model, strip_optional
@@ -138,6 +139,12 @@ class FidelityConfig(StrictModel):
         description="'template' maps a stored template mesh; 'swept' builds a structured swept mesh; "
         "'fresh' re-tetrahedralises with fTetWild; 'auto' tries them in that order",
     )
+    linear_solver: Literal[SOLVER_NAMES] = Field(
+        "auto",
+        description="sparse direct solver of the Newton systems (fem.linsolve): 'pardiso' (MKL PARDISO), 'superlu' "
+        "(scipy, 10-40 times slower on the 3-D scenes), 'auto' = PARDISO when it loads, else SuperLU with a "
+        "warning; the same answer to the solver's tolerance",
+    )
 
 
 class OutputConfig(StrictModel):
@@ -145,8 +152,16 @@ class OutputConfig(StrictModel):
 
     results_dir: Path = Field(Path("results"), description="parent folder of run directories")
     name: str | None = Field(None, min_length=1, max_length=100,
-                             description="run name; null = the config file's stem (the command and the UTC time "
-                             "are appended)")
+                             description="run name, a plain name (no folder: no '/', '\\', '.' or '..'); null = the "
+                             "config file's stem (the command and the UTC time are appended)")
+
+    @field_validator("name")
+    @classmethod
+    def _plain_name(cls, v: str | None) -> str | None:
+        if v is not None and (v.strip() in ("", ".", "..") or any(c in v for c in "/\\\0")):
+            raise ValueError(f"{v!r} is not a plain name: the run directories are made in output.results_dir, so a "
+                             "name holds no '/', '\\' or NUL and is not '.' or '..'")
+        return v
 
 
 class WhiskerConfig(StrictModel):
@@ -237,10 +252,35 @@ def _read_text(path: Path) -> str:
     return text
 
 
+class DuplicateKeyError(yaml.YAMLError):
+    """A key given twice in one mapping of a run file."""
+
+
+class UniqueKeyLoader(yaml.SafeLoader):
+    """YAML's safe loader that refuses a mapping giving a key twice (YAML would keep the last silently)."""
+
+    def construct_mapping(self, node, deep=False):  # noqa: D102 - yaml.SafeLoader.construct_mapping
+        seen: dict[Any, int] = {}
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=True)
+            try:
+                first = seen.get(key)
+                if first is None:
+                    seen[key] = key_node.start_mark.line + 1
+                    continue
+            except TypeError:  # an unhashable key: YAML's own error follows
+                continue
+            raise DuplicateKeyError(f"the key {key!r} is given twice in one section (lines {first} and "
+                                    f"{key_node.start_mark.line + 1}); give it once")
+        return super().construct_mapping(node, deep=deep)
+
+
 def _parse(path: Path, text: str) -> Any:
     """The YAML document of a run file, or a one-line :class:`ConfigError` naming the file."""
     try:
-        return yaml.safe_load(text)
+        return yaml.load(text, Loader=UniqueKeyLoader)  # noqa: S506 - a SafeLoader that refuses repeated keys
+    except DuplicateKeyError as exc:
+        raise ConfigError(f"{path}: {exc}") from None
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
@@ -274,10 +314,16 @@ def apply_settings(data: dict, settings: Sequence[str]) -> dict:
         parts = [k.strip() for k in key.split(".")]
         if not sep or not all(parts):
             raise ConfigError(f"--set {item!r}: expected KEY=VALUE with a dotted key, e.g. optimiser.ga.population=20")
+        shown = item if len(item) <= 80 else f"{item[:60]}…({len(item)} characters)"
         try:
             value = yaml.safe_load(text) if text.strip() else ""
         except yaml.YAMLError as exc:
-            raise ConfigError(f"--set {item!r}: VALUE is not readable: {str(exc).splitlines()[0]}") from None
+            raise ConfigError(f"--set {shown!r}: VALUE is not readable: {str(exc).splitlines()[0]}") from None
+        except RecursionError:
+            raise ConfigError(f"--set {shown!r}: VALUE is nested too deeply to read") from None
+        except (ValueError, OverflowError) as exc:  # an integer of more digits than Python converts
+            what = "an integer of too many digits" if "integer string conversion" in str(exc) else str(exc)
+            raise ConfigError(f"--set {shown!r}: VALUE cannot be read: {what}".replace("\n", " ")) from None
         out = with_key(out, parts, value, f"--set {item!r}")
     return out
 

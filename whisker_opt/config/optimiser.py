@@ -246,7 +246,32 @@ class ExecutorConfig(StrictModel):
     def _address_needs_dask(self) -> "ExecutorConfig":
         if self.scheduler_address is not None and self.kind != "dask":
             raise ValueError(f"scheduler_address is only used with kind 'dask' (kind is {self.kind!r})")
+        if self.scheduler_address is not None:
+            check_scheduler_address(self.scheduler_address)
         return self
+
+
+#: Transports of a dask scheduler address this program connects to (``tcp://`` when none is written).
+SCHEDULER_SCHEMES = ("tcp", "tls")
+
+
+def check_scheduler_address(address: str) -> None:
+    """Refuse a dask scheduler address that is not ``[tcp://|tls://]HOST:PORT``.
+
+    Raises
+    ------
+    ValueError
+        One line with the address and the allowed form.
+    """
+    import re
+
+    scheme, sep, rest = address.strip().rpartition("://")
+    form = "expected tcp://HOST:PORT or tls://HOST:PORT (e.g. tcp://node1:8786)"
+    if sep and scheme not in SCHEDULER_SCHEMES:
+        raise ValueError(f"scheduler_address {address!r}: the transport {scheme!r} is not supported; {form}")
+    m = re.fullmatch(r"(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.-]+):([0-9]{1,5})", rest)
+    if m is None or not 0 < int(m.group(2)) < 65536:
+        raise ValueError(f"scheduler_address {address!r}: no host and port (1..65535) in it; {form}")
 
 
 class CacheConfig(StrictModel):

@@ -25,7 +25,9 @@
     indentation is ignored, as the thesis neglected the contact's lateral slip. The
     band's width changes the reading little (measured in tests/test_scene.py and
     benchmarks/bench_scene.py). The gauge (:mod:`whisker_opt.experiment.gauge`) is
-    zeroed at contact onset and read at each solved deflection.
+    zeroed at contact onset and read at each solved deflection, and so are the contact force F
+    (the band's reaction in −y, work-conjugate to δ) and the base reaction
+    (:func:`contact_reactions`).
 
 Only gauge quantities are evaluated per increment; full states are kept only when asked
 (``keep_states=True``), e.g. for VTU output.
@@ -87,6 +89,14 @@ class SceneResult:
         ``a·L_Q`` within :data:`whisker_opt.experiment.contact.CONTACT_TOL` on structured
         meshes (the ring is placed there, see :func:`run_scene`), within ``band_width``/2
         on fresh meshes.
+    contact_force : ndarray, shape (k + 1,)
+        Force the pusher exerts on the whisker in −y at each solved δ [N] (0 at onset):
+        F = −Σ R_y over the contact band, R the residual f_int − f_ext of the deflection
+        problem, which at a prescribed degree of freedom is the support's reaction
+        (:func:`contact_reactions`).
+    base_reaction : ndarray, shape (k + 1, 3)
+        Force the base support exerts on the whisker at each solved δ [N] (x, y, z): Σ R
+        over the base nodes. With Q = 0 its y component balances the contact force.
     """
 
     spec: SceneSpec
@@ -101,6 +111,16 @@ class SceneResult:
     mesh: WhiskerMesh | None = None
     states: dict | None = None
     contact_x: float = float("nan")
+    contact_force: np.ndarray | None = None
+    base_reaction: np.ndarray | None = None
+
+    @property
+    def contact_stiffness(self) -> float:
+        """Secant force–deflection stiffness over the first solved step, k = F(δ₁)/δ₁ [N/mm]
+        (NaN without forces or steps)."""
+        if self.contact_force is None or len(self.delta) < 2 or self.delta[1] <= 0:
+            return float("nan")
+        return float(self.contact_force[1] / self.delta[1])
 
     def curve(self, delta: np.ndarray, variant: str = "line") -> np.ndarray:
         """Gauge reading at arbitrary deflections by a cubic spline through the solved points.
@@ -108,7 +128,16 @@ class SceneResult:
         The spline is 'not-a-knot' with >= 4 points, otherwise linear interpolation. Its
         error against densely solved increments is measured in benchmarks/bench_scene.py.
         """
-        y = self.eps_line if variant == "line" else self.eps_centroid
+        return self._spline(self.eps_line if variant == "line" else self.eps_centroid, delta)
+
+    def force(self, delta: np.ndarray, which: str = "contact") -> np.ndarray:
+        """Contact force F (``which='contact'``) or the base reaction's y component (``'base_y'``)
+        [N] at arbitrary deflections, by the spline of :meth:`curve`."""
+        if self.contact_force is None:
+            raise ValueError("force: this result holds no forces")
+        return self._spline(self.contact_force if which == "contact" else self.base_reaction[:, 1], delta)
+
+    def _spline(self, y: np.ndarray, delta: np.ndarray) -> np.ndarray:
         delta = np.asarray(delta, dtype=float)
         if np.any(delta < -1e-12) or np.any(delta > self.delta[-1] * (1 + 1e-9)):
             raise ValueError(
@@ -329,6 +358,9 @@ class Deflection:
         The contact nodes.
     time_read : float
         Seconds spent reading the gauge.
+    forces : ndarray, shape (k + 1, 4)
+        Contact force F [N] and base reaction (x, y, z) [N] at onset and at each fraction
+        (:func:`contact_reactions`).
     """
 
     fractions: tuple
@@ -337,6 +369,38 @@ class Deflection:
     reports: list
     band: np.ndarray
     time_read: float
+    forces: np.ndarray | None = None
+
+
+def contact_reactions(problem: Problem, state: State, pressures: tuple, band: np.ndarray,
+                      base: np.ndarray) -> np.ndarray:
+    """Contact force and base reaction of ``state``: ``[F, R_x, R_y, R_z]`` [N].
+
+    The residual R = f_int − f_ext (:meth:`fem.assembly.Assembler.evaluate`) vanishes at the free
+    degrees of freedom of a converged state; at a prescribed one it is the force the support
+    exerts on the body (equilibrium f_int = f_ext + r). So the contact force in −y is
+    F = −Σ_{band} R_y and the base reaction is Σ_{base} R (x, y, z components). F is
+    work-conjugate to δ: F dδ is the work of the pusher.
+
+    Parameters
+    ----------
+    problem : Problem
+        The deflection problem (base and band prescribed).
+    state : State
+    pressures : tuple of float
+        The follower pressures' magnitudes at ``state``.
+    band, base : ndarray of int
+        Contact band and base node indices.
+
+    Returns
+    -------
+    ndarray, shape (4,)
+    """
+    from fem.assembly import Assembler
+
+    R = Assembler(problem).evaluate(state.u, state.p, pressures, need_tangent=False)[0]
+    Ru = R[: 3 * problem.mesh.n_nodes].reshape(-1, 3)  # (n_nodes, 3)
+    return np.concatenate([[-Ru[band, 1].sum()], Ru[base].sum(axis=0)])
 
 
 def deflect_and_read(spec: SceneSpec, gm: GaugedMesh, pre: Pressurised, contact: Contact) -> Deflection:
@@ -360,15 +424,19 @@ def deflect_and_read(spec: SceneSpec, gm: GaugedMesh, pre: Pressurised, contact:
     fractions = tuple(np.linspace(0, 1, spec.n_deflection_steps + 1)[1:])
     readings = [(0.0, 0.0)]
     t_read = [0.0]
+    base = np.asarray(wm.node_sets["base"], dtype=np.int64)
+    forces = [contact_reactions(prob2, pre.state, pq, band, base)]
+    forces[0][0] = 0.0  # onset: the pusher only touches (the band's residual is the solver's round-off)
 
     def _read(fraction: float, st: State) -> None:
         tr = time.perf_counter()
         readings.append(reader.read(st.u))
+        forces.append(contact_reactions(prob2, st, pq, band, base))
         t_read[0] += time.perf_counter() - tr
 
     states, reports = solve_path(prob2, pre.state, load0, load1, fractions=fractions, options=spec.solve_options,
                                  callback=_read)
-    return Deflection(fractions, np.array(readings), states, list(reports), band, t_read[0])
+    return Deflection(fractions, np.array(readings), states, list(reports), band, t_read[0], np.array(forces))
 
 
 def _gauged(m: WhiskerMesh | GaugedMesh, design: WhiskerDesign) -> GaugedMesh:
@@ -489,6 +557,8 @@ def run_scene(spec: SceneSpec, wm: WhiskerMesh | GaugedMesh | None = None, keep_
         mesh=wm if keep_states else None,
         states=kept,
         contact_x=float(np.mean(wm.mesh.points[dfl.band, 0] + u1[dfl.band, 0])),
+        contact_force=dfl.forces[:, 0],
+        base_reaction=dfl.forces[:, 1:],
     )
 
 

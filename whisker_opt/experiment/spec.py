@@ -115,7 +115,8 @@ BASE_SUPPORTS: tuple[str, ...] = ("clamped", "sliding")
 FIBRE_MODELS: tuple[str, ...] = ("embedded", "smeared")
 
 
-def _default_solve_options():
+def default_solve_options():
+    """The scenes' Newton controls: :class:`fem.newton.SolveOptions` with modified Newton (reuse 0.3)."""
     from fem.newton import SolveOptions
 
     return SolveOptions(reuse_tangent=0.3)
@@ -196,7 +197,7 @@ class SceneSpec:
     n_deflection_steps: int = 5
     sizing: MeshSizing = field(default_factory=MeshSizing)
     mesh_method: str = "auto"
-    solve_options: SolveOptions = field(default_factory=_default_solve_options)
+    solve_options: SolveOptions = field(default_factory=default_solve_options)
     formulation: str = "mixed"
     rubber: str = parameter(
         "neo_hookean", "", "rubber law of the body: 'neo_hookean' (C10, D1 of the material section) or a "

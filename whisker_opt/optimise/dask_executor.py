@@ -200,6 +200,6 @@ def connect_scheduler(address: str, timeout_s: float = CONNECT_TIMEOUT_S):
         raise ImportError("executor 'dask' needs dask[distributed]: pip install 'whisker-opt[dask]'") from exc
     try:
         return Client(address, timeout=timeout_s)
-    except (OSError, TimeoutError) as exc:
+    except (OSError, TimeoutError, ValueError, TypeError) as exc:
         raise MachineFailure(f"executor.scheduler_address: cannot reach the dask scheduler at {address!r} within "
                              f"{timeout_s:g} s ({type(exc).__name__}: {str(exc).splitlines()[0][:200]})") from None

@@ -264,7 +264,16 @@ class GeneticAlgorithm:
 
     # ------------------------------------------------------------------ breeding
     def initial_population(self) -> list:
-        """Initial individuals (uses the global ``random``; call inside :func:`_ga_rng`)."""
+        """Initial individuals (uses the global ``random``; call inside :func:`_ga_rng`).
+
+        The Latin hypercube (one draw in each of the ``population`` strata of every gene, strata
+        shuffled per gene) is drawn here rather than by ``scipy.stats.qmc.LatinHypercube``: the
+        library draws from a NumPy generator, in another order (all offsets, then the
+        permutations), so it cannot give the numbers of this stream, the one DEAP's operators
+        share and the checkpoint records; with it every seeded run's initial population, hence
+        every evaluation after it, would change (the numbers are pinned by
+        ``tests/test_ga_initial_population.py``).
+        """
         n = self.cfg.ga.population
         cols = []
         for lo, hi in zip(self.low, self.up):

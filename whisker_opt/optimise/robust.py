@@ -13,10 +13,10 @@ Distributions (docs/physics.md §10)
 
 Estimator (a): a seeded sample (:func:`draw`, :func:`sample_estimate`)
     N points by Latin hypercube (each variable's N strata of probability 1/N hit once, in a
-    random order; McKay, Beckman & Conover 1979) or plain Monte Carlo, mapped through the
-    inverse distribution function. Mean and standard deviation (ddof = 1) of each output over
-    the sample, worst case the worst sampled value, and sensitivities from the least-squares
-    linear fit y ≈ b0 + Σ_j b_j x_j.
+    random order; McKay, Beckman & Conover 1979; ``scipy.stats.qmc.LatinHypercube``) or plain
+    Monte Carlo, mapped through the inverse distribution function. Mean and standard deviation
+    (ddof = 1) of each output over the sample, worst case the worst sampled value, and
+    sensitivities from the least-squares linear fit y ≈ b0 + Σ_j b_j x_j.
 
 Estimator (b): a first-order expansion (:func:`expansion_estimate`)
     Central finite differences with the step s_j = ``step``·h_j,
@@ -96,12 +96,14 @@ def standard_deviations(half_widths: Sequence[float], distribution: Distribution
 
 
 def _unit_sample(n: int, d: int, sampling: Sampling, rng: np.random.Generator) -> np.ndarray:
-    """(n, d) points in the open unit cube: Latin hypercube (stratified) or plain uniform draws."""
+    """(n, d) points in the open unit cube: Latin hypercube (scipy.stats.qmc, one point in each of the n
+    strata of every variable, strata shuffled per column) or plain uniform draws, both from ``rng``."""
     if sampling == "monte_carlo":
         u = rng.random((n, d))
-    else:  # one point in each of the n strata [(k)/n, (k+1)/n) of every variable, strata shuffled per column
-        strata = np.column_stack([rng.permutation(n) for _ in range(d)])  # (n, d)
-        u = (strata + rng.random((n, d))) / n
+    else:
+        from scipy.stats import qmc  # here: importing this module stays numpy only
+
+        u = qmc.LatinHypercube(d, rng=rng).random(n)
     return np.clip(u, 1e-12, 1.0 - 1e-12)  # the normal's inverse needs 0 < u < 1
 
 

@@ -135,7 +135,7 @@ def _reference_delta(table, delta_ref: float | None) -> float | None:
 
 
 def write_table(path_dir, table, delta_ref: float | None = 1.0,
-                fidelity: Mapping[str, Any] | None = None) -> dict[str, Path]:
+                fidelity: Mapping[str, Any] | None = None, forces: list | None = None) -> dict[str, Path]:
     """Write a compensation table: ``compensation_table.csv``, ``.json`` (metadata, curves) and ``.png``.
 
     ``table`` is a :class:`whisker_opt.analysis.compensation.CompensationTable`.
@@ -148,7 +148,10 @@ def write_table(path_dir, table, delta_ref: float | None = 1.0,
     (eps_o_ref, eps_b_ref, eps_c_ref, recovery_rate_ref_pct, compensation_error_ref_pct; the
     beam model compares at δ = 1 mm). Empty/NaN where not applicable (Δ = 0 has nothing to recover;
     no point columns when ``delta_ref`` is None or not a sample of the table). ``fidelity``
-    (the FE preset) is named in the figure's title (:func:`table_figure`).
+    (the FE preset) is named in the figure's title (:func:`table_figure`). With ``forces`` (one
+    dict per row, :func:`whisker_opt.compensation.table_forces`) the CSV ends with the secant
+    stiffnesses stiffness_o/b/c_N_per_mm and each JSON curve holds the contact forces
+    force_o/b/c_N [N] at the table's deflections.
 
     Returns
     -------
@@ -165,21 +168,25 @@ def write_table(path_dir, table, delta_ref: float | None = 1.0,
     nan = np.full(len(table.rows), np.nan)
     pm = table.measures_at(dref) if dref is not None else {
         k: nan for k in ("eps_target", "eps_broken", "eps_compensated", "recovery_rate", "compensation_error")}
+    stiff = tuple(f"stiffness_{w}_N_per_mm" for w in "obc") if forces else ()
     with paths["csv"].open("w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(_TABLE_COLUMNS)
+        w.writerow(_TABLE_COLUMNS + stiff)
         for i, r in enumerate(table.rows):
             w.writerow([_fmt(v) for v in (
                 r.trim, r.Q, r.recovery_rate, r.compensation_error, r.gap_before, r.gap_after, r.at_bound,
                 r.Q_analytic, r.Q_difference, r.analytic_root_found, means["target"][i], means["broken"][i],
                 means["compensated"][i], dref if dref is not None else float("nan"), pm["eps_target"][i],
-                pm["eps_broken"][i], pm["eps_compensated"][i], pm["recovery_rate"][i], pm["compensation_error"][i])])
+                pm["eps_broken"][i], pm["eps_compensated"][i], pm["recovery_rate"][i], pm["compensation_error"][i],
+                *(forces[i][k] for k in stiff))])
     meta = {
         "design": table.design.as_dict(), "Q_i_MPa": table.Q_i, "scalar": table.scalar,
         "deltas_mm": [float(d) for d in table.deltas], "monotone": table.is_monotone(), "delta_ref_mm": dref,
         "measures": "docs/physics.md; recovery = (1-|(e_c-e_o)/(e_b-e_o)|)*100, error = |(e_c-e_o)/(e_b-e_o)|*100",
         "curves": [{"trim_mm": r.trim, "Q_MPa": r.Q, "eps_o": list(r.eps_target), "eps_b": list(r.eps_broken),
-                    "eps_c": list(r.eps_compensated)} for r in table.rows],
+                    "eps_c": list(r.eps_compensated),
+                    **({k: v for k, v in forces[i].items() if k.startswith("force_")} if forces else {})}
+                   for i, r in enumerate(table.rows)],
     }
     if fidelity:
         meta["fidelity"] = dict(fidelity)

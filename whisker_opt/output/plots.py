@@ -182,15 +182,22 @@ def curves_figure(
     title: str = "",
     eps_u: Sequence[float] | None = None,
     fidelity: Mapping[str, Any] | None = None,
+    forces: Mapping[str, Sequence[float]] | None = None,
 ) -> Figure:
-    """The two-panel figure of :func:`plot_curves`: responses above, residual ε_i − ε_c below."""
+    """The figure of :func:`plot_curves`: responses above, residual ε_i − ε_c below and, with
+    ``forces``, the contact force F(δ) of each scene at the bottom (:func:`force_panel`)."""
     d = np.asarray(delta, dtype=float)
     a = np.asarray(eps_i, dtype=float)
     b = np.asarray(eps_c, dtype=float)
     u = None if eps_u is None else np.asarray(eps_u, dtype=float)
     f1 = objective.f1(a[1:], b[1:]) if len(d) > 1 else math.nan
-    fig = Figure(figsize=(6.4, 5.8))
-    ax, ax_r = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [2, 1]})
+    if forces:
+        fig = Figure(figsize=(6.4, 8.0))
+        ax, ax_r, ax_f = fig.subplots(3, 1, sharex=True, gridspec_kw={"height_ratios": [2, 1, 1.3]})
+        force_panel(ax_f, d, forces)
+    else:
+        fig = Figure(figsize=(6.4, 5.8))
+        ax, ax_r = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [2, 1]})
     ax.plot(d, a, "-", label="ε_i intact, Q = Q_i")
     ax.plot(d, b, "--", label="ε_c trimmed, vented (Q = 0)")
     if u is not None:
@@ -218,7 +225,8 @@ def curves_figure(
         ax_r.axhspan(-res, res, color="0.5", alpha=0.12, lw=0,
                      label=f"± f1 resolution ~{short_float(res)}: a smaller f1 is not resolved")
         ax_r.set_ylim(lo, hi)
-    ax_r.set_xlabel("deflection δ [mm]")
+    if not forces:
+        ax_r.set_xlabel("deflection δ [mm]")
     ax_r.set_ylabel("ε_i − ε_c [-]")
     ax_r.ticklabel_format(axis="y", style="sci", scilimits=(-2, 2))
     ax_r.grid(True, alpha=0.3)
@@ -231,6 +239,45 @@ def curves_figure(
     return fig
 
 
+def force_panel(ax, delta: Sequence[float], forces: Mapping[str, Sequence[float]]) -> None:
+    """Contact force F(δ) [N] of each named scene on ``ax``, its secant stiffness at the first
+    plotted deflection δ₁ > 0, k = F(δ₁)/δ₁ [N/mm], in the legend."""
+    d = np.asarray(delta, dtype=float)
+    for k, (name, f) in enumerate(forces.items()):
+        f = np.asarray(f, dtype=float)
+        stiff = f[1] / d[1] if len(d) > 1 and d[1] > 0 else math.nan
+        ax.plot(d, f, ("-", "--", ":")[k % 3], label=f"{name}: F/δ at δ = {d[1]:g} mm: {short_float(stiff, 3)} N/mm"
+                if len(d) > 1 else name)
+    ax.set_xlabel("deflection δ [mm]")
+    ax.set_ylabel("contact force F [N]")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=7, loc="upper left")
+
+
+def plot_forces(path: Path, delta: Sequence[float], forces: Mapping[str, Sequence[float]], title: str = "",
+                fidelity: Mapping[str, Any] | None = None) -> Path:
+    """Force–deflection curves F(δ) of named scenes (:func:`force_panel`) as an image.
+
+    Parameters
+    ----------
+    path : Path
+    delta : sequence
+        Deflection δ [mm], starting at 0.
+    forces : mapping of scene name -> sequence
+        Contact force [N] at ``delta``.
+    title : str
+    fidelity : mapping, optional
+        Named in the title (:func:`fidelity_label`).
+    """
+    fig = Figure(figsize=(6.4, 4.2))
+    ax = fig.subplots()
+    force_panel(ax, delta, forces)
+    head = f"{title}\n" if title else ""
+    ax.set_title(f"{head}{fidelity_label(fidelity)}", fontsize=9)
+    fig.set_layout_engine("constrained")
+    return _save(fig, path)
+
+
 def plot_curves(
     path: Path,
     delta: Sequence[float],
@@ -239,6 +286,7 @@ def plot_curves(
     title: str = "",
     eps_u: Sequence[float] | None = None,
     fidelity: Mapping[str, Any] | None = None,
+    forces: Mapping[str, Sequence[float]] | None = None,
 ) -> Path:
     """Gauge responses ε_i(δ) (intact, pressurised), ε_c(δ) (trimmed, vented) and, when given,
     ε_u(δ) (trimmed, still at Q_i); below them the residual ε_i − ε_c, whose mean absolute
@@ -258,12 +306,14 @@ def plot_curves(
         Calibrated gauge strain [-] of the trimmed whisker left at Q_i.
     fidelity : mapping, optional
         ``{"preset", "f1_resolution"}``; the resolution is shaded on the residual panel.
+    forces : mapping of scene name -> sequence, optional
+        Contact force [N] at ``delta``: a third panel (:func:`force_panel`).
 
     Returns
     -------
     Path
     """
-    return _save(curves_figure(delta, eps_i, eps_c, title, eps_u, fidelity), path)
+    return _save(curves_figure(delta, eps_i, eps_c, title, eps_u, fidelity, forces), path)
 
 
 def write_best_curves(run_dir: Path, delta: Sequence[float], eps_i: Sequence[float], eps_c: Sequence[float],

@@ -13,6 +13,9 @@ Files of scene ``<scene>`` (:func:`write_scene_files`):
     design has no fibres.
 ``<scene>.pvd``, ``<scene>_fibres.pvd``
     ParaView collections of those files in deflection order, time step = δ [mm].
+``scenes.pvd``
+    One collection of every scene of the result (:func:`write_result_collection`): each scene's
+    solid and fibres are a block (``part``) named after it, time step = δ [mm].
 
 Points are reference coordinates; ParaView's *Warp By Vector* with ``displacement`` shows
 the deformed whisker. Every VTU carries its metadata as field data
@@ -49,9 +52,11 @@ STATE_UNITS = {
     "displacement": "mm", "displacement_magnitude": "mm", "log_strain": "-", "log_strain_axial": "-",
     "cauchy_stress": "MPa", "von_mises": "MPa", "on_cavity": "-", "on_base": "-", "on_outer": "-",
     "in_contact_band": "-", "in_gauge": "-", "mixed_pressure": "MPa", "region": "-", "gauge_element": "-",
+    "J": "-", "principal_stretches": "-",
 }
 #: Units of the arrays of a fibre VTU.
-FIBRE_UNITS = {"displacement": "mm", "displacement_magnitude": "mm", "fibre": "-", "fibre_log_strain": "-"}
+FIBRE_UNITS = {"displacement": "mm", "displacement_magnitude": "mm", "fibre": "-", "fibre_log_strain": "-",
+               "fibre_force": "N"}
 #: Node sets of :class:`geometry.mesh.WhiskerMesh` written as 0/1 point arrays.
 NODE_SET_TAGS = {"on_cavity": "cavity", "on_base": "base", "on_outer": "outer"}
 
@@ -203,7 +208,9 @@ def state_fields(mesh, state, spec=None) -> tuple[dict, dict]:
     averaged over the elements sharing a node, the element pressures likewise
     (:func:`fem.post.nodal_strain_stress`). Cell array ``mixed_pressure`` [MPa]: the element
     pressure unknown p of the u–p formulation, the mean stress tr σ / 3, positive in tension
-    (left out for the 'displacement' formulation, whose pressure is no unknown).
+    (left out for the 'displacement' formulation, whose pressure is no unknown). Point arrays ``J`` = det F
+    and ``principal_stretches`` λ₁ ≥ λ₂ ≥ λ₃ (n, 3), the square roots of the eigenvalues of F Fᵀ, from
+    the nodal F (:func:`fem.post.nodal_deformation_gradient`; NaN at nodes of no element).
 
     Parameters
     ----------
@@ -221,6 +228,10 @@ def state_fields(mesh, state, spec=None) -> tuple[dict, dict]:
     u = np.asarray(state.u, dtype=float)
     formulation = getattr(spec, "formulation", "mixed")
     pdata = {"displacement": u, "displacement_magnitude": np.linalg.norm(u, axis=1)}
+    F, used = post.nodal_deformation_gradient(mesh.points, mesh.cells, u)  # (k, 3, 3)
+    pdata["J"] = post.spread_to_nodes(np.linalg.det(F), used)
+    b = np.einsum("kij,klj->kil", F, F)  # (k, 3, 3)  F Fᵀ
+    pdata["principal_stretches"] = post.spread_to_nodes(np.sqrt(np.clip(np.linalg.eigvalsh(b)[:, ::-1], 0, None)), used)
     cdata = {}
     if formulation == "mixed":
         cdata["mixed_pressure"] = np.asarray(state.p, dtype=float)
@@ -234,7 +245,6 @@ def state_fields(mesh, state, spec=None) -> tuple[dict, dict]:
         pdata["cauchy_stress"] = post.symmetric_components(sigma)
         pdata["von_mises"] = post.von_mises_stress(sigma)
     else:
-        F, used = post.nodal_deformation_gradient(mesh.points, mesh.cells, u)
         le = post.spread_to_nodes(post.eulerian_log_strain(F), used)
         pdata["log_strain"] = post.symmetric_components(le)
         pdata["log_strain_axial"] = le[:, 0, 0]
@@ -247,8 +257,10 @@ def fibre_fields(wm, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict, dict]
     Points: the reference fibre polylines of ``wm.fibres``, one after another. Point
     arrays ``displacement`` (interpolated in the host elements, :func:`fem.query.displacement_at`)
     [mm], ``displacement_magnitude`` [mm], ``fibre`` (index of the helix); cell arrays
-    ``fibre`` and ``fibre_log_strain`` = ln(ℓ/L) of each segment, ℓ and L its current and
-    reference lengths [-].
+    ``fibre``, ``fibre_log_strain`` = ln(ℓ/L) of each segment, ℓ and L its current and
+    reference lengths [-], and ``fibre_force`` [N], the axial force of the in-house truss
+    (:mod:`fem.truss`, Saint Venant–Kirchhoff): N = E_f A E ℓ/L with E = (ℓ² − L²)/(2 L²),
+    positive in tension (E_f, A of the mesh's design).
 
     Returns
     -------
@@ -269,6 +281,10 @@ def fibre_fields(wm, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict, dict]
     ell = np.linalg.norm(x[seg[:, 1]] - x[seg[:, 0]], axis=1)  # (m,)
     pdata = {"displacement": disp, "displacement_magnitude": np.linalg.norm(disp, axis=1), "fibre": fid_pt}
     cdata = {"fibre": fid_pt[seg[:, 0]], "fibre_log_strain": np.log(ell / L0)}
+    design = getattr(wm, "design", None)
+    if design is not None:
+        green = (ell**2 - L0**2) / (2.0 * L0**2)  # (m,)
+        cdata["fibre_force"] = design.fibre_E * design.fibre_area * green * ell / L0
     return X, seg, pdata, cdata
 
 
@@ -279,8 +295,9 @@ def scene_metadata(name: str, state: str, delta: float, spec=None) -> dict:
     (ParaView takes ``TimeValue`` as the time of a lone file); with a spec also ``Q_MPa``,
     ``trim_mm``, ``contact_ratio``, ``contact_at``, ``C10_MPa``, ``D1_per_MPa``,
     ``calibration_xi``, ``formulation``, ``fidelity_preset`` (the mesh sizing's name when it
-    is a preset's) and ``design_<name>`` for every design parameter. Text is stored as
-    bytes (:func:`fem.io.decode_text`).
+    is a preset's) and ``design_<name>`` for every design parameter. Text is written as VTK
+    string arrays, which ParaView shows as text (:mod:`fem.io`). :func:`write_scene_files` adds
+    the state's forces (:func:`state_forces`).
     """
     meta: dict = {"scene": name, "state": state, "TimeValue": float(delta), "delta_mm": float(delta)}
     if spec is None:
@@ -295,6 +312,16 @@ def scene_metadata(name: str, state: str, delta: float, spec=None) -> dict:
         meta["fidelity_preset"] = preset
     meta.update({f"design_{k}": v for k, v in spec.design.as_dict().items() if isinstance(v, (int, float))})
     return meta
+
+
+def state_forces(res, delta: float) -> dict:
+    """Field data of the forces at the solved deflection ``delta``: ``contact_force_N`` (the pusher's
+    force in −y) and ``base_reaction_N`` (x, y, z) [N]; empty when the result holds no forces."""
+    force = getattr(res, "contact_force", None)
+    if force is None:
+        return {}
+    i = int(np.argmin(np.abs(np.asarray(res.delta) - delta)))
+    return {"contact_force_N": float(force[i]), "base_reaction_N": np.asarray(res.base_reaction[i], dtype=float)}
 
 
 #: Units of the design fields that are not user parameters (:func:`geometry.design.parameter`).
@@ -313,7 +340,8 @@ def design_units(design) -> dict:
 def units_text(arrays, meta: dict, spec=None, table: dict | None = None) -> list[str]:
     """The ``units`` field data: ``"<array>=<unit>"`` for every point, cell and numeric field array."""
     table = {**STATE_UNITS, **(table or {}), "TimeValue": "mm", "delta_mm": "mm", "Q_MPa": "MPa", "trim_mm": "mm",
-             "contact_ratio": "-", "C10_MPa": "MPa", "D1_per_MPa": "1/MPa", "calibration_xi": "-"}
+             "contact_ratio": "-", "C10_MPa": "MPa", "D1_per_MPa": "1/MPa", "calibration_xi": "-",
+             "contact_force_N": "N", "base_reaction_N": "N"}
     if spec is not None:
         table.update(design_units(spec.design))
     names = [*arrays, *(k for k, v in meta.items() if not isinstance(v, str))]
@@ -353,6 +381,7 @@ def write_scene_files(out: Path, name: str, res) -> SceneFiles:
         pdata.update(point_tags)
         cdata.update(cell_tags)
         meta = scene_metadata(name, state_name, delta, spec)
+        meta.update(state_forces(res, delta))
         meta["units"] = units_text([*pdata, *cdata], meta, spec)
         vtus.append(write_vtu(out / f"{name}_{state_name}.vtu", mesh, point_data=pdata, cell_data=cdata,
                               field_data=meta, component_names=comps))
@@ -421,8 +450,13 @@ def scene_entry(spec, res, gauge_variant: str = "line", **extra) -> dict:
         "eps_line": res.eps_line.tolist(),
         "eps_centroid": res.eps_centroid.tolist(),
         "gauge_variant": gauge_variant,
-        "timings_s": {k: round(v, 4) for k, v in res.timings.items()},
     }
+    if getattr(res, "contact_force", None) is not None:
+        entry["contact_force_N"] = res.contact_force.tolist()
+        entry["base_reaction_N"] = res.base_reaction.tolist()
+        entry["contact_stiffness_N_per_mm"] = res.contact_stiffness
+        entry["contact_stiffness_definition"] = "secant over the first solved step, F(delta_1)/delta_1"
+    entry["timings_s"] = {k: round(v, 4) for k, v in res.timings.items()}
     if res.mesh is not None:
         entry["mesh"] = res.mesh.report.as_dict()
     entry["reports"] = [r.as_dict() if hasattr(r, "as_dict") else str(r) for r in res.reports]
@@ -430,12 +464,37 @@ def scene_entry(spec, res, gauge_variant: str = "line", **extra) -> dict:
     return entry
 
 
+#: The collection of every scene of a result.
+RESULT_PVD = "scenes.pvd"
+
+
+def write_result_collection(out: Path, files: dict) -> Path:
+    """``scenes.pvd``: one ParaView collection of every scene's files, each scene's solid and fibres a
+    named block (``part`` k, ``name`` the scene, ``<scene>_fibres``), time step = δ [mm].
+
+    Parameters
+    ----------
+    out : Path
+    files : dict of scene name -> SceneFiles
+    """
+    from fem.io import write_pvd
+
+    entries, part = [], 0
+    for name, sf in files.items():
+        for paths, label in ((sf.states, name), (sf.fibres, f"{name}{FIBRE_SUFFIX}")):
+            if paths:
+                entries += [(d, p.name, part, label) for d, p in zip(sf.deltas, paths)]
+                part += 1
+    return write_pvd(Path(out) / RESULT_PVD, entries)
+
+
 #: Attribute naming the scene on an exception that :func:`solve_scenes` lets through.
 FAILED_NAME = "scene_name"
 
 
 def solve_scenes(out: Path, specs: dict, gauge_variant: str = "line", **extra) -> tuple[dict, dict]:
-    """Solve scenes keeping their states; write their files into ``out`` (:func:`write_scene_files`).
+    """Solve scenes keeping their states; write their files into ``out`` (:func:`write_scene_files`) and
+    last the collection of them all (:func:`write_result_collection`).
 
     Parameters
     ----------
@@ -456,7 +515,7 @@ def solve_scenes(out: Path, specs: dict, gauge_variant: str = "line", **extra) -
     from whisker_opt.experiment.scene import run_scene
 
     out.mkdir(parents=True, exist_ok=True)
-    results, entries = {}, {}
+    results, entries, files = {}, {}, {}
     for name, spec in specs.items():
         t0 = time.perf_counter()
         try:
@@ -467,9 +526,10 @@ def solve_scenes(out: Path, specs: dict, gauge_variant: str = "line", **extra) -
                     setattr(exc, FAILED_NAME, name)  # which scene, beside the spec and step run_scene left
             raise
         wall = time.perf_counter() - t0
-        write_scene_files(out, name, res)
+        files[name] = write_scene_files(out, name, res)
         results[name] = res
         entries[name] = scene_entry(spec, res, gauge_variant, wall_s=round(wall, 3), **extra)
         logger.info("scene %s: Q=%.4g MPa, trim=%.4g mm, eps(deflection)=%.6g, %.2f s", name, spec.Q,
                     spec.design.trim, res.eps_line[-1], wall)
+    write_result_collection(out, files)
     return results, entries

@@ -1,8 +1,9 @@
-"""The CalculiX input deck of a peer check: the problem (:class:`CcxCase`) and its writer.
+"""The CalculiX/Abaqus input deck: a static hyperelastic problem (:class:`CcxCase`) and its writer.
 
 :func:`write_deck` writes *the same mesh, material and loads* as the in-house solver
 as an Abaqus-style input deck (C3D10, ``*HYPERELASTIC, NEO HOOKE``, ``NLGEOM``,
-follower pressure ``*DLOAD``); :mod:`peers.calculix` runs it and reads the results.
+follower pressure ``*DLOAD``); :mod:`peers.calculix` runs it and reads the results, and
+:mod:`whisker_opt.output.scene_deck` writes a whisker's scene with the same conventions and helpers.
 
 Conventions (see :mod:`fem.element`)
 ------------------------------------
@@ -295,7 +296,7 @@ def write_deck(case: CcxCase, path: str | os.PathLike) -> Path:
     n_inc = int(case.n_increments)
     dt = 1.0 / n_inc
     with open(path, "w") as f:
-        f.write("** whisker-opt peers.calculix deck: C3D10 neo-Hookean, NLGEOM, fixed increments\n")
+        f.write("** whisker-opt CalculiX deck: C3D10 neo-Hookean, NLGEOM, fixed increments\n")
         f.write("*HEADING\nwhisker-opt peer check\n")
         f.write("*NODE, NSET=NALL\n")
         for i, (x, y, z) in enumerate(case.points):

@@ -1,0 +1,265 @@
+"""A whisker's scene as a CalculiX/Abaqus input deck: the mesh, the fibres, the supports and the two steps.
+
+:func:`write_scene_deck` writes, with the conventions of :mod:`whisker_opt.output.calculix_deck`
+(node ``i`` is deck node ``i + 1``, element ``e`` deck element ``e + 1``, TET10 = C3D10 node order,
+follower pressure ``*DLOAD ... P`` positive into the solid):
+
+* the rubber as C3D10 elements with ``*HYPERELASTIC, NEO HOOKE`` (C10, D1); the scene's D1 = 0
+  (incompressible, the in-house mixed u–p solve) has no counterpart without hybrid elements, so a
+  compressible D1 = 2 / (``bulk_ratio`` · μ) is written and named in the deck's header;
+* the fibres as axial springs (SPRINGA, stiffness k = E A / L₀ of each segment, sets ``FIBRE<k>`` of
+  equal stiffness, :func:`spring_groups`) whose nodes are tied to
+  their host tetrahedra by ``*EQUATION``: u_j − Σ_a N_a(ξ_j) u_a = 0 per direction, the embedding
+  of the in-house solver. A spring's force k (ℓ − L₀) equals the in-house Saint Venant–Kirchhoff
+  truss's E A (ℓ² − L₀²)/(2 L₀²) to first order in the fibre strain (ℓ/L₀ − 1, below 1e-3 in the
+  scenes). CalculiX expands T3D2 trusses into 3-D elements held by nonlinear constraints, with which
+  the deflection step did not converge; springs are not expanded;
+* the base supports (``scene.base_support``) as ``*BOUNDARY`` at the model level;
+* one static step in two phases of step time 1 (:func:`_phases`): *pressurise*, ``*DLOAD`` Q on the
+  cavity faces (surface ``CAVITY``) ramped over [0, 1] and then held; *deflect*, the contact nodes (set
+  ``CONTACT``) moved in y to −δ over [1, 2], x and z free. The contact nodes are held at u_y = 0
+  while the whisker is pressurised (the in-house scene leaves them free and pushes from their
+  pressurised u_y⁰, which is 0 on the symmetric whisker up to the mesh's asymmetry). The contact
+  is the tip face (a = 1) or the node ring nearest a·L in the reference configuration (the
+  in-house scene places it at the pressurised a·L_Q, known only once pressurised).
+
+Outputs at the end of each phase: ``U`` and ``S`` to the ``.frd`` file; the total ``RF`` of ``BASE``
+and ``CONTACT`` and the ``U`` of the ``CONTACT`` nodes to the ``.dat`` file. Units: mm, N, MPa.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from fem import element
+from whisker_opt.output.calculix_deck import _fmt, _write_id_lines, element_faces
+
+logger = logging.getLogger(__name__)
+
+#: Terms of an ``*EQUATION`` per line (CalculiX and Abaqus read at most four).
+_TERMS_PER_LINE = 4
+#: Shape-function weights below this are left out of a fibre node's ``*EQUATION``.
+_WEIGHT_TOL = 1e-12
+
+
+@dataclass(frozen=True)
+class DeckOptions:
+    """How the scene deck is written.
+
+    Parameters
+    ----------
+    n_increments : int
+        Initial (and largest) increment of each step is 1/``n_increments`` of it; CalculiX's
+        automatic incrementation may cut back. >= 1.
+    bulk_ratio : float
+        K/μ of the compressible rubber written for D1 = 0: D1 = 2/(bulk_ratio · μ). > 1.
+    deflect : bool
+        Write the deflection step after the pressurise step.
+    """
+
+    n_increments: int = 10
+    bulk_ratio: float = 1000.0
+    deflect: bool = True
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.n_increments, (int, np.integer)) and self.n_increments >= 1):
+            raise ValueError(f"DeckOptions.n_increments: {self.n_increments!r}, expected an int >= 1")
+        if not self.bulk_ratio > 1:
+            raise ValueError(f"DeckOptions.bulk_ratio: {self.bulk_ratio!r}, expected a number > 1")
+
+
+def deck_d1(c10: float, d1: float, bulk_ratio: float) -> float:
+    """D1 written to the deck: ``d1`` when > 0, else 2/(bulk_ratio · μ) with μ = 2 C10 (K = 2/D1)."""
+    return float(d1) if d1 > 0 else 2.0 / (bulk_ratio * 2.0 * c10)
+
+
+def fibre_equations(cells: np.ndarray, host: np.ndarray, xi: np.ndarray, first_node: int) -> list[list[tuple]]:
+    """The embedding of fibre nodes: for node j (deck id ``first_node + j``, 0-based) and each direction,
+    ``[(j, dof, 1), (a, dof, −N_a(ξ_j)) for the host's nodes a]`` with weights below 1e-12 left out.
+
+    Returns
+    -------
+    list of list of (node (0-based), dof (1..3), coefficient)
+    """
+    N = element.shape_functions(np.asarray(xi, dtype=float))  # (n, 10)
+    out = []
+    for j, (e, w) in enumerate(zip(host, N)):
+        keep = np.abs(w) > _WEIGHT_TOL
+        nodes, weights = cells[e][keep], w[keep]
+        for dof in (1, 2, 3):
+            out.append([(first_node + j, dof, 1.0)] + [(int(a), dof, -float(c)) for a, c in zip(nodes, weights)])
+    return out
+
+
+def spring_groups(points: np.ndarray, segments: np.ndarray, ea: float) -> list[tuple[float, np.ndarray]]:
+    """Segments grouped by their spring stiffness k = E A / L₀ [N/mm], rounded to 7 significant digits
+    (a relative error below 5e-8; the chords of a helix on a cone differ in length by ~1e-4).
+
+    Returns
+    -------
+    list of (k, segment indices)
+    """
+    L0 = np.linalg.norm(points[segments[:, 1]] - points[segments[:, 0]], axis=1)  # (m,)
+    k = np.array([float(f"{v:.7g}") for v in ea / L0])  # (m,)
+    values, inverse = np.unique(k, return_inverse=True)
+    return [(float(v), np.nonzero(inverse.ravel() == i)[0]) for i, v in enumerate(values)]
+
+
+def _write_equations(f, equations: list) -> None:
+    f.write("*EQUATION\n")
+    for terms in equations:
+        f.write(f"{len(terms)}\n")
+        for k in range(0, len(terms), _TERMS_PER_LINE):
+            f.write(", ".join(f"{n + 1}, {d}, {_fmt(c)}" for n, d, c in terms[k: k + _TERMS_PER_LINE]) + "\n")
+
+
+def _supports(wm, spec) -> list[tuple[str, np.ndarray, tuple]]:
+    """``(set name, nodes, directions 1..3)`` of the base supports
+    (as :func:`whisker_opt.experiment.scene.base_dirichlet`)."""
+    from whisker_opt.experiment.scene import base_dirichlet
+
+    return [(f"BASE{i}" if i else "BASE", np.asarray(d.nodes), tuple(c + 1 for c in d.components))
+            for i, d in enumerate(base_dirichlet(wm, spec))]
+
+
+def _contact_nodes(wm, spec) -> np.ndarray:
+    """The contact nodes: the tip face (a = 1) or the band at a·L in the reference configuration."""
+    from whisker_opt.experiment.contact import contact_band
+    from whisker_opt.experiment.scene import scene_contact
+
+    contact = scene_contact(spec)
+    u0 = np.zeros_like(wm.mesh.points)
+    return contact_band(wm, u0, contact.a * spec.design.length, spec.band_width, contact.at_tip)
+
+
+def _phases(f, spec, options: DeckOptions) -> None:
+    """One ``*STEP`` of step time 1 per phase, pressurise (Q > 0) then deflect: the pressure ramped on
+    [0, 1] by amplitude ``APRESS`` and held, the contact's u_y ramped on the last unit by ``ADEFL``;
+    output at the end of each phase (``*TIME POINTS``).
+
+    One step with amplitudes, not two steps: CalculiX (2.20) diverged at the start of a second step
+    after a follower-pressure step on the same model, down to increments of 1e-4 of the step."""
+    pressure, deflect = spec.Q > 0, options.deflect
+    total = float(pressure + deflect)
+    n_inc = int(options.n_increments)
+    dt = 1.0 / n_inc
+    if pressure:
+        f.write(f"*AMPLITUDE, NAME=APRESS\n0.0, 0.0, 1.0, 1.0, {_fmt(total)}, 1.0\n")
+    if deflect:
+        start = 1.0 if pressure else 0.0
+        f.write(f"*AMPLITUDE, NAME=ADEFL\n0.0, 0.0, {_fmt(start)}, 0.0, {_fmt(total)}, 1.0\n" if pressure
+                else "*AMPLITUDE, NAME=ADEFL\n0.0, 0.0, 1.0, 1.0\n")
+    ends = ", ".join(_fmt(t) for t in np.arange(1.0, total + 0.5))
+    f.write(f"*TIME POINTS, NAME=PHASES\n{ends}\n")
+    f.write("** ---------------------------------------------------------------- "
+            + " then ".join(n for n, on in (("pressurise", pressure), ("deflect", deflect)) if on) + "\n")
+    f.write(f"*STEP, NLGEOM, INC={int(10 * n_inc * total) + 100}\n*STATIC\n")
+    f.write(f"{_fmt(dt)}, {_fmt(total)}, 1e-05, {_fmt(dt)}\n")
+    if pressure:
+        f.write(f"*DLOAD, AMPLITUDE=APRESS\nCAVITY, P, {_fmt(spec.Q)}\n")
+    if deflect:
+        f.write(f"*BOUNDARY, AMPLITUDE=ADEFL\nCONTACT, 2, 2, {_fmt(-spec.deflection)}\n")
+    f.write("*NODE FILE, TIME POINTS=PHASES\nU\n*EL FILE, TIME POINTS=PHASES\nS\n")
+    for name in ("BASE", "CONTACT"):
+        f.write(f"*NODE PRINT, NSET={name}, TOTALS=ONLY, TIME POINTS=PHASES\nRF\n")
+    f.write("*NODE PRINT, NSET=CONTACT, TIME POINTS=PHASES\nU\n")
+    f.write("*END STEP\n")
+
+
+def write_scene_deck(path: str | os.PathLike, spec, wm, options: DeckOptions = DeckOptions()) -> Path:
+    """Write the scene ``spec`` on the mesh ``wm`` as a CalculiX/Abaqus deck (see the module).
+
+    Parameters
+    ----------
+    path : path-like
+        The deck; ``.inp`` is added when missing. Written atomically.
+    spec : whisker_opt.experiment.spec.SceneSpec
+        Design, pressure Q, deflection δ, contact, supports, rubber (neo-Hookean only).
+    wm : geometry.mesh.WhiskerMesh
+        A mesh of ``spec.design`` (its fibres are written when it has any).
+    options : DeckOptions
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    ValueError
+        A rubber other than the neo-Hookean one (the deck writes ``NEO HOOKE`` only).
+    """
+    from fem.io import atomic_write
+
+    if spec.rubber != "neo_hookean" or spec.cap_rubber not in ("same", spec.rubber):
+        raise ValueError(f"material.rubber: {spec.rubber!r} (cap {spec.cap_rubber!r}); the CalculiX deck writes "
+                         "the neo-Hookean law only ('neo_hookean')")
+    path = Path(path)
+    if path.suffix != ".inp":
+        path = path.with_name(path.name + ".inp")
+    mesh, d = wm.mesh, spec.design
+    n = mesh.n_nodes
+    fibres = tuple(getattr(wm, "fibres", ()) or ())
+    supports = _supports(wm, spec)
+    contact = _contact_nodes(wm, spec)
+    d1 = deck_d1(spec.c10, spec.d1, options.bulk_ratio)
+    cav_el, cav_lab = element_faces(mesh.cells, wm.face_sets["cavity"]) if spec.Q > 0 else (None, None)
+
+    def produce(tmp: str) -> None:
+        with open(tmp, "w") as f:
+            f.write("** whisker-opt scene deck: C3D10 neo-Hookean rubber, SPRINGA fibres tied by *EQUATION, NLGEOM\n")
+            f.write(f"** design: {d.describe()}, trim {d.trim:g} mm; units mm, N, MPa\n")
+            f.write(f"** scene: Q = {spec.Q:g} MPa, deflection {spec.deflection:g} mm in -y at a = "
+                    f"{spec.contact_ratio:g}, base {spec.base_support}\n")
+            f.write(f"** rubber: C10 = {spec.c10:g} MPa, D1 = {_fmt(d1)} 1/MPa"
+                    + (f" (the scene's D1 = 0 written as K/mu = {options.bulk_ratio:g})\n" if spec.d1 <= 0 else "\n"))
+            f.write("*HEADING\nwhisker-opt scene\n*NODE, NSET=NALL\n")
+            for i, (x, y, z) in enumerate(mesh.points):
+                f.write(f"{i + 1}, {_fmt(x)}, {_fmt(y)}, {_fmt(z)}\n")
+            fibre_first, pts, segs, eqs = n, [], [], []
+            for fp in fibres:
+                for j, (x, y, z) in enumerate(fp.points_ref):
+                    f.write(f"{fibre_first + j + 1}, {_fmt(x)}, {_fmt(y)}, {_fmt(z)}\n")
+                pts.append(np.asarray(fp.points_ref, dtype=float))
+                segs.append(np.asarray(fp.segments) + fibre_first)
+                eqs += fibre_equations(mesh.cells, fp.host_elements, fp.local_coords, fibre_first)
+                fibre_first += len(fp.points_ref)
+            groups = spring_groups(np.vstack(pts), np.vstack(segs) - n, d.fibre_E * d.fibre_area) if segs else []
+            all_segs = np.vstack(segs) if segs else np.zeros((0, 2), dtype=np.int64)
+            f.write("*ELEMENT, TYPE=C3D10, ELSET=RUBBER\n")
+            for e, c in enumerate(mesh.cells + 1):
+                f.write(f"{e + 1}, " + ", ".join(str(v) for v in c) + "\n")
+            for i, (_, idx) in enumerate(groups):
+                f.write(f"*ELEMENT, TYPE=SPRINGA, ELSET=FIBRE{i}\n")
+                for k in idx:
+                    f.write(f"{mesh.n_elements + k + 1}, {all_segs[k, 0] + 1}, {all_segs[k, 1] + 1}\n")
+            for name, nodes, _ in supports:
+                f.write(f"*NSET, NSET={name}\n")
+                _write_id_lines(f, nodes)
+            f.write("*NSET, NSET=CONTACT\n")
+            _write_id_lines(f, contact)
+            if cav_el is not None:
+                f.write("*SURFACE, NAME=CAVITY, TYPE=ELEMENT\n")
+                for e, lab in zip(cav_el + 1, cav_lab):
+                    f.write(f"{e}, S{lab}\n")
+            f.write(f"*MATERIAL, NAME=RUBBER\n*HYPERELASTIC, NEO HOOKE\n{_fmt(spec.c10)}, {_fmt(d1)}\n")
+            f.write("*SOLID SECTION, ELSET=RUBBER, MATERIAL=RUBBER\n")
+            for i, (k, _) in enumerate(groups):
+                f.write(f"*SPRING, ELSET=FIBRE{i}\n\n{_fmt(k)}\n")
+            if eqs:
+                _write_equations(f, eqs)
+            f.write("*BOUNDARY\n")
+            for name, _, dirs in supports:
+                for c in dirs:
+                    f.write(f"{name}, {c}, {c}, 0.0\n")
+            if spec.Q > 0 or options.deflect:
+                _phases(f, spec, options)
+
+    atomic_write(path, produce)
+    logger.info("wrote %s (%d nodes, %d elements, %d fibre nodes)", path, n, mesh.n_elements,
+                sum(len(fp.points_ref) for fp in fibres))
+    return path
