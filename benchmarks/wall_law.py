@@ -193,22 +193,30 @@ def plot(table: WallTable, comparison: list[dict], path: Path) -> None:
     import matplotlib.pyplot as plt
 
     geo = default_geometry()
-    fig, axs = plt.subplots(1, 2, figsize=(12, 4.8))
+    fig, axs = plt.subplots(1, 2, figsize=(13, 5.2))
     Q = np.array(PRESSURES)
-    for v in table.variants:
+    colours = plt.cm.tab20(np.linspace(0, 1, 20))
+    k_lim = (0.6, 1.5)
+    for i, v in enumerate(table.variants):
+        style = dict(color=colours[(2 * i) % 20 if i < 10 else 2 * (i - 10) + 1], ls=("-", "--", ":", "-.")[i % 4],
+                     marker="o", ms=3, lw=1.6)
         e = next(x for x in table.points(v) if math.isclose(x["r_i"], geo.r_i) and math.isclose(x["t"], geo.t))
-        axs[0].plot(Q, np.array(e["EI"]) / e["EI"][0], "o-", ms=3, label=v)
+        axs[0].plot(Q, np.array(e["EI"]) / e["EI"][0], label=v, **style)
         row = next(r for r in comparison if r["variant"] == v)
-        axs[1].plot(Q, [1.0] + [row[f"k_{q}"] for q in PRESSURES[1:]], "o-", ms=3, label=v)
+        k = np.array([1.0] + [row[f"k_{q}"] for q in PRESSURES[1:]])
+        off = np.nanmax(k) > k_lim[1]
+        axs[1].plot(Q, k, label=v + (f" (to {np.nanmax(k):.1f}, off scale)" if off else ""), **style)
     for ax in axs:
-        ax.plot(Q, [PROTOTYPE_K[q] for q in Q], "k--", lw=2, label="prototypes' k(Q)")
+        ax.plot(Q, [PROTOTYPE_K[q] for q in Q], "k-", lw=3, alpha=0.6, label="prototypes' k(Q)")
         ax.set_xlabel("chamber pressure Q [MPa]")
         ax.grid(alpha=0.3)
     axs[0].set_ylabel("EI(Q) / EI(0) of the wall cell")
-    axs[0].set_title(f"Wall cell, default design mid-chamber (r_i = {geo.r_i:.2f}, t = {geo.t:g} mm)")
-    axs[1].set_ylabel("k(Q) the thesis' beam model infers from the reading")
-    axs[1].set_title("Like-for-like with the prototypes: inferred k at a = 1")
-    axs[1].legend(fontsize=7, ncol=2)
+    axs[0].set_title(f"Wall cell at the default design's mid-chamber (r_i = {geo.r_i:.2f}, t = {geo.t:g} mm)",
+                     fontsize=10)
+    axs[1].set_ylim(*k_lim)
+    axs[1].set_ylabel("k(Q) that the thesis' beam model infers")
+    axs[1].set_title("Like for like with the prototypes: inferred k from ε/δ at a = 1", fontsize=10)
+    axs[1].legend(fontsize=7, ncol=2, loc="upper left")
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)

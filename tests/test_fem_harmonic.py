@@ -126,7 +126,7 @@ def test_axisymmetric_tangent_matches_finite_differences():
 def _energy_3d(solid, x, amp, theta_pts, eps):
     """∫∫ [W_iso + p(J − 1) − D1/4 p² + ½ k Ē²] R dA dΘ of the axisymmetric state plus ε × the harmonic-1 field
     (amplitudes ``amp`` = (n_nodes, 3) and element pressures (n_el, 3)), by a trapezoidal rule in Θ."""
-    from fem.quad9 import gauss_square, pressure_basis, shape_functions
+    from fem.quad9 import gauss_square, pressure_basis
     u, p = x[: solid.n_u0].reshape(-1, 2), x[solid.n_u0:].reshape(-1, 3)
     a, q = amp
     xi, w = gauss_square(3)
