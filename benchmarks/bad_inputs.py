@@ -3,7 +3,7 @@
 Every case is a hand-made bad input: an option value out of range, not a number, NaN or
 infinite; an output path that cannot be written (read-only, under a regular file, an
 existing file); a missing, empty, non-UTF-8 or malformed config; a run directory with a
-truncated, empty or garbage ``checkpoint.pkl``, a damaged ``optimiser.json``,
+truncated, empty or garbage ``checkpoint.json``, a damaged ``optimiser.json``,
 ``config.yaml``, ``best.json``, ``scenes.json``, ``evaluations.csv`` or VTU file; an
 unsolvable scene. What a case must do:
 
@@ -200,7 +200,7 @@ class Workspace:
 
     def make_run(self) -> None:
         """The tiny run all run-directory cases start from."""
-        if (self.run / "checkpoint.pkl").is_file():
+        if (self.run / "checkpoint.json").is_file():
             return
         t0 = time.perf_counter()
         proc = subprocess.run([*self.cli, "run", str(self.good), "--out", str(self.run), "--no-progress"],
@@ -327,28 +327,28 @@ def build_cases(w: Workspace) -> list[Case]:
     add("run results_dir read-only", ["run", results_read_only, "--no-progress"], words=("results_dir",))
 
     # ------------------------------------------------------------------ damaged run directories
-    ck = w.run / "checkpoint.pkl"
+    ck = w.run / "checkpoint.json"
     ck_bytes = ck.read_bytes()
     damaged = {
-        "checkpoint truncated": ({"checkpoint.pkl": ck_bytes[: len(ck_bytes) // 2]}, (), "checkpoint.pkl"),
-        "checkpoint cut by 1 byte": ({"checkpoint.pkl": ck_bytes[:-1]}, (), "checkpoint.pkl"),
-        "checkpoint empty": ({"checkpoint.pkl": b""}, (), "checkpoint.pkl"),
-        "checkpoint garbage": ({"checkpoint.pkl": GARBAGE}, (), "checkpoint.pkl"),
-        "checkpoint text": ({"checkpoint.pkl": b"not a pickle\n"}, (), "checkpoint.pkl"),
-        "checkpoint other pickle": ({"checkpoint.pkl": pickle.dumps([1, 2, 3])}, (), "checkpoint.pkl"),
-        "checkpoint other format": ({"checkpoint.pkl": pickle.dumps({"format": 99})}, (), "checkpoint.pkl"),
-        "checkpoint missing keys": ({"checkpoint.pkl": pickle.dumps({"format": 1})}, (), "checkpoint.pkl"),
-        "checkpoint is a folder": ({"checkpoint.pkl": None}, (), "checkpoint.pkl"),
-        "optimiser.json garbage": ({"optimiser.json": GARBAGE}, ("checkpoint.pkl",), "optimiser.json"),
-        "optimiser.json truncated": ({"optimiser.json": b'{"seed": 3, "optimiser": {'}, ("checkpoint.pkl",),
+        "checkpoint truncated": ({"checkpoint.json": ck_bytes[: len(ck_bytes) // 2]}, (), "checkpoint.json"),
+        "checkpoint cut by 1 byte": ({"checkpoint.json": ck_bytes[:-1]}, (), "checkpoint.json"),
+        "checkpoint empty": ({"checkpoint.json": b""}, (), "checkpoint.json"),
+        "checkpoint garbage": ({"checkpoint.json": GARBAGE}, (), "checkpoint.json"),
+        "checkpoint text": ({"checkpoint.json": b"not a checkpoint\n"}, (), "checkpoint.json"),
+        "checkpoint a pickle": ({"checkpoint.json": pickle.dumps([1, 2, 3])}, (), "checkpoint.json"),
+        "checkpoint other format": ({"checkpoint.json": b'{"format": "whisker-opt GA state", "version": 99}'}, (), "checkpoint.json"),
+        "checkpoint missing keys": ({"checkpoint.json": b'{"format": "whisker-opt GA state", "version": 2}'}, (), "checkpoint.json"),
+        "checkpoint is a folder": ({"checkpoint.json": None}, (), "checkpoint.json"),
+        "optimiser.json garbage": ({"optimiser.json": GARBAGE}, ("checkpoint.json",), "optimiser.json"),
+        "optimiser.json truncated": ({"optimiser.json": b'{"seed": 3, "optimiser": {'}, ("checkpoint.json",),
                                      "optimiser.json"),
-        "optimiser.json a list": ({"optimiser.json": b"[1, 2]"}, ("checkpoint.pkl",), "optimiser.json"),
-        "optimiser.json no seed": ({"optimiser.json": b'{"optimiser": {}}'}, ("checkpoint.pkl",), "optimiser.json"),
+        "optimiser.json a list": ({"optimiser.json": b"[1, 2]"}, ("checkpoint.json",), "optimiser.json"),
+        "optimiser.json no seed": ({"optimiser.json": b'{"optimiser": {}}'}, ("checkpoint.json",), "optimiser.json"),
         "optimiser.json bad value": ({"optimiser.json": b'{"seed": 1, "optimiser": {"ga": {"population": 1}}}'},
-                                     ("checkpoint.pkl",), "optimiser.json"),
-        "optimiser.json seed text": ({"optimiser.json": b'{"seed": "x", "optimiser": {}}'}, ("checkpoint.pkl",),
+                                     ("checkpoint.json",), "optimiser.json"),
+        "optimiser.json seed text": ({"optimiser.json": b'{"seed": "x", "optimiser": {}}'}, ("checkpoint.json",),
                                      "optimiser.json"),
-        "no checkpoint nor optimiser.json": ({}, ("checkpoint.pkl", "optimiser.json"), "checkpoint.pkl"),
+        "no checkpoint nor optimiser.json": ({}, ("checkpoint.json", "optimiser.json"), "checkpoint.json"),
         "config.yaml garbage": ({"config.yaml": GARBAGE}, (), "config.yaml"),
         "config.yaml non-UTF-8": ({"config.yaml": NON_UTF8}, (), "config.yaml"),
         "config.yaml a list": ({"config.yaml": b"- 1\n"}, (), "config.yaml"),
@@ -374,10 +374,10 @@ def build_cases(w: Workspace) -> list[Case]:
         empty.mkdir(parents=True, exist_ok=True)
         add(f"{cmd} empty dir", [cmd, empty], frozen=[empty], words=("empty_dir",))
     # --from-previous
-    no_prev = w.run_copy("from_prev_missing", {"checkpoint.pkl": GARBAGE})
+    no_prev = w.run_copy("from_prev_missing", {"checkpoint.json": GARBAGE})
     add("resume --from-previous without one", ["resume", no_prev, "--from-previous", "--no-progress"],
         frozen=[no_prev], words=("checkpoint.prev.pkl",))
-    both = w.run_copy("from_prev_damaged", {"checkpoint.pkl": GARBAGE, "checkpoint.prev.pkl": ck_bytes[:100]})
+    both = w.run_copy("from_prev_damaged", {"checkpoint.json": GARBAGE, "checkpoint.prev.pkl": ck_bytes[:100]})
     add("resume --from-previous damaged too", ["resume", both, "--from-previous", "--no-progress"], frozen=[both],
         words=("checkpoint.prev.pkl",))
     # read-only run directory: resume/report/verify write into it

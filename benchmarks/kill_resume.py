@@ -30,7 +30,7 @@ from tests import kill_harness as kh  # noqa: E402
 
 
 def _short(name: str) -> str:
-    """``.checkpoint.pkl.ab12cd.tmp`` -> ``checkpoint.pkl tmp``."""
+    """``.checkpoint.json.ab12cd.tmp`` -> ``checkpoint.json tmp``."""
     return name.lstrip(".").split(".tmp")[0].rsplit(".", 1)[0] + " tmp" if name.endswith(".tmp") else name
 
 

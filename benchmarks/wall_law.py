@@ -136,7 +136,8 @@ def commit() -> str:
     try:
         sha = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True,
                              check=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--", "fem", "whisker_opt/wall"], cwd=ROOT,
+        dirty = subprocess.run(["git", "status", "--porcelain", "--", "fem", "whisker_opt/wall",
+                                ":!whisker_opt/wall/data"], cwd=ROOT,
                                capture_output=True, text=True, check=True).stdout.strip()
         return sha + ("+modified" if dirty else "")
     except (OSError, subprocess.CalledProcessError):
@@ -266,10 +267,15 @@ def main(argv=None) -> int:
         for e in table.entries:
             ei = np.array(e["EI"])
             rows.append({"variant": e["variant"], "r_i": e["r_i"], "t": e["t"], "EI0": ei[0],
-                         "EI0/bare": ei[0] / e["EI_bare"], **{f"EIr_{q}": ei[k] / ei[0] for k, q in enumerate(PRESSURES) if q},
-                         "ez_0.2": e["ez"][-1], "g_0.2": e["g"][-1],
+                         "EI0/bare": ei[0] / e["EI_bare"],
+                         **{f"EIr_{q}": ei[k] / ei[0] for k, q in enumerate(PRESSURES) if q},
+                         **{f"ez_{q}": e["ez"][k] for k, q in enumerate(PRESSURES) if q},
+                         **{f"g_{q}": e["g"][k] for k, q in enumerate(PRESSURES)},
                          "g_spread_0.2": e["g_max"][-1] - e["g_min"][-1], "t_s": e["time_s"]})
-        print(md(rows, list(rows[0])))
+        print(md(rows, list(rows[0]), fmt="{:.4g}"))
+        times = np.array([e["time_s"] for e in table.entries])
+        print(f"\nsweep time (5 pressures, one core): median {np.median(times):.1f} s, max {times.max():.1f} s "
+              f"over {len(times)} cells")
         comp = prototype_comparison(table)
         print()
         print(md(comp, list(dict.fromkeys(k for r in comp for k in r))))
