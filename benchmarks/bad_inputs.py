@@ -331,7 +331,7 @@ def build_cases(w: Workspace) -> list[Case]:
     ck_bytes = ck.read_bytes()
     damaged = {
         "checkpoint truncated": ({"checkpoint.json": ck_bytes[: len(ck_bytes) // 2]}, (), "checkpoint.json"),
-        "checkpoint cut by 1 byte": ({"checkpoint.json": ck_bytes[:-1]}, (), "checkpoint.json"),
+        "checkpoint cut by its last character": ({"checkpoint.json": ck_bytes.rstrip()[:-1]}, (), "checkpoint.json"),
         "checkpoint empty": ({"checkpoint.json": b""}, (), "checkpoint.json"),
         "checkpoint garbage": ({"checkpoint.json": GARBAGE}, (), "checkpoint.json"),
         "checkpoint text": ({"checkpoint.json": b"not a checkpoint\n"}, (), "checkpoint.json"),
@@ -376,10 +376,10 @@ def build_cases(w: Workspace) -> list[Case]:
     # --from-previous
     no_prev = w.run_copy("from_prev_missing", {"checkpoint.json": GARBAGE})
     add("resume --from-previous without one", ["resume", no_prev, "--from-previous", "--no-progress"],
-        frozen=[no_prev], words=("checkpoint.prev.pkl",))
-    both = w.run_copy("from_prev_damaged", {"checkpoint.json": GARBAGE, "checkpoint.prev.pkl": ck_bytes[:100]})
+        frozen=[no_prev], words=("checkpoint.prev.json",))
+    both = w.run_copy("from_prev_damaged", {"checkpoint.json": GARBAGE, "checkpoint.prev.json": ck_bytes[:100]})
     add("resume --from-previous damaged too", ["resume", both, "--from-previous", "--no-progress"], frozen=[both],
-        words=("checkpoint.prev.pkl",))
+        words=("checkpoint.prev.json",))
     # read-only run directory: resume/report/verify write into it
     add("resume run dir under a file", ["resume", w.afile / "run"], words=("afile.txt",))
     # verify options
