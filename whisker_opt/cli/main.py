@@ -101,6 +101,9 @@ def _parser() -> argparse.ArgumentParser:
     for name, (helptext, add_args, _) in commands.REGISTRY.items():
         sp = sub.add_parser(name, help=helptext, description=helptext, parents=[common])
         add_args(sp)
+        if "--no-progress" not in sp._option_string_actions:  # after any command, as before it
+            sp.add_argument("--no-progress", action="store_true", default=argparse.SUPPRESS,
+                            help="no progress bar on a terminal, no progress lines elsewhere")
     return p
 
 
