@@ -198,8 +198,8 @@ def curves_figure(
     else:
         fig = Figure(figsize=(6.4, 5.8))
         ax, ax_r = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [2, 1]})
-    ax.plot(d, a, "-", label="ε_i intact, Q = Q_i")
-    ax.plot(d, b, "--", label="ε_c trimmed, vented (Q = 0)")
+    ax.plot(d, a, "-", color="C0", label="ε_i intact, Q = Q_i")
+    ax.plot(d, b, "--", color="C1", label="ε_c trimmed, vented (Q = 0)")
     if u is not None:
         f1_u = objective.f1(a[1:], u[1:]) if len(d) > 1 else math.nan
         ax.plot(d, u, ":", color="C2",
@@ -239,6 +239,11 @@ def curves_figure(
     return fig
 
 
+#: Line style, colour and label of a scene, the same in the strain and force panels of :func:`curves_figure`.
+_SCENE_STYLE = {"intact": ("-", "C0", "F_i intact, Q = Q_i"), "trimmed": ("--", "C1", "F_c trimmed, vented"),
+                "trimmed_uncompensated": (":", "C2", "F_u trimmed, still at Q_i")}
+
+
 def force_panel(ax, delta: Sequence[float], forces: Mapping[str, Sequence[float]]) -> None:
     """Contact force F(δ) [N] of each named scene on ``ax``, its secant stiffness at the first
     plotted deflection δ₁ > 0, k = F(δ₁)/δ₁ [N/mm], in the legend."""
@@ -246,8 +251,9 @@ def force_panel(ax, delta: Sequence[float], forces: Mapping[str, Sequence[float]
     for k, (name, f) in enumerate(forces.items()):
         f = np.asarray(f, dtype=float)
         stiff = f[1] / d[1] if len(d) > 1 and d[1] > 0 else math.nan
-        ax.plot(d, f, ("-", "--", ":")[k % 3], label=f"{name}: F/δ at δ = {d[1]:g} mm: {short_float(stiff, 3)} N/mm"
-                if len(d) > 1 else name)
+        ls, colour, label = _SCENE_STYLE.get(name, (("-", "--", ":")[k % 3], f"C{3 + k}", name))
+        ax.plot(d, f, ls, color=colour, label=f"{label}: F/δ at δ = {d[1]:g} mm: {short_float(stiff, 3)} N/mm"
+                if len(d) > 1 else label)
     ax.set_xlabel("deflection δ [mm]")
     ax.set_ylabel("contact force F [N]")
     ax.grid(True, alpha=0.3)
