@@ -30,6 +30,9 @@ from whisker_opt.optimise.executors import (
 
 logger = logging.getLogger(__name__)
 
+#: Seconds to gather a finished task's result before it counts as lost with its worker.
+RESULT_TIMEOUT_S = 30.0
+
 
 def _dask_task(evaluator: Evaluator, genes: dict[str, float], seed: int, timeout_s: float | None) -> EvalOutcome:
     return guarded_call(evaluator, genes, seed, timeout_s, "thread")
@@ -118,8 +121,9 @@ class DaskExecutor(_BaseExecutor):
             on_result: OnResult | None = None) -> list[EvalOutcome]:
         """Submit every design and gather in input order.
 
-        A task that does not finish (its worker was lost, or dask gave up on it) is
-        submitted again, up to ``max_retries`` times; then :class:`MachineFailure`. The task
+        A task that does not finish (its worker was lost, or dask gave up on it), or whose result
+        cannot be gathered within ``RESULT_TIMEOUT_S``, is submitted again, up to ``max_retries``
+        times; then :class:`MachineFailure`. The task
         itself never raises for a design's fault (:func:`guarded_call`), so a task that does
         not finish is always the machine's fault. While tasks wait, a warning every
         ``heartbeat_s`` says when no worker is connected.
@@ -153,8 +157,10 @@ class DaskExecutor(_BaseExecutor):
                 del pending[i]
                 out = None
                 if f.status == "finished":
-                    with contextlib.suppress(Exception):  # its result may be lost with its worker meanwhile
-                        out = f.result()
+                    # its result may be lost with its worker meanwhile: gathering it from a dead worker can
+                    # wait without end, so it is bounded (a few bytes from a live worker take milliseconds)
+                    with contextlib.suppress(Exception):
+                        out = f.result(timeout=RESULT_TIMEOUT_S)
                 reason = f.status if out is None else ""
                 if out is None and f.status == "error":
                     with contextlib.suppress(Exception):
