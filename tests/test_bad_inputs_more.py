@@ -162,3 +162,14 @@ def test_view_accepts_no_progress(tmp_path, capsys):
     code, lines = _run(capsys, "view", tmp_path / "missing", "--no-progress")
     _refused(code, lines, ("missing",))
     assert "unrecognized" not in lines[0]
+
+
+def test_a_contact_on_the_fixed_base_fails_in_one_line(tmp_path, capsys):
+    """scene.contact_ratio so small that the pusher's band reaches the fixed base: one error line naming the
+    key, exit 3, no traceback (it was a ProblemError traceback: two Dirichlet sets on the same DOF)."""
+    config = Path(__file__).resolve().parents[1] / "configs" / "simulate_default.yaml"
+    code, lines = _run(capsys, "simulate", config, "--preset", "coarse", "--set",
+                       "scene.contact_ratio=0.001", "--out", tmp_path / "out", "--no-progress")
+    errors = [ln for ln in lines if "error" in ln]
+    assert code == 3 and len(errors) == 1 and not any("Traceback" in ln for ln in lines), lines
+    assert "scene.contact_ratio" in errors[0] and "fixed base" in errors[0]

@@ -80,7 +80,7 @@ def contact_band(wm: WhiskerMesh, u: np.ndarray, x_contact: float, width: float,
     For ``at_tip`` the nodes of the tip face. On a structured (swept or template) mesh, of the
     node stations in the band only the one nearest ``x_contact`` (the ring
     :func:`place_contact_ring` put there). Raises :class:`ContactPlacementError` when the band
-    holds no node.
+    holds no node or reaches the fixed base face.
     """
     if at_tip:
         # the tip face only: a slab of finite width would hold every node of the slab at the
@@ -93,6 +93,11 @@ def contact_band(wm: WhiskerMesh, u: np.ndarray, x_contact: float, width: float,
         nearest = float(xc[np.argmin(np.abs(xc - x_contact))])
         raise ContactPlacementError(f"contact band of width {width} mm at x = {x_contact:.3f} mm holds no node "
                                     f"(nearest node at x = {nearest:.3f} mm)")
+    on_base = np.intersect1d(nodes, np.asarray(wm.node_sets.get("base", ()), dtype=np.int64))
+    if len(on_base):
+        raise ContactPlacementError(
+            f"contact band of width {width} mm at x = {x_contact:.3f} mm reaches the fixed base (x = 0): the "
+            f"contact must be at least {0.5 * width:g} mm from the base (a larger scene.contact_ratio)")
     if not wm.report.method.startswith("fresh"):
         # a structured mesh pushes one node ring, the station nearest the contact: a ring placed
         # less than a band width from the tip face (a held pusher on a slightly extended whisker)
