@@ -22,9 +22,12 @@ WARNING; ``-vvv`` lets every logger through.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import errno
 import logging
+import signal
 import sys
+import threading
 
 from whisker_opt.cli import commands
 from whisker_opt.output.progress import show_progress_lines
@@ -118,6 +121,34 @@ def _set_up_logging(verbose: int) -> None:
             logging.getLogger(name).setLevel(logging.WARNING if verbose <= 2 else logging.NOTSET)
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM or SIGHUP, raised in the main thread as Ctrl-C is, so a run ends the same way."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+
+@contextlib.contextmanager
+def _termination_as_interrupt():
+    """While a command runs, SIGTERM and SIGHUP (a scheduler's stop, a closed terminal) end it as SIGINT does:
+    the same clean-up, a message and exit status 128 + the signal's number."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum, _frame):
+        raise Terminated(signum)
+
+    names = [n for n in ("SIGTERM", "SIGHUP") if hasattr(signal, n)]
+    old = {n: signal.signal(getattr(signal, n), handler) for n in names}
+    try:
+        yield
+    finally:
+        for n, h in old.items():
+            signal.signal(getattr(signal, n), h)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the console script; returns the exit status.
 
@@ -130,7 +161,7 @@ def main(argv: list[str] | None = None) -> int:
     -------
     int
         0; 2 for a bad input; 3 for a failed computation; 4 for a calibration that did not converge;
-        130 when interrupted.
+        130 when interrupted (128 + the signal for SIGTERM and SIGHUP).
     """
     try:
         args = _parser().parse_args(argv)
@@ -140,7 +171,7 @@ def main(argv: list[str] | None = None) -> int:
     _set_up_logging(args.verbose)
     _, _, run = commands.REGISTRY[args.command]
     try:
-        with show_progress_lines(not getattr(args, "no_progress", False)):
+        with show_progress_lines(not getattr(args, "no_progress", False)), _termination_as_interrupt():
             return int(run(args) or 0)
     except commands.USER_ERRORS as exc:
         print(f"whisker-opt {args.command}: error: {one_line(exc)}", file=sys.stderr)
@@ -153,9 +184,12 @@ def main(argv: list[str] | None = None) -> int:
             raise
         print(f"whisker-opt {args.command}: error: {one_line(_file_system_message(exc))}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print(f"whisker-opt {args.command}: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        signum = getattr(exc, "signum", signal.SIGINT)
+        hint = ("; continue from its last checkpoint with `whisker-opt resume RUN_DIR` (or run it again if no "
+                "generation had finished)") if args.command in ("run", "resume") else ""
+        print(f"whisker-opt {args.command}: interrupted by {signal.Signals(signum).name}{hint}", file=sys.stderr)
+        return 128 + int(signum)
 
 
 if __name__ == "__main__":  # pragma: no cover
