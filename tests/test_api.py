@@ -138,3 +138,26 @@ def test_cells_are_converted():
     assert cells == [3, -1, 0.5, 1e-3, True, False, None, "ok"]
     assert [type(c) for c in cells[:4]] == [int, int, float, float]
     assert math.isnan(api._cell("nan"))
+
+
+@pytest.mark.parametrize("call, match", [
+    (lambda wo, cfg: wo.evaluate({"fidelity": {}}, {"alpha": 4.0, "l": 12.0, "t": 3.0, "Q_i": 0.1}),
+     "evaluate: cfg is a dict, not a loaded config"),
+    (lambda wo, cfg: wo.simulate({}), "simulate: cfg is a dict, not a loaded config"),
+    (lambda wo, cfg: wo.run([1]), "run: cfg is a list, not a loaded config"),
+])
+def test_an_unloaded_config_is_the_projects_config_error(call, match):
+    import whisker_opt as wo
+    from whisker_opt.config.model import ConfigError
+
+    with pytest.raises(ConfigError, match=match):
+        call(wo, None)
+
+
+@pytest.mark.parametrize("genes", [None, "alpha", 3.0])
+def test_genes_of_no_shape_are_a_one_line_value_error(genes):
+    import whisker_opt as wo
+
+    cfg = wo.load_config({"fidelity": {"preset": "coarse"}})
+    with pytest.raises(ValueError, match=r"evaluate: genes=.*: expected a mapping"):
+        wo.evaluate(cfg, genes)

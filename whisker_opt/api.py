@@ -92,6 +92,16 @@ def load_config(path_or_mapping: str | Path | Mapping[str, Any] | WhiskerConfig)
         raise model.ConfigError(model.format_validation_error(exc, "<mapping>")) from None
 
 
+def _checked_config(cfg: Any, where: str) -> WhiskerConfig:
+    """``cfg`` if it is a loaded config, else :class:`~whisker_opt.config.model.ConfigError` in one line."""
+    from whisker_opt.config.model import ConfigError, WhiskerConfig
+
+    if not isinstance(cfg, WhiskerConfig):
+        raise ConfigError(f"{where}: cfg is a {type(cfg).__name__}, not a loaded config: pass it through "
+                          "load_config() first (a path, a mapping or a WhiskerConfig)")
+    return cfg
+
+
 def _out_dir(cfg: WhiskerConfig, out: str | Path | None, kind: str) -> Path:
     """``out``, or a new run directory under ``cfg.output.results_dir``."""
     if out is not None:
@@ -149,6 +159,7 @@ def simulate(cfg: WhiskerConfig, out: str | Path | None = None) -> Simulation:
     """
     from whisker_opt.workflows import simulate as _simulate, simulation_specs
 
+    cfg = _checked_config(cfg, "simulate")
     simulation_specs(cfg, "simulate")  # refuse a bad pair before creating a directory
     return _simulate(cfg, _out_dir(cfg, out, "simulate"), source="simulate")
 
@@ -176,8 +187,10 @@ def evaluate(cfg: WhiskerConfig, genes: Mapping[str, float] | Sequence[float]) -
 
     Raises
     ------
+    whisker_opt.config.model.ConfigError
+        ``cfg`` is not a loaded config (pass a mapping or path through :func:`load_config`).
     ValueError
-        ``genes`` lacks a gene or holds an unknown one.
+        ``genes`` is not a mapping or sequence, lacks a gene or holds an unknown one.
 
     Examples
     --------
@@ -189,6 +202,10 @@ def evaluate(cfg: WhiskerConfig, genes: Mapping[str, float] | Sequence[float]) -
     from whisker_opt.genes import GENE_NAMES, genes_dict
     from whisker_opt.workflows import evaluate as _evaluate
 
+    cfg = _checked_config(cfg, "evaluate")
+    if isinstance(genes, (str, bytes)) or not hasattr(genes, "__iter__"):
+        raise ValueError(f"evaluate: genes={genes!r}: expected a mapping {GENE_NAMES} -> value or "
+                         f"{len(GENE_NAMES)} values in that order")
     if not isinstance(genes, Mapping):
         values = list(genes)
         if len(values) != len(GENE_NAMES):
@@ -242,6 +259,7 @@ def run(cfg: WhiskerConfig, out: str | Path | None = None, progress: bool = Fals
     from whisker_opt import wiring, workflows
     from whisker_opt.optimise.backend import preflight
 
+    cfg = _checked_config(cfg, "run")
     if out is None:  # refuse an impossible design or executor before creating the directory
         wiring.evaluator(cfg)
         preflight(wiring.optimiser_of(cfg).executor)
