@@ -150,6 +150,34 @@ def _checkpoint_temporary(run_dir: Path) -> bool:
         return False
 
 
+def kill_when(proc: subprocess.Popen, fire, timeout: float, poll: float,
+              on_timeout: Exception | None = None) -> str:
+    """SIGKILL ``proc`` as soon as ``fire()`` is true; wait for it and return its stderr text.
+
+    Past ``timeout`` seconds ``on_timeout`` is raised (None: stop watching and let the child finish). A child
+    still running when this returns or raises is killed.
+    """
+    deadline = time.monotonic() + timeout
+    try:
+        while proc.poll() is None:
+            if time.monotonic() > deadline:
+                if on_timeout is not None:
+                    raise on_timeout
+                break
+            if fire():
+                os.kill(proc.pid, signal.SIGKILL)
+                break
+            time.sleep(poll)
+        proc.wait(30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait(30)
+    err = proc.stderr.read().decode(errors="replace")
+    proc.stderr.close()
+    return err
+
+
 def kill_at(run_dir: Path, moment: Moment, timeout: float = 60.0) -> dict:
     """Start the child run into ``run_dir`` and SIGKILL it at ``moment``.
 
@@ -169,42 +197,29 @@ def kill_at(run_dir: Path, moment: Moment, timeout: float = 60.0) -> dict:
     )
     watch = _Watch(run_dir)
     t0 = None  # when the moment's reference event was seen
-    try:
-        deadline = time.monotonic() + timeout
-        while proc.poll() is None:
-            if time.monotonic() > deadline:
-                raise TimeoutError(f"{moment.label()}: the moment never came")
-            fire = False
-            if moment.kind in ("metadata", "time"):
-                if t0 is None and (run_dir / storage.OPTIMISER_JSON).exists():
-                    t0 = time.monotonic()
-                fire = t0 is not None and time.monotonic() - t0 >= moment.delay
-            elif moment.kind == "gen0":
-                if t0 is None and (run_dir / storage.ENVIRONMENT_JSON).exists():
-                    t0 = time.monotonic()
-                fire = t0 is not None and time.monotonic() - t0 >= moment.delay
-            elif moment.kind == "checkpoint":
-                fire = watch.poll() == moment.generation - 1 and _checkpoint_temporary(run_dir)
-            elif moment.kind == "after":
-                if t0 is None and watch.poll() >= moment.generation:
-                    t0 = time.monotonic()
-                fire = t0 is not None and time.monotonic() - t0 >= moment.delay
-            elif moment.kind == "finish":
-                watch.poll()
-                fire = watch.stop_reason is not None
-            else:
-                raise ValueError(f"unknown moment kind {moment.kind!r}")
-            if fire:
-                os.kill(proc.pid, signal.SIGKILL)
-                break
-            time.sleep(0.001)
-        proc.wait(30)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait(30)
-    err = proc.stderr.read().decode(errors="replace")
-    proc.stderr.close()
+
+    def fire() -> bool:
+        nonlocal t0
+        if moment.kind in ("metadata", "time"):
+            if t0 is None and (run_dir / storage.OPTIMISER_JSON).exists():
+                t0 = time.monotonic()
+            return t0 is not None and time.monotonic() - t0 >= moment.delay
+        if moment.kind == "gen0":
+            if t0 is None and (run_dir / storage.ENVIRONMENT_JSON).exists():
+                t0 = time.monotonic()
+            return t0 is not None and time.monotonic() - t0 >= moment.delay
+        if moment.kind == "checkpoint":
+            return watch.poll() == moment.generation - 1 and _checkpoint_temporary(run_dir)
+        if moment.kind == "after":
+            if t0 is None and watch.poll() >= moment.generation:
+                t0 = time.monotonic()
+            return t0 is not None and time.monotonic() - t0 >= moment.delay
+        if moment.kind == "finish":
+            watch.poll()
+            return watch.stop_reason is not None
+        raise ValueError(f"unknown moment kind {moment.kind!r}")
+
+    err = kill_when(proc, fire, timeout, 0.001, TimeoutError(f"{moment.label()}: the moment never came"))
     if proc.returncode not in (0, -signal.SIGKILL):
         raise RuntimeError(f"child run failed ({proc.returncode}): {err}")
     watch.stamp = None

@@ -23,6 +23,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.kill_harness import kill_when
+
 REPO = Path(__file__).resolve().parents[1]
 
 #: Per kind: the journal's name and the output compared (JSON).
@@ -106,20 +108,7 @@ def kill_part_way(kind: str, root: Path, at_least: int, sleep_s: float = 0.05, t
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
     proc = subprocess.Popen([sys.executable, "-c", CHILD.format(repo=str(REPO)), kind, str(root), str(sleep_s)],
                             cwd=REPO, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    deadline = time.monotonic() + timeout
-    try:
-        while proc.poll() is None and time.monotonic() < deadline:
-            if _journal_entries(journal) >= at_least:
-                os.kill(proc.pid, signal.SIGKILL)
-                break
-            time.sleep(0.01)
-        proc.wait(30)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait(30)
-    err = proc.stderr.read().decode(errors="replace")
-    proc.stderr.close()
+    err = kill_when(proc, lambda: _journal_entries(journal) >= at_least, timeout, 0.01)
     assert proc.returncode == -signal.SIGKILL, f"the child was not killed mid-study ({proc.returncode}): {err}"
     return _journal_entries(journal)
 
