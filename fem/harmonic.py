@@ -26,9 +26,10 @@ The axisymmetric state is symmetric under Θ → −Θ, so the material tangent 
 cos-type components only with cos-type ones and sin-type with sin-type; ∫cos² = ∫sin² = π over a turn
 (n ≥ 1). The second variation of the potential for harmonic n is therefore exactly::
 
-    δ²Π_n = π ∫ [Ĝ : A : Ĝ + 2 q J F⁻ᵀ : Ĝ + p J (F⁻ᵀ:Ĝ)² − p J F⁻ᵀĜᵀ... − (D1/2) q²] R dR dZ + pressure
+    δ²Π_n = π ∫ [Ĝ : A : Ĝ + 2 q J F⁻ᵀ : Ĝ − (D1/2) q²] R dR dZ + pressure,
 
-i.e. the 3-D tangent evaluated on Ĝ, with π in place of 2π (:meth:`HarmonicSolid.harmonic_tangent`).
+with A = ∂²W_iso/∂F∂F + p ∂²J/∂F∂F: the 3-D tangent evaluated on Ĝ, with π in place of 2π
+(:meth:`HarmonicSolid.harmonic_tangent`).
 Harmonics do not couple about an axisymmetric state, so each n is a 2-D problem of three displacement
 amplitudes per node.
 
@@ -223,7 +224,7 @@ class HarmonicSolid:
         np.add.at(R, self.edofs_0, Ru)
         R[self.n_u0:] += Rp.ravel()
         for hf in self.hoop:
-            self._hoop_axisym(hf, F, B, phi, R, None)
+            self._hoop_axisym(hf, F, B, phi, R)
         if self.pressure is not None and pressure != 0.0:
             R[: self.n_u0] += self.pressure.residual0(u, pressure)
         if not need_tangent:
@@ -258,7 +259,7 @@ class HarmonicSolid:
         Eb = np.einsum("eq,eq->e", c, 0.5 * (lam**2 - 1.0)) / C  # (n_sel,)
         return els, c, C, lam, Eb
 
-    def _hoop_axisym(self, hf, F, B, phi, R, _):
+    def _hoop_axisym(self, hf, F, B, phi, R):
         els, c, C, lam, Eb = self._hoop_strain(hf, F)
         b = np.einsum("eq,eq,eqa->ea", c, lam, B[els][:, :, 8, :])  # (n_sel, 18)  Σ c λ ∂F_θΘ/∂u
         np.add.at(R, self.edofs_0[els], phi * Eb[:, None] * b)
@@ -296,7 +297,3 @@ class HarmonicSolid:
         if self.pressure is not None and pressure != 0.0:
             parts.append(self.pressure.tangent(u, pressure, n))
         return _csr(parts, size)
-
-    def node_dof(self, n: int, nodes: np.ndarray, k: int) -> np.ndarray:
-        """Global index of component k of the given nodes: axisymmetric (n = 0, k < 2) or harmonic."""
-        return (2 if n == 0 else 3) * np.asarray(nodes) + k

@@ -185,6 +185,8 @@ class WallCell:
         thrust = EndThrust(0, geo.r_i, 2 * corner, current=mech.thrust == "current")
         self.path = AxisymmetricPath(self.solid, red, thrust)
         self.outer_edges = self.mesh.edges_where(lambda Pt: np.abs(Pt[:, 0] - geo.r_o) < tol)
+        self.ring = int(np.argmin(np.hypot(P[:, 0] - geo.r_o, P[:, 1] - geo.s / 2)))  # outer node at the ring
+        self.gap = int(np.argmin(np.hypot(P[:, 0] - geo.r_o, P[:, 1])))  # outer node at mid-gap
         self.y = np.zeros(self.path.n_red)
         self.Q = 0.0
         self._previous = None  # the equilibrium before (y, Q), for the next increment's predictor
@@ -207,18 +209,10 @@ class WallCell:
         vals = np.concatenate([np.zeros(len(self.bottom)), r_plane, [0.0]])
         yh, f, _ = harmonic_response(self.solid, 1, x, self.Q, fixed, vals)
         M = float(f[3 * self.top + 1] @ r_plane)
-        R0, _ = self.solid.axisymmetric(x, self.Q, need_tangent=False)
-        f0 = R0[2 * self.top + 1]
         amp = yh[: 3 * self.mesh.n_nodes].reshape(-1, 3)
-        # the 3-D cell's moment: axial reactions times current x about the axis, pin at the cavity of Z = 0
-        M3 = float(f[3 * self.top + 1] @ (self.mesh.points[self.top, 0] + u[self.top, 0])
-                   + f0 @ (amp[self.top, 0] - amp[self.top, 2]) / 2)
-        P = self.mesh.points
-        ring = np.argmin(np.hypot(P[:, 0] - geo.r_o, P[:, 1] - geo.s / 2))
-        gap = np.argmin(np.hypot(P[:, 0] - geo.r_o, P[:, 1]))
         g = gauge_transfer(self.mesh, self.outer_edges, u, amp[:, :2], geo.s, geo.r_o)
-        return {"Q": self.Q, "EI": geo.s * M, "EI_3d": geo.s * M3, "ez": float(x[2 * self.top[0] + 1]) / geo.s,
-                "ur_ring": float(u[ring, 0]), "ur_gap": float(u[gap, 0]), "g": float(np.mean(g)),
+        return {"Q": self.Q, "EI": geo.s * M, "ez": float(x[2 * self.top[0] + 1]) / geo.s,
+                "ur_ring": float(u[self.ring, 0]), "ur_gap": float(u[self.gap, 0]), "g": float(np.mean(g)),
                 "g_min": float(np.min(g)), "g_max": float(np.max(g))}
 
     def sweep(self, pressures=PRESSURES, stop_on_failure: bool = False) -> list[dict]:
