@@ -27,8 +27,9 @@ import numpy as np
 
 from fem import element, jit
 from fem.fibre_field import FibreFieldKernel
+from fem.frozen_stress import FrozenStressKernel
 from fem.pressure import PressureKernel
-from fem.problem import Problem
+from fem.problem import Problem, ProblemError
 from fem.quadrature import tet_rule, tri_rule
 from fem.sparsity import Pattern, build_pattern
 from fem.tensor3 import det3, det_inv3
@@ -158,6 +159,15 @@ class Assembler:
         self.pattern = self.topo.pattern
         #: element tangent: compiled (fem.jit) or the vectorised numpy reference
         self.kernel = ("numba" if jit.AVAILABLE else "numpy") if kernel == "auto" else kernel
+        #: element energy terms: the topology's smeared fibres, then the problem's frozen stresses
+        #: (problem data outside the topology, so such a problem shares the pattern of one without)
+        for fs in problem.frozen_stresses:
+            if fs.stress.shape[1] != self.topo.wdet.shape[1]:
+                raise ProblemError(f"FrozenStress({fs.name}).stress: {fs.stress.shape[1]} points per element, the "
+                                   f"tet rule of degree {problem.quadrature_degree} has {self.topo.wdet.shape[1]}")
+        self.element_terms = list(self.topo.field_kernels) + [
+            FrozenStressKernel(self.topo.dNdX, self.topo.wdet, fs.elements, fs.stress)
+            for fs in problem.frozen_stresses]
 
     def scatter_index(self) -> np.ndarray:
         """Data positions of the element tangent contributions (uu, up, pu, pp), in the order the numpy path stacks them (cached)."""
@@ -177,7 +187,7 @@ class Assembler:
     def _add_load_tangents(self, data: np.ndarray, pres_out: list, truss_out: list, field_out: list) -> np.ndarray:
         """Add the follower-pressure blocks and the fibre tangents to the tangent data (in place)."""
         topo = self.topo
-        for fk, Ke in zip(topo.field_kernels, field_out):
+        for fk, Ke in zip(self.element_terms, field_out):
             data += np.bincount(self.pattern.elem_uu[fk.elements].ravel(), Ke.ravel(), minlength=len(data))
         if pres_out:
             data += np.bincount(topo.pressure_pos_flat, np.concatenate([Kf.ravel() for Kf in pres_out]),
@@ -222,7 +232,7 @@ class Assembler:
         x = self.problem.mesh.points + u
         for tk in self.topo.truss_kernels:
             Pi += tk.energy(x)
-        for fk in self.topo.field_kernels:
+        for fk in self.element_terms:
             Pi += fk.energy(F)
         return float(Pi)
 
@@ -285,7 +295,7 @@ class Assembler:
             R[: 3 * topo.n_nodes] += np.bincount(dofs.ravel(), Rt.ravel(), minlength=3 * topo.n_nodes)
             truss_out.append(Kt)
         field_out = []
-        for fk in topo.field_kernels:
+        for fk in self.element_terms:
             Rs, Ks = fk.evaluate(F, need_tangent)
             R[: 3 * topo.n_nodes] += np.bincount(topo.edofs[fk.elements].ravel(), Rs.ravel(),
                                                  minlength=3 * topo.n_nodes)

@@ -406,3 +406,64 @@ class ElementwiseMaterial(IsochoricI1Material):
             for o, v in zip(out, mat.f_derivatives(i1bar[sel])):
                 o[sel] = v
         return out
+
+
+@dataclass(frozen=True, eq=False)
+class ScaledMaterial(IsochoricI1Material):
+    """A law whose isochoric energy is multiplied by a factor per element: W_iso,e = s_e f(Ī1).
+
+    Every modulus of an Ī1 law enters W_iso linearly, so this is the same law with its moduli
+    scaled by s_e in element e (stress and tangent scale with it; the volumetric term, D1, does
+    not). With s_e = c on a region and the frozen stress −(c − 1) S̄_p of :mod:`fem.frozen_stress`,
+    the region keeps the stress S̄_p of a state p while its incremental material stiffness about
+    p becomes c times the law's. Arrays handed to :meth:`f_derivatives` must have one row per
+    element, as :class:`ElementwiseMaterial`'s.
+
+    Parameters
+    ----------
+    base : IsochoricI1Material
+    factor : ndarray (n_el,)
+        s_e > 0 per element.
+    """
+
+    base: IsochoricI1Material
+    factor: np.ndarray
+
+    def __post_init__(self) -> None:
+        s = np.ascontiguousarray(self.factor, dtype=float).ravel()
+        if not np.all(np.isfinite(s)) or np.any(s <= 0):
+            raise ValueError("ScaledMaterial.factor: every element's factor must be finite and > 0")
+        object.__setattr__(self, "factor", s)
+
+    @property
+    def d1(self) -> float:
+        return float(self.base.d1)
+
+    @property
+    def shear_modulus(self) -> float:
+        return float(self.base.shear_modulus * self.factor.max(initial=1.0))
+
+    @property
+    def n_elements(self) -> int:
+        return len(self.factor)
+
+    def at_nodes(self, cells: np.ndarray, used: np.ndarray | None = None) -> "ScaledMaterial":
+        """The law with one row per node: a node takes the smallest factor among its elements."""
+        cells = np.asarray(cells, dtype=np.int64)
+        if len(cells) != self.n_elements:
+            raise ValueError(f"ScaledMaterial.at_nodes: {len(cells)} cells, expected {self.n_elements}")
+        n_nodes = (int(cells.max()) + 1 if cells.size else 0) if used is None else len(used)
+        node_s = np.full(n_nodes, np.inf)  # (n_nodes,)
+        np.minimum.at(node_s, cells.ravel(), np.repeat(self.factor, cells.shape[1]))
+        held = np.isfinite(node_s)
+        used = held if used is None else np.asarray(used, dtype=bool)
+        base = self.base.at_nodes(cells, used)
+        return ScaledMaterial(base, node_s[used])
+
+    def f_derivatives(self, i1bar):
+        i1bar = np.asarray(i1bar, dtype=float)
+        if i1bar.shape[:1] != (self.n_elements,):
+            raise ValueError(f"ScaledMaterial.f_derivatives: array of shape {i1bar.shape}, expected "
+                             f"({self.n_elements}, ...) (one row per element)")
+        s = self.factor.reshape((-1,) + (1,) * (i1bar.ndim - 1))
+        return tuple(s * v for v in self.base.f_derivatives(i1bar))

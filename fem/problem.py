@@ -189,6 +189,36 @@ class SmearedFibres:
 
 
 @dataclass(frozen=True)
+class FrozenStress:
+    """A prescribed second Piola–Kirchhoff stress on a set of elements (:mod:`fem.frozen_stress`).
+
+    Parameters
+    ----------
+    elements : ndarray (n_sel,) int
+        Elements that carry it (each at most once).
+    stress : ndarray (n_sel, n_qp, 3, 3)
+        Symmetric stress T at each quadrature point of the problem's tet rule [MPa].
+    """
+
+    elements: np.ndarray
+    stress: np.ndarray
+    name: str = "frozen stress"
+
+    def __post_init__(self) -> None:
+        el = np.ascontiguousarray(self.elements, dtype=np.int64).ravel()
+        T = np.ascontiguousarray(self.stress, dtype=np.float64)
+        if T.ndim != 4 or T.shape[0] != len(el) or T.shape[2:] != (3, 3):
+            raise ProblemError(f"FrozenStress({self.name}).stress: shape {T.shape}, expected (n_sel, n_qp, 3, 3) "
+                               f"with n_sel = {len(el)}")
+        if len(np.unique(el)) != len(el):
+            raise ProblemError(f"FrozenStress({self.name}).elements: an element is listed twice")
+        if not np.all(np.isfinite(T)) or not np.allclose(T, np.swapaxes(T, -1, -2), rtol=0, atol=1e-12 * max(1.0, np.abs(T).max(initial=0))):
+            raise ProblemError(f"FrozenStress({self.name}).stress must be finite and symmetric")
+        object.__setattr__(self, "elements", el)
+        object.__setattr__(self, "stress", T)
+
+
+@dataclass(frozen=True)
 class Problem:
     """Mesh + material + constraints + load definitions (magnitudes excluded).
 
@@ -203,6 +233,9 @@ class Problem:
     tractions : tuple of DeadTraction
     fibre_fields : tuple of SmearedFibres
         Their arrays have one column per point of the tet rule of ``quadrature_degree``.
+    frozen_stresses : tuple of FrozenStress
+        Prescribed stresses (one per quadrature point of the same rule); not part of the
+        topology, so a problem that adds them shares its sparsity pattern and factorisation analysis.
     quadrature_degree : int
         Degree of the tet rule (2 → 4 points, as C3D10 in Abaqus/CalculiX).
     face_quadrature_degree : int
@@ -220,6 +253,7 @@ class Problem:
     trusses: tuple[EmbeddedTrusses, ...] = ()
     tractions: tuple[DeadTraction, ...] = ()
     fibre_fields: tuple[SmearedFibres, ...] = ()
+    frozen_stresses: tuple[FrozenStress, ...] = ()
     quadrature_degree: int = 2
     face_quadrature_degree: int = 4
     formulation: str = "mixed"
@@ -242,6 +276,9 @@ class Problem:
         for ff in self.fibre_fields:
             if ff.elements.size and (ff.elements.min() < 0 or ff.elements.max() >= self.mesh.n_elements):
                 raise ProblemError(f"SmearedFibres({ff.name}).elements outside [0, {self.mesh.n_elements - 1}]")
+        for fs in self.frozen_stresses:
+            if fs.elements.size and (fs.elements.min() < 0 or fs.elements.max() >= self.mesh.n_elements):
+                raise ProblemError(f"FrozenStress({fs.name}).elements outside [0, {self.mesh.n_elements - 1}]")
         if self.dirichlet:
             all_dofs = np.concatenate([d.dofs().ravel() for d in self.dirichlet])
             if len(np.unique(all_dofs)) != len(all_dofs):
