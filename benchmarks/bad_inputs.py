@@ -5,10 +5,16 @@ infinite; an output path that cannot be written (read-only, under a regular file
 existing file); a missing, empty, non-UTF-8 or malformed config; a run directory with a
 truncated, empty or garbage ``checkpoint.json``, a damaged ``optimiser.json``,
 ``config.yaml``, ``best.json``, ``scenes.json``, ``evaluations.csv`` or VTU file; an
-unsolvable scene. What a case must do:
+unsolvable scene; and faults and hostile folders: a dask scheduler address where nothing
+listens, or a service that is not dask (silent, or answering garbage); a state file that is a
+dangling symbolic link; a ``run.lock`` or ``run.log`` that is a link to another file; JSON
+nested too deeply to read; implausible calibration inputs (σ of 1e-300, bounds over 14
+decades); ``view`` with a ``DISPLAY`` where no X server runs. What a case must do:
 
 * exit with status 2 (a bad input, refused before any computation) or 3 (a computation
-  that the inputs allowed did not succeed: the solve-failure cases);
+  that the inputs allowed did not succeed: the solve-failure cases), or 0 where the case
+  must fall back (``view`` without a working display renders off-screen; its one stderr line
+  names the picture, which must exist);
 * write exactly one line to stderr, naming what is wrong, and no Python traceback;
 * not abort (no signal, no VTK crash);
 * write nothing: the paths a case names as outputs must not appear, and the run
@@ -23,7 +29,8 @@ yes/no, seconds, first stderr line); the totals follow. Usage::
 
 The fixtures (a tiny run made with ``whisker-opt run`` on a coarse, 2-individual,
 0-generation config: about 10 s) live in a temporary folder (``--workdir`` to choose it).
-``--skip-slow`` leaves out the two solve-failure cases, which compute for 20-60 s each.
+``--skip-slow`` leaves out the two solve-failure cases, which compute for 20-60 s each, and
+the silent scheduler, which is refused after the 20 s connection timeout.
 """
 
 from __future__ import annotations
@@ -35,9 +42,11 @@ import os
 import pickle
 import shlex
 import shutil
+import socket
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -106,6 +115,10 @@ class Case:
         Words the stderr line must contain (the option or file name).
     slow : bool
         Computes before failing (skipped with ``--skip-slow``).
+    env : dict
+        Variables set for the case (e.g. a ``DISPLAY`` where no X server runs).
+    present : tuple of Path
+        Paths that must exist after the case (what a fallback wrote).
     """
 
     name: str
@@ -115,6 +128,8 @@ class Case:
     frozen: tuple = ()
     words: tuple = ()
     slow: bool = False
+    env: dict = field(default_factory=dict)
+    present: tuple = ()
 
 
 @dataclass
@@ -160,6 +175,46 @@ def _tree_digest(path: Path) -> str:
     return h.hexdigest()
 
 
+def _listen(mode: str) -> int:
+    """A TCP service on localhost that is not dask, for the life of this process; its port.
+
+    ``silent`` accepts and says nothing; ``garbage`` answers bytes that are no dask message."""
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(16)
+    held = []
+
+    def serve():
+        while True:
+            conn, _ = srv.accept()
+            held.append(conn)
+            if mode == "garbage":
+                try:
+                    conn.sendall(bytes(range(256)) * 8)
+                except OSError:
+                    pass
+
+    threading.Thread(target=serve, daemon=True).start()
+    return srv.getsockname()[1]
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _dead_display() -> str:
+    """``:N`` where no X server runs (no socket, nothing on TCP port 6000 + N)."""
+    for n in range(87, 200):
+        if Path(f"/tmp/.X11-unix/X{n}").exists():
+            continue
+        with socket.socket() as s:
+            if s.connect_ex(("127.0.0.1", 6000 + n)) != 0:
+                return f":{n}"
+    return ":199"
+
+
 class Workspace:
     """The fixture files of the cases, in ``root``; ``cli`` is the command line of ``whisker-opt``."""
 
@@ -171,6 +226,10 @@ class Workspace:
         self.afile = self.root / "afile.txt"
         self.afile.write_text("a regular file\n")
         self.good = self._write("good.yaml", TINY.format(results=self.results))
+        # the fixture run's file sets no key that run, resume or verify leave unread (scene.trim is simulate's):
+        # such a key is warned about in a line of its own, before a damaged run directory is refused
+        self.good_run = self._write("good_run.yaml", TINY.replace("scene:\n  trim: 5.0\n", "").format(
+            results=self.results))
         self.ro = self._read_only_dir()
         self.run = self.root / "run"
 
@@ -203,7 +262,7 @@ class Workspace:
         if (self.run / "checkpoint.json").is_file():
             return
         t0 = time.perf_counter()
-        proc = subprocess.run([*self.cli, "run", str(self.good), "--out", str(self.run), "--no-progress"],
+        proc = subprocess.run([*self.cli, "run", str(self.good_run), "--out", str(self.run), "--no-progress"],
                               capture_output=True, text=True, cwd=self.root)
         if proc.returncode != 0:
             sys.exit(f"cannot make the fixture run: {proc.stderr}")
@@ -243,8 +302,9 @@ def build_cases(w: Workspace) -> list[Case]:
     cases: list[Case] = []
     out = w.root / "outs"
 
-    def add(name, argv, expect=2, absent=(), frozen=(), words=(), slow=False):
-        cases.append(Case(name, [str(a) for a in argv], expect, tuple(absent), tuple(frozen), tuple(words), slow))
+    def add(name, argv, expect=2, absent=(), frozen=(), words=(), slow=False, env=None, present=()):
+        cases.append(Case(name, [str(a) for a in argv], expect, tuple(absent), tuple(frozen), tuple(words), slow,
+                          dict(env or {}), tuple(present)))
 
     good = w.good
     bad_cfgs = {
@@ -559,7 +619,67 @@ def build_cases(w: Workspace) -> list[Case]:
         words=("--screenshot",))
     add("view --list with --screenshot .xyz", ["view", run, "--list", "--screenshot", out / "l.xyz"],
         absent=[out / "l.xyz"], frozen=[run], words=("--screenshot",))
+    faults(w, add, out)
     return cases
+
+
+def faults(w: Workspace, add, out: Path) -> None:
+    """Faults and hostile folders: dask addresses of no scheduler, dangling or hostile links in a run
+    directory, JSON nested too deeply, implausible calibration inputs, a display where no X server runs."""
+    good = w.good
+    # ------------------------------------------------------------------ a dask scheduler that is not one
+    for label, port, slow in (("nothing listens", _free_port(), False), ("garbage answers", _listen("garbage"), False),
+                              ("a silent service", _listen("silent"), True)):
+        add(f"run dask scheduler_address where {label}",
+            ["run", good, "--set", "optimiser.executor.kind=dask", "--set",
+             f"optimiser.executor.scheduler_address=tcp://127.0.0.1:{port}", "--out", out / "dask", "--no-progress"],
+            absent=[out / "dask"], words=("optimiser.executor.scheduler_address", str(port)), slow=slow)
+    # ------------------------------------------------------------------ links and deep JSON in run directories
+    gone = w.root / "gone"
+    deep = ("[" * 100_000 + "]" * 100_000).encode()
+    for name in ("checkpoint.json", "checkpoint.pkl"):
+        d = w.run_copy("dangling_" + name.replace(".", "_"), remove=("checkpoint.json",))
+        (d / name).symlink_to(gone / name)
+        for cmd, extra in (("resume", ["--no-progress"]), ("report", []),
+                           ("verify", ["--preset", "coarse", "--top", "1"])):
+            add(f"{cmd} {name} a dangling link", [cmd, d, *extra], frozen=[d],
+                words=(name, "symbolic link", "generation 0"))
+    precious = w._write("precious.txt", "a file of the user's\n")
+    for name, cmds in (("run.lock", ("resume", "verify")), ("run.log", ("resume",))):
+        d = w.run_copy("link_" + name.replace(".", "_"))
+        (d / name).unlink(missing_ok=True)  # the fixture run wrote its own run.log
+        (d / name).symlink_to(precious)
+        for cmd in cmds:
+            extra = ["--max-generations", "1", "--no-progress"] if cmd == "resume" else ["--preset", "coarse",
+                                                                                        "--top", "1"]
+            add(f"{cmd} {name} a link to another file", [cmd, d, *extra], frozen=[precious],
+                words=(name, "symbolic link"))
+    d = w.run_copy("deep_optimiser_json", {"optimiser.json": b'{"seed": 1, "optimiser": ' + deep + b"}"},
+                   remove=("checkpoint.json",))
+    for cmd, extra in (("resume", ["--no-progress"]), ("report", []), ("verify", ["--preset", "coarse", "--top", "1"])):
+        add(f"{cmd} optimiser.json nested too deeply", [cmd, d, *extra], frozen=[d],
+            words=("optimiser.json", "nested too deeply"))
+    for rel in ("best.json", "best/scenes.json"):
+        d = w.run_copy("deep_" + rel.replace("/", "_").replace(".", "_"), {rel: deep})
+        add(f"view {rel} nested too deeply", ["view", d, "--screenshot", out / "deep.png"], absent=[out / "deep.png"],
+            frozen=[d], words=(rel.split("/")[-1], "damaged"))
+    # ------------------------------------------------------------------ calibrate: implausible inputs
+    base = ("calibration:\n  source: test\n  model: beam\n  parameters:\n    - {path: material.C10, lower: %s, "
+            "upper: %s, start: 0.14}\n  measurements:\n    - {file: %s, kind: extension}\n")
+    for label, sigma in (("1e-300", "1e-300"), ("1e300", "1e300")):
+        csv = w._write(f"cal/sigma_{label}.csv", f"Q,dl,sigma\n0.05,0.38,{sigma}\n0.1,0.82,0.01\n")
+        cfg = w.config(f"cal_sigma_{label}.yaml", base % (0.05, 0.5, csv))
+        add(f"calibrate sigma {label}", ["calibrate", cfg, "--out", out / "cal_sigma"], absent=[out / "cal_sigma"],
+            words=("column sigma", sigma, "[1e-12, 1000]"))
+    csv = w._write("cal/ok.csv", "Q,dl,sigma\n0.05,0.38,0.01\n0.1,0.82,0.01\n")
+    cfg = w.config("cal_span.yaml", base % ("1e-12", 100, csv))
+    add("calibrate C10 bounds [1e-12, 100]", ["calibrate", cfg, "--out", out / "cal_span"], absent=[out / "cal_span"],
+        words=("calibration.parameters[0]", "material.C10", "at most 6"))
+    # ------------------------------------------------------------------ view with a display where no X server runs
+    display = _dead_display()
+    d = w.run_copy("dead_display")
+    add(f"view DISPLAY={display} with no X server", ["view", d, "--window-size", "320", "240"], expect=0,
+        env={"DISPLAY": display}, present=[d / "view.png"], words=("no display answers", display, "view.png"))
 
 
 # ============================================================================ running
@@ -567,6 +687,7 @@ def run_case(case: Case, cwd: Path, timeout: float, cli: list[str]) -> Outcome:
     """Run one case as ``whisker-opt ...`` (``cli``); check its exit status, stderr and the files."""
     before = {p: _tree_digest(p) for p in case.frozen}
     env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    env.update(case.env)
     t0 = time.perf_counter()
     try:
         proc = subprocess.run([*cli, *case.argv], capture_output=True, text=True, cwd=cwd, env=env,
@@ -601,6 +722,9 @@ def run_case(case: Case, cwd: Path, timeout: float, cli: list[str]) -> Outcome:
     for p, digest in before.items():
         if _tree_digest(p) != digest:
             o.problems.append(f"changed {p}")
+    for p in case.present:
+        if not Path(p).is_file() or Path(p).stat().st_size == 0:
+            o.problems.append(f"did not write {p}")
     return o
 
 
@@ -649,7 +773,8 @@ def main(argv: list[str] | None = None) -> int:
             "expected exit code": sum(o.rc == o.case.expect for o in outcomes),
             "exit 2": sum(o.rc == 2 for o in outcomes),
             "exit 3": sum(o.rc == 3 for o in outcomes),
-            "other exit": sum(o.rc not in (2, 3) for o in outcomes),
+            "exit 0 (a fallback)": sum(o.rc == 0 for o in outcomes),
+            "other exit": sum(o.rc not in (0, 2, 3) for o in outcomes),
             "one stderr line": sum(len(o.lines) == 1 for o in outcomes),
             "tracebacks": sum(o.traceback for o in outcomes),
             "aborts": sum(o.aborted for o in outcomes),

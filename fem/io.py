@@ -307,6 +307,12 @@ def atomic_write(path: str | Path, produce: Callable[[str], object]) -> Path:
     Returns
     -------
     Path
+
+    Raises
+    ------
+    OSError
+        The file cannot be written (a full disk, no permission): the error names ``path`` (a
+        failed write names no file of its own), and ``path`` is left as it was.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -321,6 +327,10 @@ def atomic_write(path: str | Path, produce: Callable[[str], object]) -> Path:
             os.close(fd)
         os.chmod(tmp, default_file_mode())  # mkstemp creates 0600; results are ordinary files
         os.replace(tmp, path)
+    except OSError as exc:
+        if exc.filename is None and exc.errno is not None:  # e.g. ENOSPC from a write
+            raise type(exc)(exc.errno, exc.strerror or os.strerror(exc.errno), str(path)) from None
+        raise
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import json
 import logging
+import os
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -149,8 +150,14 @@ class WhiskerMesh:
             arrays[f"fibre{i}__phase"] = np.array(f.phase)
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_name(path.name + ".tmp.npz")
-        np.savez_compressed(tmp, **arrays)
-        tmp.replace(path)
+        try:
+            np.savez_compressed(tmp, **arrays)
+            tmp.replace(path)
+        except OSError as exc:  # a full disk: no half-written file stays, and the error names the file
+            tmp.unlink(missing_ok=True)
+            if exc.filename is None and exc.errno is not None:
+                raise type(exc)(exc.errno, exc.strerror or os.strerror(exc.errno), str(path)) from None
+            raise
         return path
 
     @classmethod
@@ -342,5 +349,9 @@ def build_mesh(
         wm.report.seconds,
     )
     if cpath is not None:
-        wm.save(cpath)
+        try:
+            wm.save(cpath)
+        except OSError as exc:  # the cache is an optimisation: a full or read-only disk must not fail the mesh
+            logger.warning("mesh not cached (%s: %s); continuing without the cache", exc.filename or cpath,
+                           exc.strerror or exc)
     return wm

@@ -155,7 +155,7 @@ GOOD = "Q,a,delta,eps,sigma\n0.1,1,1,0.013,1e-4\n"
     (GOOD + "0.1,1,,0.013,1e-4\n", ("row 2 (line 3), column delta", "empty")),
     (GOOD + "0.1,1,40,0.013,1e-4\n", ("row 2 (line 3), column delta", "outside the allowed range (0, 30]")),
     (GOOD + "-0.1,1,1,0.013,1e-4\n", ("row 2 (line 3), column Q", "outside the allowed range [0, 1] MPa")),
-    (GOOD + "0.1,1,1,0.013,0\n", ("row 2 (line 3), column sigma", "outside the allowed range (0, inf)")),
+    (GOOD + "0.1,1,1,0.013,0\n", ("row 2 (line 3), column sigma", "outside the allowed range [1e-12, 1000]")),
 ])
 def test_a_malformed_file_is_one_line_naming_file_row_and_column(tmp_path, text, words):
     path = tmp_path / "resp.csv"

@@ -243,7 +243,7 @@ class CompensationMap:
             if d.get("kind") != "compensation_map":
                 raise KeyError("kind")
             return cls.from_dict(d)
-        except (ValueError, KeyError, TypeError, AttributeError) as exc:
+        except (ValueError, KeyError, TypeError, AttributeError, RecursionError) as exc:
             raise MapRangeError(f"{p}: not a readable compensation map ({type(exc).__name__}: {exc})") from None
 
 

@@ -20,17 +20,32 @@ makes the model's readings).
 Every malformed value is a :class:`MeasurementError` (a :class:`~whisker_opt.config.model.ConfigError`)
 of one line naming the file, the data row (1 = the first row under the header), its line in the
 file and the column: ``data/p3.csv: row 2 (line 5), column a: 1.5 is outside the allowed range (0, 1]``.
+
+An uncertainty ``sigma`` lies in [:data:`SIGMA_MIN`, :data:`SIGMA_MAX`] (the unit of the measured
+value): the fit divides each residual by it, so a σ of 1e-300 would make the weighted residuals
+overflow and one of 1e300 would make the observation weigh nothing. A σ below
+:data:`SIGMA_RELATIVE_WARN` times the measured value is allowed but warned about (no bench
+measurement is that precise: a unit slip, surely).
 """
 
 from __future__ import annotations
 
 import csv
+import logging
 import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable, Union
 
 from whisker_opt.config.model import ConfigError
+
+
+logger = logging.getLogger(__name__)
+
+#: Smallest and largest uncertainty a row may state, in the unit of its measured value.
+SIGMA_MIN, SIGMA_MAX = 1e-12, 1e3
+#: A sigma below this fraction of the measured value is warned about.
+SIGMA_RELATIVE_WARN = 1e-6
 
 
 class MeasurementError(ConfigError):
@@ -119,7 +134,7 @@ _RANGES: dict[str, tuple] = {
     "ref_Q": (0.0, 1.0, False, False, "MPa"),
     "dl": (-100.0, 100.0, False, False, "mm"), "a": (0.0, 1.0, True, False, "-"),
     "delta": (0.0, None, True, False, "mm"), "eps": (None, None, False, False, ""),
-    "sigma": (0.0, None, True, False, ""),
+    "sigma": (SIGMA_MIN, SIGMA_MAX, False, False, "in the unit of the measured value"),
     "trim": (0.0, None, False, True, "mm"), "trim_ref": (0.0, None, False, True, "mm"),
     "length": (0.0, None, True, False, "mm"), "length_ref": (0.0, None, True, False, "mm"),
 }
@@ -289,6 +304,12 @@ def read_measurements(path: str | Path, kind: str, *, length_L: float, max_delta
             out.append(Restore(name, where, trim_ref=rows.trim(n, line, row, "_ref", length_L), Q_ref=num("Q_ref"),
                                trim=rows.trim(n, line, row, "", length_L), Q=num("Q"), a=num("a"), delta=delta(),
                                sigma=num("sigma")))
+    for ob in out:
+        if ob.sigma < SIGMA_RELATIVE_WARN * abs(ob.value):
+            logger.warning("%s, column sigma: %g is %.1e of the measured value %g: a relative uncertainty below %g, "
+                           "which no bench measurement reaches; the fit will follow this observation alone (is sigma "
+                           "in the unit of the value?)", ob.where, ob.sigma, ob.sigma / abs(ob.value), ob.value,
+                           SIGMA_RELATIVE_WARN)
     return out
 
 

@@ -10,6 +10,8 @@ themselves rather than their text.
 
 from __future__ import annotations
 
+import logging
+import math
 from dataclasses import dataclass
 from typing import Any, Sequence
 
@@ -20,6 +22,14 @@ from whisker_opt.config.calibration import CalibrationConfig
 from whisker_opt.config.fields import field_range, field_unit, strip_optional
 from whisker_opt.config.messages import resolve
 from whisker_opt.config.model import ConfigError, WhiskerConfig, format_validation_error, with_key
+
+
+logger = logging.getLogger(__name__)
+
+#: Most decades the bounds of a positive parameter may span (upper/lower <= 10**this); a wider span is refused.
+MAX_DECADES = 6
+#: Decades above which the span is warned about.
+WARN_DECADES = 3
 
 
 @dataclass(frozen=True)
@@ -122,9 +132,41 @@ def resolve_parameters(section: CalibrationConfig, data: dict, source: str) -> t
         if start is None or not p.lower <= float(start) <= p.upper:
             raise ConfigError(f"{where}.start: the run file gives {p.path} = {start!r}, outside [lower, upper] = "
                               f"[{p.lower!r}, {p.upper!r}]; give a start or widen the bounds")
+        _check_span(where, p.path, float(p.lower), float(p.upper), float(start), unit, section.diff_step)
         out.append(ModelParameter(p.path, float(p.lower), float(p.upper), float(start), unit,
                                   info.description or ""))
     return tuple(out)
+
+
+def _check_span(where: str, path: str, lower: float, upper: float, start: float, unit: str,
+                diff_step: float) -> None:
+    """Refuse bounds of a positive parameter that span more than :data:`MAX_DECADES` decades; warn above
+    :data:`WARN_DECADES`, or when the Jacobian's step exceeds the start value.
+
+    The fit steps each parameter by ``diff_step * (upper - lower)`` on a linear scale: bounds such as
+    [1e-12, 100] for a value near 0.1 make that step twenty times the value itself, and the fit's
+    derivatives say nothing about the parameter (legal for the key, surely a slip).
+
+    Raises
+    ------
+    ConfigError
+        One line naming the parameter, its bounds and the allowed span.
+    """
+    step = diff_step * (upper - lower)
+    if lower > 0 and upper / lower > 10 ** MAX_DECADES:
+        raise ConfigError(
+            f"{where}: bounds [{lower:g}, {upper:g}] {unit} of {path} span {math.log10(upper / lower):.1f} decades; at "
+            f"most {MAX_DECADES} are allowed (upper/lower <= 1e{MAX_DECADES}): the fit steps the parameter by "
+            f"calibration.diff_step x (upper - lower) = {step:.3g} {unit}, {step / abs(start):.3g} times its start "
+            f"{start:g}, and cannot resolve it; bound it around a plausible value")
+    if lower > 0 and upper / lower > 10 ** WARN_DECADES:
+        logger.warning("%s: bounds [%g, %g] %s of %s span %.1f decades: the fit steps the parameter on a linear "
+                       "scale, by %.3g %s; narrow them if the fit ends at a bound or far from the start", where,
+                       lower, upper, unit, path, math.log10(upper / lower), step, unit)
+    elif start != 0 and step > abs(start):
+        logger.warning("%s: the fit's finite-difference step calibration.diff_step x (upper - lower) = %.3g %s of "
+                       "%s exceeds its start %g: its derivatives will be coarse; narrow the bounds [%g, %g] or "
+                       "lower calibration.diff_step", where, step, unit, path, start, lower, upper)
 
 
 def fit_values(parameters: Sequence[ModelParameter], values: Sequence[float]) -> dict[str, float]:

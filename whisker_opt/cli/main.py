@@ -3,8 +3,9 @@
 Every error prints one line to stderr, ``whisker-opt <command>: error: <message>``, and no
 traceback: a bad input (an option value, a config, an output folder, a run directory) exits
 with status 2 before anything is computed, as does a file-system refusal (a name too long,
-no permission, a read-only or full disk); a computation that fails on valid inputs (a scene
-that does not converge, a mesh that cannot be made) exits with status 3; a calibration that
+no permission, a read-only disk); a computation that fails on valid inputs (a scene that does
+not converge, a mesh that cannot be made, workers or the dask scheduler lost during a run, a
+disk that fills up while results are written: the line names the file) exits with status 3; a calibration that
 wrote its outputs but did not converge exits with status 4
 (:data:`whisker_opt.cli.calibrate.NOT_CALIBRATED`). Any other exception is a bug and keeps its
 traceback.
@@ -16,7 +17,9 @@ time and ETA (:mod:`whisker_opt.output.progress`); ``--no-progress`` turns both 
 ``-v/--verbose`` (counted) and ``--no-progress`` are accepted before or after the command
 (``whisker-opt -v run CFG`` and ``whisker-opt run CFG -v``; the counts add up). ``-v`` shows
 INFO and ``-vv`` DEBUG records while the chatty libraries of :data:`QUIET_LOGGERS` stay at
-WARNING; ``-vvv`` lets every logger through.
+WARNING (with or without ``-v``: a filter on the console's handlers, so a library that sets its
+own loggers' levels when it is imported, as distributed does, stays quiet too); ``-vvv`` lets
+every logger through.
 """
 
 from __future__ import annotations
@@ -41,11 +44,30 @@ _FILE_SYSTEM_ERRNOS = frozenset(
     getattr(errno, name) for name in ("EACCES", "EPERM", "EROFS", "ENOSPC", "EDQUOT", "ENAMETOOLONG", "ELOOP",
                                       "ENOTDIR", "EISDIR", "EEXIST", "EMLINK", "EFBIG") if hasattr(errno, name)
 )
+#: Of those, a disk or quota that ran out while writing: the inputs were valid (exit status 3).
+_NO_SPACE_ERRNOS = frozenset(getattr(errno, name) for name in ("ENOSPC", "EDQUOT", "EFBIG") if hasattr(errno, name))
 
 
 def _file_system_message(exc: OSError) -> str:
     names = [str(n) for n in (exc.filename, exc.filename2) if n is not None]
-    return f"{' -> '.join(names)}: {exc.strerror}" if names and exc.strerror else str(exc)
+    text = f"{' -> '.join(names)}: {exc.strerror}" if names and exc.strerror else str(exc)
+    if exc.errno in _NO_SPACE_ERRNOS:
+        text += ("; it was not written (files are replaced whole, so the previous version, if any, is intact): free "
+                 "some space and run the command again (`whisker-opt resume RUN_DIR` continues a run)")
+    return text
+
+
+class _QuietLibraries(logging.Filter):
+    """On a console handler: drops records below WARNING of the loggers in :data:`QUIET_LOGGERS`.
+
+    A filter on the handler, not a level on the loggers, because a library may set its loggers'
+    levels when it is first imported (distributed sets its own to INFO), after the console was set up.
+    """
+
+    def filter(self, record: logging.LogRecord) -> bool:  # noqa: D102 - logging.Filter.filter
+        if record.levelno >= logging.WARNING:
+            return True
+        return not any(record.name == n or record.name.startswith(n + ".") for n in QUIET_LOGGERS)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -115,10 +137,15 @@ def _set_up_logging(verbose: int) -> None:
     or DEBUG of every logger (``-vvv``)."""
     level = logging.WARNING - 10 * min(verbose, 2)
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
-    logging.getLogger().setLevel(level)  # also when a handler was installed before (basicConfig then does nothing)
-    if verbose >= 1:
-        for name in QUIET_LOGGERS:
-            logging.getLogger(name).setLevel(logging.WARNING if verbose <= 2 else logging.NOTSET)
+    root = logging.getLogger()
+    root.setLevel(level)  # also when a handler was installed before (basicConfig then does nothing)
+    for name in QUIET_LOGGERS:
+        logging.getLogger(name).setLevel(logging.WARNING if verbose <= 2 else logging.NOTSET)
+    for handler in root.handlers:  # one filter per handler, also when main() runs again in this process
+        for old in [f for f in handler.filters if isinstance(f, _QuietLibraries)]:
+            handler.removeFilter(old)
+        if verbose <= 2:
+            handler.addFilter(_QuietLibraries())
 
 
 class Terminated(KeyboardInterrupt):
@@ -183,7 +210,7 @@ def main(argv: list[str] | None = None) -> int:
         if exc.errno not in _FILE_SYSTEM_ERRNOS:
             raise
         print(f"whisker-opt {args.command}: error: {one_line(_file_system_message(exc))}", file=sys.stderr)
-        return 2
+        return 3 if exc.errno in _NO_SPACE_ERRNOS else 2
     except KeyboardInterrupt as exc:
         signum = getattr(exc, "signum", signal.SIGINT)
         hint = ("; continue from its last checkpoint with `whisker-opt resume RUN_DIR` (or run it again if no "

@@ -17,8 +17,10 @@ from pathlib import Path
 from whisker_opt.config.model import load_config
 from whisker_opt.optimise.checkpoint import (
     CHECKPOINT_NAME,
+    OLDER_NAME,
     OlderFormatError,
     RunDirectoryError,
+    dangling_link,
     has_older_checkpoint,
     older_format_message,
 )
@@ -44,6 +46,8 @@ def _optimiser_json(run_dir: Path) -> None:
     except json.JSONDecodeError as exc:
         raise RunDirectoryError(f"{path}: damaged (not valid JSON: {exc.msg} at line {exc.lineno} "
                                 f"column {exc.colno})") from None
+    except RecursionError:
+        raise RunDirectoryError(f"{path}: damaged (JSON nested too deeply to read)") from None
     except OSError as exc:
         raise RunDirectoryError(f"{path}: cannot be read ({exc.strerror or exc})") from None
     if not isinstance(meta, dict):
@@ -93,7 +97,9 @@ def check_run_dir(run_dir: Path, need_config: bool = False, load_state: bool = F
     OlderFormatError
         A checkpoint of an earlier version, unless ``allow_older``.
     RunDirectoryError
-        Not a folder, or a damaged checkpoint or ``optimiser.json``.
+        Not a folder, a damaged checkpoint or ``optimiser.json``, or a ``checkpoint.json`` or
+        ``checkpoint.pkl`` that is a symbolic link leading nowhere (the run's state is missing: it
+        is not started again from generation 0).
     ConfigError
         A damaged ``config.yaml``.
     """
@@ -104,6 +110,10 @@ def check_run_dir(run_dir: Path, need_config: bool = False, load_state: bool = F
         raise FileNotFoundError(f"{run_dir}: no such run directory")
     if not run_dir.is_dir():
         raise RunDirectoryError(f"{run_dir}: not a folder; give a run directory written by `whisker-opt run`")
+    for name in (CHECKPOINT_NAME, OLDER_NAME):
+        dangling = dangling_link(run_dir / name)
+        if dangling:
+            raise RunDirectoryError(dangling)
     older = has_older_checkpoint(run_dir)
     if older and not allow_older:
         raise OlderFormatError(older_format_message(run_dir))

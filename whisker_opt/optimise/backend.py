@@ -3,18 +3,20 @@
 from __future__ import annotations
 
 from whisker_opt.config.optimiser import ExecutorConfig
-from whisker_opt.optimise.dask_executor import DaskExecutor, connect_scheduler
+from whisker_opt.optimise.dask_executor import DaskExecutor, probe_scheduler
 from whisker_opt.optimise.executors import Evaluator, ProcessExecutor, SerialExecutor, _BaseExecutor
 
 
 def preflight(cfg: ExecutorConfig) -> None:
     """Check that the executor of ``cfg`` can start, before a run writes anything.
 
-    A dask scheduler given by address must be reachable (:func:`connect_scheduler`); the
-    other executors start their workers on this machine.
+    A dask scheduler given by address must answer as one within the connection timeout
+    (:func:`~whisker_opt.optimise.dask_executor.probe_scheduler`, which raises
+    :class:`~whisker_opt.optimise.dask_executor.SchedulerUnreachable`); the other executors
+    start their workers on this machine.
     """
     if cfg.kind == "dask" and cfg.scheduler_address:
-        connect_scheduler(cfg.scheduler_address).close()
+        probe_scheduler(cfg.scheduler_address)
 
 
 def make_executor(cfg: ExecutorConfig, evaluator: Evaluator) -> _BaseExecutor:

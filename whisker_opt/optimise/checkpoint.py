@@ -78,6 +78,34 @@ def older_format_message(run_dir: Path) -> str:
             f"convert it with `whisker-opt resume {run_dir} {TRUST_FLAG}`")
 
 
+def dangling_link(path: Path) -> str | None:
+    """The refusal of a state file that is a symbolic link leading nowhere, or None when it is not one.
+
+    Such a link in place of ``checkpoint.json`` (or ``checkpoint.pkl``) means the run's state is
+    missing, not that the run never started: a run directory holding one is refused, never run
+    again from generation 0.
+
+    Parameters
+    ----------
+    path : Path
+
+    Returns
+    -------
+    str or None
+        One line naming the path and what it leads to.
+    """
+    path = Path(path)
+    if not path.is_symlink() or path.exists():
+        return None
+    try:
+        target = os.readlink(path)
+    except OSError:
+        target = "?"
+    return (f"{path}: a symbolic link to {target!r}, which does not exist (or is a loop): the run's state is "
+            "missing, so the run is not started again from generation 0; restore what the link leads to, or delete "
+            "the run directory (`whisker-opt run CONFIG --out DIR --overwrite`) to start afresh")
+
+
 def _looks_complete(path: Path) -> bool:
     """Cheap check that ``path`` holds a whole JSON object (``{`` first, ``}`` last but for a newline)."""
     try:
@@ -160,6 +188,11 @@ def _read(path: Path) -> tuple[GAState, dict[str, Any]]:
         The file is not a readable whisker-opt checkpoint (the message names it and the damage).
     """
     try:
+        dangling = dangling_link(path)
+        if dangling and path.name == PREVIOUS_NAME:
+            raise _damaged(path, f"a symbolic link to {os.readlink(path)!r}, which does not exist")
+        if dangling:
+            raise RunDirectoryError(dangling)
         if not path.is_file():
             raise _damaged(path, "not a regular file")
         data = path.read_bytes()

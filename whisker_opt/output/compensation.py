@@ -10,6 +10,7 @@ fidelity preset (``fidelity = {"preset": name, ...}``,
 from __future__ import annotations
 
 import csv
+import io
 import json
 import logging
 from pathlib import Path
@@ -20,6 +21,8 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.ticker import MaxNLocator, MultipleLocator
 
+from whisker_opt.output.storage import atomic_write_bytes, atomic_write_text
+
 logger = logging.getLogger(__name__)
 
 #: The recovery rate the compensation aims at [%] (drawn on the recovery panel).
@@ -29,6 +32,13 @@ _TABLE_COLUMNS = ("trim_mm", "Q_MPa", "recovery_rate_pct", "compensation_error_p
                   "at_bound", "Q_analytic_MPa", "Q_minus_Q_analytic_MPa", "analytic_root_found",
                   "eps_o_mean", "eps_b_mean", "eps_c_mean", "delta_ref_mm", "eps_o_ref", "eps_b_ref", "eps_c_ref",
                   "recovery_rate_ref_pct", "compensation_error_ref_pct")
+
+
+def _save_png(fig: Figure, path: Path) -> None:
+    """``fig`` as a PNG written whole (:func:`whisker_opt.output.storage.atomic_write_bytes`)."""
+    png = io.BytesIO()
+    fig.savefig(png, format="png", dpi=120)
+    atomic_write_bytes(path, png.getvalue())
 
 
 def _fmt(v) -> str:
@@ -169,16 +179,16 @@ def write_table(path_dir, table, delta_ref: float | None = 1.0,
     pm = table.measures_at(dref) if dref is not None else {
         k: nan for k in ("eps_target", "eps_broken", "eps_compensated", "recovery_rate", "compensation_error")}
     stiff = tuple(f"stiffness_{w}_N_per_mm" for w in "obc") if forces else ()
-    with paths["csv"].open("w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(_TABLE_COLUMNS + stiff)
-        for i, r in enumerate(table.rows):
-            w.writerow([_fmt(v) for v in (
-                r.trim, r.Q, r.recovery_rate, r.compensation_error, r.gap_before, r.gap_after, r.at_bound,
-                r.Q_analytic, r.Q_difference, r.analytic_root_found, means["target"][i], means["broken"][i],
-                means["compensated"][i], dref if dref is not None else float("nan"), pm["eps_target"][i],
-                pm["eps_broken"][i], pm["eps_compensated"][i], pm["recovery_rate"][i], pm["compensation_error"][i],
-                *(forces[i][k] for k in stiff))])
+    buf = io.StringIO(newline="")  # made in memory and written whole: a full disk leaves no half-written file
+    w = csv.writer(buf)
+    w.writerow(_TABLE_COLUMNS + stiff)
+    for i, r in enumerate(table.rows):
+        w.writerow([_fmt(v) for v in (
+            r.trim, r.Q, r.recovery_rate, r.compensation_error, r.gap_before, r.gap_after, r.at_bound,
+            r.Q_analytic, r.Q_difference, r.analytic_root_found, means["target"][i], means["broken"][i],
+            means["compensated"][i], dref if dref is not None else float("nan"), pm["eps_target"][i],
+            pm["eps_broken"][i], pm["eps_compensated"][i], pm["recovery_rate"][i], pm["compensation_error"][i],
+            *(forces[i][k] for k in stiff))])
     meta = {
         "design": table.design.as_dict(), "Q_i_MPa": table.Q_i, "scalar": table.scalar,
         "deltas_mm": [float(d) for d in table.deltas], "monotone": table.is_monotone(), "delta_ref_mm": dref,
@@ -190,9 +200,10 @@ def write_table(path_dir, table, delta_ref: float | None = 1.0,
     }
     if fidelity:
         meta["fidelity"] = dict(fidelity)
-    paths["json"].write_text(json.dumps(meta, indent=2))
+    atomic_write_text(paths["csv"], buf.getvalue())
+    atomic_write_text(paths["json"], json.dumps(meta, indent=2))
     fig = table_figure(table, dref, pm["recovery_rate"] if dref is not None else None, fidelity)
-    fig.savefig(paths["png"], dpi=120)
+    _save_png(fig, paths["png"])
     logger.info("wrote compensation table to %s", out)
     return paths
 
@@ -258,13 +269,14 @@ def write_comparison(path_dir, comparison, fidelity: Mapping[str, Any] | None = 
     out.mkdir(parents=True, exist_ok=True)
     paths = {"csv": out / "sensitivity_comparison.csv", "png": out / "sensitivity_comparison.png"}
     rel = comparison.relative_difference
-    with paths["csv"].open("w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(("a", "Q_MPa", "beam_per_mm", "fe_per_mm", "rel_diff"))
-        for i, ai in enumerate(comparison.a):
-            for j, qj in enumerate(comparison.Q):
-                w.writerow([_fmt(v) for v in (ai, qj, comparison.beam[i, j], comparison.fe[i, j], rel[i, j])])
-    comparison_figure(comparison, fidelity, delta_ref).savefig(paths["png"], dpi=120)
+    buf = io.StringIO(newline="")
+    w = csv.writer(buf)
+    w.writerow(("a", "Q_MPa", "beam_per_mm", "fe_per_mm", "rel_diff"))
+    for i, ai in enumerate(comparison.a):
+        for j, qj in enumerate(comparison.Q):
+            w.writerow([_fmt(v) for v in (ai, qj, comparison.beam[i, j], comparison.fe[i, j], rel[i, j])])
+    atomic_write_text(paths["csv"], buf.getvalue())
+    _save_png(comparison_figure(comparison, fidelity, delta_ref), paths["png"])
     logger.info("wrote sensitivity comparison to %s", out)
     return paths
 
@@ -272,6 +284,10 @@ def write_comparison(path_dir, comparison, fidelity: Mapping[str, Any] | None = 
 # ----------------------------------------------------------------------------- the map Q(Δ, a)
 _MAP_COLUMNS = ("trim_mm", "a", "Q_MPa", "recovery_rate_pct", "compensation_error_pct", "gap_before", "gap_after",
                 "at_bound", "n_responses")
+
+
+#: Font size [pt] of the cell values, the ticks and the legend of the compensation map.
+MAP_LABEL_PT = 9
 
 
 def _edges(x: np.ndarray) -> np.ndarray:
@@ -284,11 +300,13 @@ def map_figure(cmap) -> Figure:
     """The figure of :func:`write_map`: heatmaps of Q [MPa] and of the recovery rate [%] over Δ × a.
 
     Cells at a bound (trims > 0) are marked: ▼ Q = 0 (vent fully), ▲ Q = Q_i; each cell carries
-    its value. ``cmap`` is a :class:`whisker_opt.analysis.compensation_map.CompensationMap`.
+    its value in :data:`MAP_LABEL_PT` points (the figure grows with the number of cells so that the
+    labels fit). ``cmap`` is a :class:`whisker_opt.analysis.compensation_map.CompensationMap`.
     """
-    fig = Figure(figsize=(11.0, 4.8), layout="constrained")
-    axes = fig.subplots(1, 2, sharey=True)
     tr, a = cmap.trims, cmap.a
+    # ~0.75 in a cell across (a 9 pt "0.123" is 0.4 in), 0.45 in down; at least the former 11 x 4.8 in
+    fig = Figure(figsize=(max(11.0, 2 * (1.6 + 0.75 * len(tr))), max(4.8, 2.2 + 0.45 * len(a))), layout="constrained")
+    axes = fig.subplots(1, 2, sharey=True)
     bound = (cmap.at_bound != "") & (tr[:, None] > 0)  # (n_t, n_a)
     panels = ((cmap.Q, "viridis", "vent pressure Q [MPa]", (0.0, cmap.Q_i), "{:.3f}"),
               (cmap.recovery_rate, "magma", "recovery rate [%]", (min(0.0, float(np.nanmin(cmap.recovery_rate)))
@@ -302,28 +320,28 @@ def map_figure(cmap) -> Figure:
             for j, aj in enumerate(a):
                 if np.isfinite(z[i, j]):
                     frac = (z[i, j] - lo) / (hi - lo) if hi > lo else 0.5
-                    ax.text(ti, aj, fmt.format(z[i, j]), ha="center", va="center", fontsize=6,
+                    ax.text(ti, aj, fmt.format(z[i, j]), ha="center", va="center", fontsize=MAP_LABEL_PT,
                             color="white" if frac < 0.55 else "black")
         for kind, marker, text in (("lower", "v", "at its bound: Q = 0 (vent fully)"),
                                    ("upper", "^", f"at its bound: Q = Q_i = {cmap.Q_i:g} MPa")):
             m = bound & (cmap.at_bound == kind)
             if m.any():
                 ii, jj = np.nonzero(m)
-                ax.plot(tr[ii], a[jj] + 0.3 * np.min(np.diff(a)), marker, ms=5, mfc="none", mec="C3", mew=1.0,
+                ax.plot(tr[ii], a[jj] + 0.33 * np.min(np.diff(a)), marker, ms=6, mfc="none", mec="C3", mew=1.2,
                         ls="none", label=text)
         ax.set_xlabel("trim Δ [mm]")
         ax.set_xticks(tr)
-        ax.tick_params(axis="x", labelsize=7)
+        ax.tick_params(axis="both", labelsize=MAP_LABEL_PT)
         ax.set_yticks(a)
     if tr[0] == 0.0 and np.isnan(cmap.recovery_rate[0]).all():
         axes[1].text(0.0, float(np.mean(a)), "Δ = 0: intact, nothing to recover", rotation=90, ha="center",
-                     va="center", fontsize=7, color="0.3")
+                     va="center", fontsize=MAP_LABEL_PT, color="0.3")
     axes[0].set_ylabel("contact ratio a [-]")
-    axes[0].set_title("vent pressure Q(Δ, a)", fontsize=9)
-    axes[1].set_title("recovery rate on the curve mean (100 % = intact restored)", fontsize=9)
+    axes[0].set_title("vent pressure Q(Δ, a)", fontsize=10)
+    axes[1].set_title("recovery rate on the curve mean (100 % = intact restored)", fontsize=10)
     handles, labels = axes[0].get_legend_handles_labels()
     if handles:
-        fig.legend(handles, labels, loc="outside lower center", ncol=2, fontsize=7)
+        fig.legend(handles, labels, loc="outside lower center", ncol=2, fontsize=MAP_LABEL_PT)
     fig.suptitle(f"Compensation map: {cmap.design_text}, intact at Q_i = {cmap.Q_i:g} MPa at the same a\n"
                  f"{_preset_text(cmap.fidelity)}; Brent on [0, Q_i], xatol = {cmap.xatol:g} MPa", fontsize=10)
     return fig

@@ -83,7 +83,7 @@ class StudyJournal:
         why = ""
         try:
             doc = json.loads(self.path.read_text(encoding="utf-8"))
-        except (OSError, ValueError) as exc:
+        except (OSError, ValueError, RecursionError) as exc:  # RecursionError: nested too deeply
             why = f"unreadable ({getattr(exc, 'strerror', None) or type(exc).__name__})"
             doc = None
         if doc is not None:

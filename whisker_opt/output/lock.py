@@ -12,6 +12,10 @@ most a stale ``run.lock`` naming a dead process, which the next writer takes ove
 that already holds the lock of a folder may take it again (a workflow calling another): the
 inner lock is then a no-op. The holder removes the file when it releases the lock, after
 checking, whenever it takes the lock, that the file it locked is still the one in the folder.
+
+The lock file is opened without following a symbolic link: a ``run.lock`` that is a link (in a
+run directory someone else made, it could lead to any file the user may write, which taking
+the lock would overwrite) is refused with :class:`UnsafeLockFile`.
 """
 
 from __future__ import annotations
@@ -26,6 +30,8 @@ import time
 from pathlib import Path
 from types import TracebackType
 
+from whisker_opt.output.storage import UnsafeLink
+
 logger = logging.getLogger(__name__)
 
 LOCK_NAME = "run.lock"
@@ -33,6 +39,10 @@ LOCK_NAME = "run.lock"
 
 class RunDirectoryBusy(Exception):
     """Another process writes into the run directory (a user error: wait, or use another folder)."""
+
+
+class UnsafeLockFile(UnsafeLink):
+    """``run.lock`` is a symbolic link, which taking the lock would write through (a user error)."""
 
 
 def _holder_text(command: str) -> str:
@@ -70,6 +80,8 @@ class RunDirLock:
     ------
     RunDirectoryBusy
         On entry, when another process holds the lock.
+    UnsafeLockFile
+        On entry, when ``run.lock`` is a symbolic link.
     FileNotFoundError
         On entry, when ``run_dir`` is not a folder.
     """
@@ -89,7 +101,15 @@ class RunDirLock:
         if not self.run_dir.is_dir():
             raise FileNotFoundError(f"{self.run_dir}: no such run directory")
         for _ in range(20):
-            fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
+            try:
+                fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC | os.O_NOFOLLOW, 0o644)
+            except OSError as exc:
+                if exc.errno != errno.ELOOP and not self.path.is_symlink():
+                    raise
+                raise UnsafeLockFile(
+                    f"{self.path}: a symbolic link (to {os.readlink(self.path)!r}), not a lock file; taking the lock "
+                    f"would write into what it leads to: remove the link (nothing else of {self.run_dir} uses it)"
+                ) from None
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except OSError as exc:

@@ -104,10 +104,83 @@ def remove_temporaries(run_dir: Path) -> list[Path]:
     return removed
 
 
-def atomic_write_bytes(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` atomically (temp file in the same folder, fsync, os.replace)."""
+class UnsafeLink(Exception):
+    """A file of a run directory that the program writes into is a symbolic link (a user error, exit status 2).
+
+    In a run directory someone else made, the link could lead to any file the user may write.
+    """
+
+
+class _LogFile(logging.StreamHandler):
+    """A log file's handler: a record it cannot write (a full disk) is dropped without a word, and
+    closing it closes its file.
+
+    :class:`logging.Handler` would print a traceback for each such record on the console; the
+    command's own one-line error (its next result file cannot be written either) says it instead.
+    """
+
+    dropped = 0
+
+    def handleError(self, record: logging.LogRecord) -> None:  # noqa: D102, N802 - logging.Handler.handleError
+        self.dropped += 1
+
+    def close(self) -> None:  # noqa: D102 - logging.Handler.close
+        try:
+            super().close()
+        finally:
+            try:
+                self.stream.close()
+            except OSError:  # its last flush may meet a full disk
+                pass
+
+
+def log_file_handler(path: Path) -> logging.Handler:
+    """A logging handler appending to ``path`` (created when missing).
+
+    The file is opened without following a symbolic link; a record that cannot be written (a
+    full disk) is dropped without a traceback on the console.
+
+    Raises
+    ------
+    UnsafeLink
+        ``path`` is a symbolic link (appending would write into what it leads to).
+    """
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_CLOEXEC | os.O_NOFOLLOW, 0o666)
+    except OSError:
+        if not path.is_symlink():
+            raise
+        raise UnsafeLink(f"{path}: a symbolic link (to {os.readlink(path)!r}), not a log file; appending the log "
+                         "would write into what it leads to: remove the link") from None
+    return _LogFile(os.fdopen(fd, "a", encoding="utf-8"))
+
+
+def named_os_error(exc: OSError, path: Path) -> OSError:
+    """``exc`` itself when it names a file, else the same error naming ``path``.
+
+    A write that fails for want of space (``ENOSPC``) or quota raises an :class:`OSError` naming
+    no file; the one-line message of the command must say which file could not be written.
+    """
+    if exc.filename is not None or exc.errno is None:
+        return exc
+    return type(exc)(exc.errno, exc.strerror or os.strerror(exc.errno), str(path))
+
+
+def atomic_write_bytes(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` atomically (temp file in the same folder, fsync, os.replace).
+
+    Raises
+    ------
+    OSError
+        The file cannot be written (a full disk, no permission); it names ``path``, and ``path``
+        is left as it was (no temporary file stays behind).
+    """
+    path = Path(path)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    except OSError as exc:
+        raise named_os_error(exc, path) from None
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
@@ -115,11 +188,13 @@ def atomic_write_bytes(path: Path, data: bytes) -> None:
             os.fsync(fh.fileno())
         os.chmod(tmp, default_file_mode())  # mkstemp creates 0600; results are ordinary files
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         try:
             os.unlink(tmp)
         except OSError:
             pass
+        if isinstance(exc, OSError):
+            raise named_os_error(exc, path) from None
         raise
 
 
