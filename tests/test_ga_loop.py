@@ -258,7 +258,9 @@ def test_evaluator_receives_plain_gene_dict():
 
 def _run_with_gauge_factor(target, strain, xi, gens=30):
     cfg = make_cfg(pop=20, gens=gens, target=target)
-    cfg = cfg.model_copy(update={"stopping": cfg.stopping.model_copy(update={"target_strain": strain})})
+    # the resolution rule off: these runs test the target rule below the resolution
+    cfg = cfg.model_copy(update={"stopping": cfg.stopping.model_copy(update={"target_strain": strain,
+                                                                           "resolution_generations": 0})})
     ga = GeneticAlgorithm(cfg, 5)
     state = ga.new_state()
     state.extra["fidelity"] = {"preset": "coarse", "f1_resolution": 2e-3, "calibration": xi}
@@ -298,3 +300,65 @@ def test_without_a_gauge_factor_the_uncalibrated_columns_stay_empty():
     ga, state = run(cfg, AnalyticFitness())
     assert all(r["f1_uncalibrated"] is None for r in state.records)
     assert best_design(state)["F_p_uncalibrated"] is None
+
+
+# ----------------------------------------------------------------------------- the resolution rule
+COARSE = {"preset": "coarse", "f1_resolution": 2e-3, "calibration": 3.9}
+
+
+def _resolution_run(n, gens=30, offset=0.0, fidelity=COARSE):
+    cfg = make_cfg(pop=12, gens=gens)
+    cfg = cfg.model_copy(update={"stopping": cfg.stopping.model_copy(update={"resolution_generations": n})})
+    ga = GeneticAlgorithm(cfg, 4)
+    state = ga.new_state()
+    if fidelity:
+        state.extra["fidelity"] = dict(fidelity)
+    with SerialExecutor(AnalyticFitness(scale=0.2, offset=offset)) as ex:
+        ga.run(state, ex)
+    return state
+
+
+@pytest.mark.parametrize("n", [1, 5])
+def test_resolution_rule_ends_the_run_after_n_generations_of_best_f1_below_the_resolution(n):
+    state = _resolution_run(n)
+    f1 = [r["best_f1"] for r in state.logbook]
+    first = next(g for g, v in enumerate(f1) if v < 2e-3)
+    assert first > 0, f1  # the initial population is above it: the rule waits for the GA
+    assert state.stop_reason == "resolution" and state.generation == first + n - 1, f1
+    assert all(v < 2e-3 for v in f1[first:])
+    detail = state.extra["stop_detail"]
+    assert detail.startswith("resolution: ") and f"stopping.resolution_generations = {n}" in detail
+    assert f"({first}..{state.generation};" in detail and "preset coarse" in detail
+    # in the strain of target_fp first (uncalibrated by default), calibrated beside it
+    assert "f1 resolution ~5.13e-4 uncalibrated (2e-3 calibrated) of preset coarse" in detail
+
+
+def test_resolution_rule_is_off_at_0_above_the_resolution_and_without_a_fidelity():
+    assert _resolution_run(0, gens=12).stop_reason == "max_generations"
+    assert _resolution_run(5, gens=12, offset=2.5e-3).stop_reason == "max_generations"  # f1 >= 2.5e-3 > 2e-3
+    assert _resolution_run(5, gens=12, fidelity=None).stop_reason == "max_generations"
+
+
+def test_resolution_stop_is_said_in_the_log_report_and_best_json(tmp_path, caplog):
+    import json
+    import logging
+
+    from whisker_opt.optimise.runner import report, run_optimisation
+
+    cfg = OptimiserConfig.model_validate({"ga": {"population": 12}, "stopping": {
+        "max_generations": 40, "target_fp": 1e-6, "resolution_generations": 3}, "executor": {"kind": "serial"}})
+    run_dir = tmp_path / "run"
+    with caplog.at_level(logging.INFO, logger="whisker_opt"):
+        s = run_optimisation(cfg, run_dir, AnalyticFitness(scale=0.2), seed=4, progress=False, fidelity=COARSE)
+    assert s.stop_reason == "resolution"
+    warned = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
+    # before the run: target_fp 1e-6 uncalibrated (3.9e-6 calibrated) lies below the resolution
+    assert any(m.startswith("stopping.target_fp = 1e-06 (uncalibrated strain) lies below the f1 resolution")
+               for m in warned), warned
+    assert any(m.startswith("run stopped by resolution: ") for m in warned), warned
+    best = json.loads((run_dir / "best.json").read_text())
+    assert best["stop_reason"] == "resolution" and best["stop_detail"].startswith("resolution: the best design's f1")
+    text = report(run_dir)
+    assert "status         finished: resolution" in text
+    assert "stopped by     resolution: the best design's f1" in text
+    assert "WARNING stopping.target_fp = 1e-06" in text and "WARNING best f1" in text

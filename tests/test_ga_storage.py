@@ -86,7 +86,7 @@ def test_report_prints_the_summary_and_rebuilds_plots(finished_run):
     (run_dir / "convergence.png").unlink()
     text = report(run_dir)
     assert (run_dir / "convergence.png").is_file()
-    assert "finished: max_generations" in text and "best design" in text and "hall of fame" in text
+    assert "finished: max_generations" in text and "best design" in text and "best designs" in text
     assert "mesh_failed" in text
     for name in GENE_NAMES:
         assert f"{s.best['genes'][name]:.6g}" in text

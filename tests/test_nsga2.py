@@ -224,8 +224,9 @@ def test_spread_keeps_both_ends_and_the_count():
 
 
 def test_finer_preset():
-    assert finer_preset("coarse") == "default" and finer_preset("default") == "fine"
-    assert finer_preset("fine") is None and finer_preset(None) is None
+    assert finer_preset("coarse") == "default" and finer_preset("default") == "level2"
+    assert finer_preset("level2") == "fine" and finer_preset("fine") == "level3"
+    assert finer_preset("level4") is None and finer_preset(None) is None
 
 
 @pytest.mark.parametrize("data, key, words", [

@@ -641,7 +641,7 @@ def test_each_panel_has_its_own_colour_range_by_default(tmp_path, box):
     steps = colours.panel_clims(by_panel, f, 1.0)
     assert steps[2] == colours.shared_clim(by_panel[2], f, 1.0) and steps[2] != steps[0]
     for mode in colours.CLIM_MODES:
-        p, set_step = rendering.interactive_plotter(series, None, off_screen=True, window_size=(300, 540),
+        p, set_step = rendering.interactive_plotter(series, "strain", off_screen=True, window_size=(300, 540),
                                                     clim_mode=mode, start=0)
         set_step(3)
         expected = steps if mode == "panel" else [colours.shared_clim(by_panel[0] + by_panel[1] + by_panel[2],
@@ -704,7 +704,8 @@ def test_picture_states_units_ranges_zero_points_and_markers(tmp_path, box, monk
     views = vstate.load_views(c, ".")
     heads = [overlays.panel_heading(v).split("\n") for v in views]
     assert heads[0] == ["Intact: full length, not trimmed, chamber pressure Q = 0.03 MPa",
-                        "deflected: contact pushed sideways by δ = 3 mm"]
+                        "deflected: contact pushed sideways by δ = 3 mm",
+                        "fidelity preset not recorded"]  # these files carry no preset, and no config.yaml is there
     assert heads[1][0] == "Trimmed, uncompensated: tip cut off by Δ = 2 mm, chamber pressure still Q = 0.03 MPa"
     assert heads[2][0] == "Trimmed, vented: tip cut off by Δ = 2 mm, chamber vented (Q = 0 MPa)"
     rest = vstate.load_views(c, ".", files=c.delta_steps(".")[0][1])
@@ -729,3 +730,67 @@ def test_picture_states_units_ranges_zero_points_and_markers(tmp_path, box, monk
     assert vlabels.text_font() is not None
     monkeypatch.setattr(vlabels, "text_font", lambda: None)
     assert vlabels.shown_text("gauge ε at δ = 2 mm") == "gauge eps at delta = 2 mm"
+
+
+# ------------------------------------------------------------------ the push's strain, fidelity in titles, the mesh view
+def test_deflected_panels_default_to_the_strain_the_push_added(tmp_path, box):
+    run = tmp_path / "sim"
+    _write_triple(run, box)
+    c = rundir.discover(run)
+    views = vstate.load_views(c, ".")  # every scene deflected
+    assert vstate.default_field(views) == fields.STRAIN_CHANGE_FIELD
+    for v in views:
+        onset = vstate.prepare_state(c.select(".", [v.info.name], "pressurised")[0].path)
+        want = v.grid.point_data[fields.STRAIN_FIELD] - onset.grid.point_data[fields.STRAIN_FIELD]
+        np.testing.assert_allclose(v.grid.point_data[fields.STRAIN_CHANGE_FIELD], want, atol=1e-15)
+        assert np.abs(want).max() > 1e-4
+    # pressurised panels: the pressure's own strain is taken off; vented: the change is the total
+    pre = np.asarray(vstate.load_views(c, ".", state="pressurised")[0].grid.point_data[fields.STRAIN_FIELD])
+    assert np.abs(pre).max() > 1e-5
+    vented = views[2].grid.point_data
+    np.testing.assert_allclose(vented[fields.STRAIN_CHANGE_FIELD], vented[fields.STRAIN_FIELD], atol=1e-15)
+    # at contact onset only: the change is zero everywhere, the default stays the total strain
+    at_onset = vstate.load_views(c, ".", state="pressurised")
+    assert vstate.default_field(at_onset) is None
+    assert all(np.abs(v.grid.point_data[fields.STRAIN_CHANGE_FIELD]).max() == 0.0 for v in at_onset)
+    assert fields.resolve_field(views[0].grid, "change")[0] == fields.STRAIN_CHANGE_FIELD
+    f = fields.resolve_field(views[0].grid, fields.STRAIN_CHANGE_FIELD)
+    assert "deflected − pressurised" in f[1] and "zeroed at contact onset" in vlabels.colour_note(f)
+    out = tmp_path / "push.png"
+    assert command.VIEW_COMMAND[2](_args(run, "--screenshot", out, "--window-size", 300, 540)) == 0
+    assert out.is_file()
+
+
+def test_titles_name_the_preset_and_the_mesh_view_its_elements_and_layers(tmp_path):
+    from whisker_opt import workflows
+    from whisker_opt.config.model import load_config
+
+    cfg_path = tmp_path / "c.yaml"
+    cfg_path.write_text("fidelity: {preset: coarse}\n")
+    workflows.mesh(load_config(cfg_path), tmp_path / "m", progress=False)
+    c = rundir.discover(tmp_path / "m")
+    [sv] = vstate.load_views(c, ".")
+    heading = overlays.panel_heading(sv)
+    n = sv.grid.n_cells
+    assert f"{n} elements (10-node tets), 1 wall layer (a radial line through the wall crosses" in heading
+    assert heading.splitlines()[-1] == "preset coarse, f1 resolution ~2e-3"
+    cut = rendering.section_edges(sv)
+    assert cut is not None and cut.n_lines > 50  # the elements' edges on the cut
+    # a scene file carries its preset; a file that does not, the run's config.yaml names it
+    plain = vstate.prepare_state(sv.path, config={"fidelity": {"preset": "fine"}, "scene": {"calibration": 7.8}})
+    assert plain.fidelity == "preset coarse, f1 resolution ~2e-3"  # the file's own field data wins
+    assert vstate.fidelity_text(box_mesh_grid(), {"fidelity": {"preset": "fine"}, "scene": {"calibration": 7.8}}) \
+        == "preset fine, f1 resolution ~1.4e-3"
+    assert vstate.fidelity_text(box_mesh_grid(), {}) is None
+    assert "fidelity preset not recorded" in overlays.panel_heading(vstate.prepare_state(box_mesh_grid()))
+    out = tmp_path / "mesh.png"
+    assert command.VIEW_COMMAND[2](_args(tmp_path / "m", "--screenshot", out, "--window-size", 400, 300)) == 0
+    assert out.is_file()
+
+
+def box_mesh_grid():
+    """A small quadratic-tet grid without field data."""
+    import pyvista as pv
+
+    m = box_mesh(4.0, 1.0, 1.0, 2, 1, 1)
+    return pv.UnstructuredGrid({pv.CellType.QUADRATIC_TETRA: m.cells}, np.asarray(m.points, dtype=float))

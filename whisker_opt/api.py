@@ -102,6 +102,16 @@ def _checked_config(cfg: Any, where: str) -> WhiskerConfig:
     return cfg
 
 
+def _checked_path(path: Any, name: str, where: str) -> Path:
+    """``path`` as a Path if it is a str or an ``os.PathLike``, else a ValueError in one line naming it."""
+    import os
+
+    if isinstance(path, bool) or not isinstance(path, (str, os.PathLike)) or str(path) == "":
+        raise ValueError(f"{where}: {name} is {path!r} ({type(path).__name__}); expected the path of a folder (a str "
+                         "or a pathlib.Path, not empty)")
+    return Path(path)
+
+
 def _out_dir(cfg: WhiskerConfig, out: str | Path | None, kind: str) -> Path:
     """``out``, or a new run directory under ``cfg.output.results_dir``."""
     if out is not None:
@@ -169,7 +179,9 @@ def evaluate(cfg: WhiskerConfig, genes: Mapping[str, float] | Sequence[float]) -
 
     The genome's whisker is solved intact at Q_i and trimmed by ``optimiser.trim`` and
     vented; f1 = mean |ε_i(δ) − ε_c(δ)| over δ = Δδ … ``scene.deflection`` (Δδ =
-    ``scene.delta_step``). Nothing is written to disk.
+    ``scene.delta_step``). Nothing is written to disk. ``scene.trim`` and ``scene.Q_i`` (the keys
+    of :func:`simulate`) have no effect here: when set, each is warned about in one line
+    (:func:`whisker_opt.wiring.unread_keys`).
 
     Parameters
     ----------
@@ -194,7 +206,7 @@ def evaluate(cfg: WhiskerConfig, genes: Mapping[str, float] | Sequence[float]) -
 
     Examples
     --------
-    >>> cfg = load_config({"fidelity": {"preset": "coarse"}})
+    >>> cfg = load_config({"fidelity": {"preset": "coarse"}, "optimiser": {"trim": 5.0}})
     >>> res = evaluate(cfg, {"alpha": 4.0, "l": 12.0, "t": 3.0, "Q_i": 0.1})  # doctest: +SKIP
     >>> res.ok, res.f1, res.timings["total"]                               # doctest: +SKIP
     (True, 0.00255..., 1.8...)
@@ -304,7 +316,8 @@ def resume(run_dir: str | Path, progress: bool = False, allow_config_change: boo
     """
     from whisker_opt import workflows
 
-    return workflows.resume(Path(run_dir), progress=progress, allow_config_change=allow_config_change)
+    run_dir = _checked_path(run_dir, "run_dir", "resume")
+    return workflows.resume(run_dir, progress=progress, allow_config_change=allow_config_change)
 
 
 @dataclass(frozen=True)
@@ -318,14 +331,15 @@ class RunResults:
         The resolved run file (``config.yaml``).
     best : dict
         ``best.json``: ``genes``, ``f1``, ``F_p``, ``kappas``, ``feasible``, ``status``,
-        ``generation_found``, ``stop_reason`` and the run's counters.
+        ``generation_found``, ``stop_reason`` and ``stop_detail``, ``best_designs`` (the run's best
+        designs pairwise ``distinct_distance`` apart) and the run's counters.
     evaluations : list of dict
         ``evaluations.csv``, one row per evaluated individual.
     generations : list of dict
         ``generations.csv``, one row per generation.
     stop_reason : str or None
-        The stopping rule that fired (``target_fp``, ``stall`` or ``max_generations``);
-        None while the run is unfinished.
+        The stopping rule that fired (``target_fp``, ``resolution``, ``stall`` or
+        ``max_generations``); None while the run is unfinished (``best["stop_detail"]`` says why).
 
     Notes
     -----
@@ -368,6 +382,25 @@ def _table(path: Path) -> list[dict[str, Any]]:
     return [{k: _cell(v) for k, v in row.items()} for row in storage.read_csv(path)]
 
 
+def _read_best(path: Path) -> dict:
+    """``best.json`` as a dict, or a RunDirectoryError in one line naming the file and the damage."""
+    import json
+
+    from whisker_opt.optimise.checkpoint import RunDirectoryError
+
+    try:
+        best = json.loads(path.read_bytes().decode("utf-8"))
+    except UnicodeDecodeError as exc:
+        raise RunDirectoryError(f"{path}: damaged (not UTF-8 text at byte {exc.start})") from None
+    except ValueError as exc:
+        raise RunDirectoryError(f"{path}: damaged (not valid JSON: {' '.join(str(exc).split())})") from None
+    except RecursionError:
+        raise RunDirectoryError(f"{path}: damaged (JSON nested too deeply to read)") from None
+    if not isinstance(best, dict):
+        raise RunDirectoryError(f"{path}: damaged (top level is a {type(best).__name__}, expected an object)")
+    return best
+
+
 def load_run(run_dir: str | Path) -> RunResults:
     """Read a run directory: its config, best design, evaluations and generations.
 
@@ -386,6 +419,10 @@ def load_run(run_dir: str | Path) -> RunResults:
     ------
     FileNotFoundError
         ``run_dir`` holds no ``config.yaml``: it is not a run directory.
+    whisker_opt.optimise.checkpoint.RunDirectoryError
+        A ``best.json`` that is not a JSON object (damaged, not UTF-8, nested too deeply).
+    ValueError
+        ``run_dir`` is not a path.
 
     Examples
     --------
@@ -395,15 +432,13 @@ def load_run(run_dir: str | Path) -> RunResults:
     >>> [(g["generation"], g["best_fp"]) for g in res.generations]        # doctest: +SKIP
     [(0, 0.00216...), (1, 0.00216...)]
     """
-    import json
-
     from whisker_opt.output import storage
     from whisker_opt.workflows import run_config
 
-    run_dir = Path(run_dir)
+    run_dir = _checked_path(run_dir, "run_dir", "load_run")
     cfg = run_config(run_dir)
     best_path = run_dir / storage.BEST_JSON
-    best = json.loads(best_path.read_text()) if best_path.is_file() else {}
+    best = _read_best(best_path) if best_path.is_file() else {}
     return RunResults(
         run_dir=run_dir,
         config=cfg,
@@ -424,7 +459,9 @@ def verify(run_dir: str | Path, preset: str = "fine", top: int = 3) -> list[dict
     preset : str
         Verification preset, a name of :data:`whisker_opt.experiment.fidelity.PRESETS`.
     top : int
-        How many of the hall of fame's feasible designs, 1 … 1000.
+        How many of the run's best feasible designs, 1 … 1000: pairwise at least
+        ``optimiser.distinct_distance`` apart in normalised gene space, those of its report and
+        ``best.json`` (:func:`whisker_opt.optimise.best.best_designs`).
 
     Returns
     -------
@@ -449,8 +486,9 @@ def verify(run_dir: str | Path, preset: str = "fine", top: int = 3) -> list[dict
     from whisker_opt.analysis.verify import verify_run
     from whisker_opt.output.lock import RunDirLock
 
-    with RunDirLock(Path(run_dir), "verify"):
-        return verify_run(Path(run_dir), preset, top)
+    run_dir = _checked_path(run_dir, "run_dir", "verify")
+    with RunDirLock(run_dir, "verify"):
+        return verify_run(run_dir, preset, top)
 
 
 def vent_pressure(trim: float, a: float, table) -> float:

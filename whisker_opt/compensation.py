@@ -139,6 +139,7 @@ def compensate(cfg: WhiskerConfig, out: Path, step: float = 1.0, delta_ref: floa
     opt = wiring.optimiser_of(cfg)
     if cfg.scene.Q_i <= 0:
         raise ConfigError(f"{source}: scene.Q_i: the intact pressure Q_i must be > 0 for compensation (got {cfg.scene.Q_i})")
+    wiring.warn_unread_keys(cfg, "compensate")
     dref = float(delta_ref)
     if not 0.0 < dref <= cfg.scene.deflection:
         raise ConfigError(f"--delta-ref {dref:g}: must lie in (0, scene.deflection = {cfg.scene.deflection:g}] mm")
@@ -388,6 +389,7 @@ def compensate_map(cfg: WhiskerConfig, out: Path | None, step: float = 1.0, a_va
         a = check_contact_ratios(a_values)
     except ValueError as exc:
         raise ConfigError(f"--a: {exc}") from None
+    wiring.warn_unread_keys(cfg, "compensate")
     trims = map_trims(float(wiring.optimiser_of(cfg).trim), float(step))
     hook = WarmPressurise() if warm else None
     runner = SceneRunner(memo_size=1024, pressurise_with=hook) if runner is None else runner

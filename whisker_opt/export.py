@@ -102,6 +102,9 @@ def export(cfg: WhiskerConfig, out: Path, source: str = "config", n_increments: 
                           f"{cfg.material.cap_rubber!r}); the CalculiX deck writes the neo-Hookean law only "
                           "(rubber: neo_hookean, cap_rubber: same)")
     specs = simulation_specs(cfg, source)
+    from whisker_opt.wiring import warn_unread_keys
+
+    warn_unread_keys(cfg, "export")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     decks, solids, entries = {}, {}, {}

@@ -180,7 +180,8 @@ def config_designs(cfg: WhiskerConfig, genomes: Sequence[Sequence[float]] = (), 
 
 
 def run_designs(run_dir: Path, top: int) -> list:
-    """The first ``top`` feasible designs of a run's hall of fame (else its ``best.json``).
+    """The ``top`` best distinct feasible designs of a run (:func:`whisker_opt.optimise.best.run_best_designs`;
+    a run without a checkpoint: its ``best.json``).
 
     Raises
     ------
@@ -189,25 +190,24 @@ def run_designs(run_dir: Path, top: int) -> list:
     """
     import json
 
-    from whisker_opt.genes import genes_dict
+    from whisker_opt.optimise.best import run_best_designs
     from whisker_opt.optimise.runner import load_run
     from whisker_opt.output.storage import BEST_JSON
 
     run_dir = Path(run_dir)
-    state = load_run(run_dir)[0]
+    state, opt, _, _ = load_run(run_dir)
     if state is not None:
-        feasible = [ind for ind in state.hof if ind.fitness.values[0] == 0.0 and (ind.info or {}).get("f1") is not None]
-        out = [StudyDesign(f"hof {i}", genes_dict(ind), float(ind.info["f1"]))
-               for i, ind in enumerate(feasible[: int(top)], start=1)]
+        out = [StudyDesign(f"best {d['rank']}", dict(d["genes"]), float(d["f1"]))
+               for d in run_best_designs(state, opt, int(top))]
     else:
         try:
             best = json.loads((run_dir / BEST_JSON).read_text())
-        except (OSError, ValueError):
+        except (OSError, ValueError, RecursionError):
             best = {}
         ok = isinstance(best, dict) and best.get("feasible") and isinstance(best.get("genes"), dict)
         out = [StudyDesign("best", {k: float(v) for k, v in best["genes"].items()}, best.get("f1"))] if ok else []
     if not out:
-        raise RobustnessError(f"robustness: {run_dir} has no feasible design in its hall of fame or best.json")
+        raise RobustnessError(f"robustness: {run_dir} has no feasible design in its evaluations or best.json")
     return out
 
 
@@ -431,6 +431,8 @@ def robustness(cfg: WhiskerConfig, designs: Sequence[StudyDesign], out: Path, me
     methods = check_methods([cfg.robustness.method] if methods is None else methods)
     check_sample_size(cfg, methods)
     wiring.tolerance_half_widths(cfg)
+    own = any(d.label == "config" for d in designs)  # the config's own design takes its Q_i from scene.Q_i
+    wiring.warn_unread_keys(cfg, "robustness", ("optimiser.trim", "scene.Q_i") if own else None)
     from whisker_opt.output.journal import StudyJournal
 
     journal = StudyJournal(Path(out), JOURNAL, "robustness", {

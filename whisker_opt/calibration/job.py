@@ -109,6 +109,7 @@ def prepare(cfg: WhiskerConfig, config_path: str | Path) -> Prepared:
     if not fitted:
         raise ConfigError(f"{source}: calibration.holdout: every observation is held out; nothing is left to fit")
     _check_designs(data, params, weighted, source)
+    wiring.warn_unread_keys(cfg, "calibrate")
     return Prepared(cfg, data, source, params, fitted, held)
 
 

@@ -6,7 +6,8 @@ Markdown table per model: key, type, unit, allowed range, default and descriptio
 typed twice: the range comes from the ``Field`` constraints (``gt``/``ge``/``lt``/``le``,
 ``min_length``/``max_length``), the choices from ``Literal`` types, the unit from
 ``json_schema_extra={"unit": ...}``, the default from a default-constructed model, the text
-from the field's ``description`` and the model's docstring, the renamed keys from ``RENAMED``.
+from the field's ``description`` and the model's docstring, the renamed keys from ``RENAMED``, and
+the table of the trim and pressure keys each command reads from :mod:`whisker_opt.config.readers`.
 
 Usage::
 
@@ -29,6 +30,7 @@ from pydantic.fields import FieldInfo
 
 from whisker_opt.config.fields import field_range, field_unit, is_model, item_model, num, strip_optional
 from whisker_opt.config.model import WhiskerConfig
+from whisker_opt.config.readers import COMMAND_READS, TRIM_AND_Q_KEYS
 
 __all__ = ["DOC_PATH", "EXAMPLE", "field_range", "field_unit", "is_current", "keys", "main", "render", "sections"]
 
@@ -206,10 +208,26 @@ def _renamed(path: str, cls: type[BaseModel]) -> list[str]:
     return lines
 
 
+def _readers() -> list[str]:
+    """The section "Keys read by each command": :data:`whisker_opt.config.readers.COMMAND_READS` as a table."""
+    lines = ["## Keys read by each command", "",
+             "The trim and the initial pressure each have two keys, one per kind of job: `scene.trim` and "
+             "`scene.Q_i` for the jobs of one given design, `optimiser.trim` (and the gene Q_i) for the GA's "
+             "genomes. A key that is set (to a value other than its default) and that the running command does "
+             "not read is warned about in one line naming it and what the command uses instead; it is never "
+             "refused. `evaluate` is the Python API's; `robustness` of a config's own design (not of a run "
+             "directory) also reads `scene.Q_i`; `mesh --trim` reads no trim key.", "",
+             "| command | " + " | ".join(f"`{k}`" for k in TRIM_AND_Q_KEYS) + " |",
+             "|---|" + "---|" * len(TRIM_AND_Q_KEYS)]
+    for command, reads in COMMAND_READS.items():
+        lines.append(f"| {command} | " + " | ".join("read" if k in reads else "-" for k in TRIM_AND_Q_KEYS) + " |")
+    return lines + [""]
+
+
 def render() -> str:
     """The whole of ``docs/config.md``."""
     WhiskerConfig.model_validate(yaml.safe_load(EXAMPLE))  # the example must stay a valid run file
-    out = [_HEADER.replace("{example}", EXAMPLE)]
+    out = [_HEADER.replace("{example}", EXAMPLE), *_readers()]
     for path, cls, inst in sections():
         depth = path.count(".") + (1 if path else 0)
         title = f"`{path}`" if path else "Top level"

@@ -78,7 +78,7 @@ class RobustnessConfig(StrictModel):
     sample: SampleConfig = SampleConfig()
     recovery_scalar: Literal["mean", "last", "gap"] = Field(
         "mean", description="how a curve becomes the scalar of the recovery rate (docs/physics.md §7)")
-    top: int = Field(3, ge=1, le=1000, description="best feasible designs of a run's hall of fame studied",
+    top: int = Field(3, ge=1, le=1000, description="best feasible designs of a run studied (distinct by optimiser.distinct_distance)",
                      json_schema_extra={"unit": "-"})
 
     def sample_seed(self, top_level_seed: int) -> int:

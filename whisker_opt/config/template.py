@@ -15,11 +15,13 @@ from pydantic import BaseModel
 
 from whisker_opt.config.fields import field_range, field_unit, is_model, item_model, strip_optional
 
-#: Starting points: a short demo GA, the thesis' reference case 1, one simulated pair.
+#: Starting points: a short demo GA, the thesis' reference case 1, one simulated pair. Each writes the
+#: values of its shipped run file (:data:`SHIPPED`; ``tests/test_cli_conveniences.py`` compares them).
 CASES: dict[str, dict[str, Any]] = {
     "demo": {
         "fidelity": {"preset": "coarse"},
-        "optimiser": {"trim": 5.0, "ga": {"population": 6, "n_elite": 1}, "stopping": {"max_generations": 2},
+        "optimiser": {"trim": 5.0, "ga": {"population": 6, "n_elite": 1},
+                      "stopping": {"max_generations": 2, "target_fp": 1.0e-4},
                       "executor": {"kind": "processes", "n_workers": 2, "timeout_s": 600}},
         "seed": 1,
         "output": {"name": "demo"},
@@ -33,9 +35,11 @@ CASES: dict[str, dict[str, Any]] = {
     "simulate": {
         "fidelity": {"preset": "coarse"},
         "scene": {"Q_i": 0.2, "trim": 5.0, "pair": True},
-        "output": {"name": "simulate"},
     },
 }
+
+#: The shipped run file (in the repository's ``configs/``) whose values each case of :data:`CASES` writes.
+SHIPPED: dict[str, str] = {"demo": "demo.yaml", "case1": "case1_trim5.yaml", "simulate": "simulate_default.yaml"}
 
 _INTRO = {
     "demo": "A short GA over [alpha, l, t, Q_i] on the coarse preset (about 20 s on 2 cores): whisker-opt run FILE",

@@ -30,9 +30,16 @@ Stopping rules (checked after every generation, first match wins)
     ``target_fp``: the best design is feasible and its F_p <= ``target_fp``, F_p taken in the
     strain ``target_strain`` names: divided by the run's gauge factor ξ for 'uncalibrated' (the
     default: the unit of the thesis' F_p <= 1e-3 rule), as read for 'calibrated';
+    ``resolution``: the best design is feasible and its f1 has stayed below the run's f1
+    resolution (its fidelity preset's, :attr:`whisker_opt.experiment.fidelity.Preset.f1_resolution`,
+    in the run's calibrated strain) for the last N = ``resolution_generations`` generations, both
+    in the same strain (a ratio of the two does not depend on ξ); off when N = 0 or the run has no
+    recorded fidelity. Below the resolution f1 is mesh error: more generations refine noise;
     ``stall``: with b_g the best F_p after generation g and N = ``stall_generations``,
     mean_{k=g−N+1..g} (b_{k−1} − b_k)/|b_{k−1}| <= ``stall_tol`` (needs g >= N);
     ``max_generations``: g = ``max_generations`` (generation 0 is the initial population).
+    The rule that fired is ``state.stop_reason``; :meth:`GeneticAlgorithm.stop_detail` says why
+    in one line (kept in ``state.extra["stop_detail"]``).
 
 Reproducibility
     All GA randomness is drawn from Python's ``random`` (DEAP's operators use it) inside
@@ -85,7 +92,7 @@ for _m in range(2, 6):
         creator.create(f"WhiskerMOIndividual{_m}", list, fitness=getattr(creator, f"WhiskerMOFitness{_m}"), info=None)
 
 #: Names of the stopping rules, in order of precedence.
-STOP_RULES: tuple[str, ...] = ("target_fp", "stall", "max_generations")
+STOP_RULES: tuple[str, ...] = ("target_fp", "resolution", "stall", "max_generations")
 
 
 @dataclass
@@ -186,6 +193,40 @@ def target_value(best_fp: float, target_strain: str, xi: float | None) -> float:
     """The best F_p in the unit of ``stopping.target_fp``: F_p / ξ for 'uncalibrated' (F_p itself
     when ξ is unknown, i.e. the readings are taken as they come), F_p for 'calibrated'."""
     return best_fp / xi if target_strain == "uncalibrated" and xi else best_fp
+
+
+def run_resolution(state: GAState) -> float | None:
+    """The f1 resolution of a run in its calibrated strain (stored with its fidelity), or None when unknown."""
+    res = (state.extra.get("fidelity") or {}).get("f1_resolution")
+    try:
+        res = float(res)
+    except (TypeError, ValueError):
+        return None
+    return res if math.isfinite(res) and res > 0 else None
+
+
+def in_strain(value: float | None, strain: str, xi: float | None) -> str:
+    """A calibrated f1, F_p or resolution written in the strain ``strain`` first, the other beside it:
+    ``"1.2e-4 uncalibrated (4.7e-4 calibrated)"``; the value alone when ξ is unknown."""
+    from whisker_opt.output.plots import short_float
+
+    if value is None:
+        return "-"
+    if not xi:
+        return short_float(value, 2)
+    cal, uncal = f"{short_float(value, 2)} calibrated", f"{short_float(value / xi, 2)} uncalibrated"
+    return f"{uncal} ({cal})" if strain == "uncalibrated" else f"{cal} ({uncal})"
+
+
+def below_resolution_for(logbook: Sequence[dict], resolution: float) -> int:
+    """How many of the last generations in a row had a feasible best design with f1 < ``resolution``."""
+    k = 0
+    for row in reversed(logbook):
+        f1 = row.get("best_f1")
+        if not (row.get("best_feasible") and f1 is not None and float(f1) < resolution):
+            break
+        k += 1
+    return k
 
 
 def stalled(history: Sequence[float], n: int, tol: float, higher_is_better: bool = False) -> bool:
@@ -453,11 +494,46 @@ class GeneticAlgorithm:
         last = state.logbook[-1]
         if last["best_feasible"] and target_value(last["best_fp"], st.target_strain, gauge_factor(state)) <= st.target_fp:
             return "target_fp"
+        res = run_resolution(state)
+        if st.resolution_generations and res is not None \
+                and below_resolution_for(state.logbook, res) >= st.resolution_generations:
+            return "resolution"
         if stalled([row["best_fp"] for row in state.logbook], st.stall_generations, st.stall_tol):
             return "stall"
         if state.generation >= st.max_generations:
             return "max_generations"
         return None
+
+    def stop_detail(self, state: GAState) -> str | None:
+        """Why the run stopped, in one line naming the rule and its numbers (None while running).
+
+        f1, F_p and the resolution are written in the strain of ``stopping.target_strain`` first.
+        """
+        rule, st = state.stop_reason, self.cfg.stopping
+        if rule is None or not state.logbook:
+            return None
+        last, xi = state.logbook[-1], gauge_factor(state)
+        g = state.generation
+        if rule == "target_fp":
+            return (f"target_fp: the best F_p {in_strain(last['best_fp'], st.target_strain, xi)} is <= "
+                    f"stopping.target_fp = {st.target_fp:g} ({st.target_strain} strain) at generation {g}")
+        if rule == "resolution":
+            res, n = run_resolution(state), st.resolution_generations
+            preset = (state.extra.get("fidelity") or {}).get("preset", "?")
+            return (f"resolution: the best design's f1 has stayed below the f1 resolution "
+                    f"~{in_strain(res, st.target_strain, xi)} of preset {preset} for {n} generations "
+                    f"({g - n + 1}..{g}; stopping.resolution_generations = {n}), at generation {g} "
+                    f"{in_strain(last['best_f1'], st.target_strain, xi)}: further generations would rank mesh "
+                    f"error; verify the best designs at a finer preset")
+        if rule == "stall":
+            return (f"stall: the mean relative improvement of the best F_p over the last {st.stall_generations} "
+                    f"generations is <= stopping.stall_tol = {st.stall_tol:g} (generation {g})")
+        return f"max_generations: generation {g} = stopping.max_generations"
+
+    def set_stop(self, state: GAState) -> None:
+        """Check the stopping rules (:meth:`stop_reason`) and keep the rule and its :meth:`stop_detail`."""
+        state.stop_reason = self.stop_reason(state)
+        state.extra["stop_detail"] = self.stop_detail(state)
 
     # ------------------------------------------------------------------ loop
     def run_generation(self, state: GAState, executor, progress: EvaluationProgress | None = None) -> dict:
@@ -475,7 +551,7 @@ class GeneticAlgorithm:
         row = self.generation_stats(state, gen, counts, wall)
         row["elapsed_s"] = state.elapsed_s
         state.logbook.append(row)
-        state.stop_reason = self.stop_reason(state)
+        self.set_stop(state)
         logger.info(
             "generation %d: best F_p=%.6g (%s), %d evals, %d cache hits, %d failures%s",
             gen, row["best_fp"], "feasible" if row["best_feasible"] else "FAILED", counts["evals"],

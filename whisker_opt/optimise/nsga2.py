@@ -32,8 +32,8 @@ Archive and hypervolume
 Stopping rules (after every generation, first match wins)
     ``stall``: with h_g the hypervolume after generation g and N = ``stall_generations``,
     mean_{k=g−N+1..g} (h_k − h_{k−1})/|h_{k−1}| <= ``stall_tol`` (needs g >= N; a zero h counts
-    as no improvement); ``max_generations``. ``target_fp`` does not apply: no single score is
-    driven to a target.
+    as no improvement); ``max_generations``. ``target_fp`` and ``resolution`` do not apply: no
+    single score is driven to a target, and a front spans f1 values above the resolution too.
 """
 
 from __future__ import annotations
@@ -121,7 +121,8 @@ def spread(items: Sequence[Any], k: int) -> list[Any]:
 
 
 def finer_preset(preset: str | None) -> str | None:
-    """The next finer fidelity preset (coarse -> default -> fine), None for the finest or an unknown one."""
+    """The next finer fidelity preset in cost order (coarse, default, level2, fine, level3, level4), None for the
+    finest or an unknown one."""
     from whisker_opt.experiment.fidelity import PRESET_NAMES
 
     if preset not in PRESET_NAMES:
@@ -287,6 +288,14 @@ class NSGA2(GeneticAlgorithm):
             return "max_generations"
         return None
 
+    def stop_detail(self, state: GAState) -> str | None:
+        """Why the run stopped, in one line (the stall rule here is the hypervolume's)."""
+        st = self.cfg.stopping
+        if state.stop_reason == "stall":
+            return (f"stall: the mean relative gain of the front's hypervolume over the last {st.stall_generations} "
+                    f"generations is <= stopping.stall_tol = {st.stall_tol:g} (generation {state.generation})")
+        return super().stop_detail(state)
+
     # ------------------------------------------------------------------ loop
     def run_generation(self, state: GAState, executor, progress: EvaluationProgress | None = None) -> dict:
         """Breed (or draw), evaluate, select survivors; returns the statistics row."""
@@ -306,7 +315,7 @@ class NSGA2(GeneticAlgorithm):
         row = self.generation_stats(state, gen, counts, wall)
         row["elapsed_s"] = state.elapsed_s
         state.logbook.append(row)
-        state.stop_reason = self.stop_reason(state)
+        self.set_stop(state)
         logger.info(
             "generation %d: hypervolume %.6g, front of %d, best F_p=%.6g, %d evals, %d cache hits, %d failures%s",
             gen, row["hypervolume"], row["front_size"], row["best_fp"], counts["evals"], counts["cache_hits"],

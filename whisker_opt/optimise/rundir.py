@@ -4,7 +4,8 @@ Config
     A run records its resolved run file (``config.yaml`` read back with every default filled in)
     and the SHA-256 of its canonical JSON (:func:`config_digest`) in ``optimiser.json`` and in
     every checkpoint (``state.extra["run_config"]``, ``state.extra["run_config_sha256"]``).
-    ``resume`` compares ``config.yaml`` with it (:func:`check_config`): an edited file is
+    ``resume`` compares ``config.yaml`` with it (:func:`check_config`; keys a later version added
+    count as unchanged at their defaults): an edited file is
     refused with :class:`ConfigChanged`, naming the keys that differ, unless the user allows
     the change; an allowed change is applied from the next generation on and recorded in
     ``state.extra["config_changes"]`` (shown by ``whisker-opt report`` and in ``best.json``).
@@ -103,7 +104,7 @@ def stored_config(run_dir: Path, extra: Mapping[str, Any] | None) -> tuple[str |
         return extra["run_config_sha256"], extra.get("run_config")
     try:
         meta = json.loads((Path(run_dir) / storage.OPTIMISER_JSON).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+    except (OSError, ValueError, RecursionError):  # RecursionError: nested too deeply
         return None, None
     if not isinstance(meta, dict) or not isinstance(meta.get("run_config_sha256"), str):
         return None, None
@@ -140,7 +141,7 @@ def check_config(run_dir: Path, extra: Mapping[str, Any] | None, generation: int
     """
     digest, old = stored_config(run_dir, extra)
     new_digest = config_digest(resolved)
-    if digest is None or digest == new_digest:
+    if digest is None or digest == new_digest or _same_with_new_defaults(old, resolved):
         return None
     diffs = config_differences(old, resolved)
     path = Path(run_dir) / CONFIG_YAML
@@ -153,6 +154,19 @@ def check_config(run_dir: Path, extra: Mapping[str, Any] | None, generation: int
         raise ConfigChanged(f"{path}: edited since the run started ({shown}); restore it, or continue with the new "
                             f"config with `whisker-opt resume {run_dir} {ALLOW_FLAG}` (the change is recorded)")
     return ConfigChange(generation, digest, new_digest, tuple(diffs), optimiser)
+
+
+def _same_with_new_defaults(old: Mapping[str, Any] | None, resolved: Mapping[str, Any]) -> bool:
+    """True when the recorded config, read by this version, is ``resolved``: the run directory of an
+    earlier version whose ``config.yaml`` was not edited, the keys added since at their defaults."""
+    if not isinstance(old, Mapping):
+        return False
+    from whisker_opt.config.model import WhiskerConfig
+
+    try:
+        return WhiskerConfig.model_validate(dict(old)).model_dump(mode="json") == dict(resolved)
+    except ValueError:
+        return False
 
 
 def record_config(state: Any, resolved: Mapping[str, Any] | None, change: ConfigChange | None) -> None:
@@ -213,7 +227,7 @@ def rewrite_optimiser_json(run_dir: Path, seed: int, config: dict[str, Any],
     path = Path(run_dir) / storage.OPTIMISER_JSON
     try:
         meta = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+    except (OSError, ValueError, RecursionError):
         meta = {}
     keep = {k: meta[k] for k in ("run_config", "run_config_sha256") if isinstance(meta, dict) and k in meta}
     if run_config is not None:

@@ -11,7 +11,8 @@ values among the verified rows (objectives in :mod:`whisker_opt.optimise.nsga2`)
 ``pareto.png`` draws f1 against each other objective's gene (one panel per gene objective):
 every feasible evaluation in grey, the front at the run's preset, the verified points, and
 the penalised optimum at both presets. ``hypervolume.png`` is the archive's hypervolume per
-generation (the multi-objective run's convergence plot). All writes are atomic.
+generation; the run's ``convergence.png`` (:func:`plot_mo_convergence`) shows it with the smallest
+f1 found against the f1 resolution. All writes are atomic.
 """
 
 from __future__ import annotations
@@ -164,6 +165,66 @@ def hypervolume_figure(logbook: Sequence[Mapping[str, Any]], title: str) -> Figu
     ax.legend(h1 + h2, l1 + l2, fontsize=7, loc="lower right")
     ax.set_title(title, fontsize=10)
     return fig
+
+
+def mo_convergence_figure(logbook: Sequence[Mapping[str, Any]], smallest_f1: Sequence[float], labels: Sequence[str],
+                          title: str, fidelity: Mapping[str, Any] | None = None) -> Figure:
+    """What a multi-objective run optimises, per generation: the hypervolume of its front (with the
+    front's size) above, and the smallest f1 found so far below (log y), against the f1 resolution.
+
+    Parameters
+    ----------
+    logbook : sequence of mapping
+        Per-generation rows with ``generation``, ``hypervolume`` and ``front_size``.
+    smallest_f1 : sequence of float
+        The smallest f1 [calibrated strain] of the feasible designs evaluated up to each generation.
+    labels : sequence of str
+        The objectives (``f1``, ``Q_i (prefer low)``, ...), named in the title.
+    title : str
+        First title line.
+    fidelity : mapping, optional
+        ``{"preset", "f1_resolution"}``: named in the title, the resolution drawn on the f1 panel.
+    """
+    g = np.asarray([r["generation"] for r in logbook], dtype=float)
+    fig = Figure(figsize=(6.4, 6.4))
+    ax, ax_f = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [1.3, 1]})
+    ax.plot(g, [r.get("hypervolume", math.nan) for r in logbook], "o-", ms=3, color="C0",
+            label="hypervolume of the front (archive)")
+    ax.set_ylabel("hypervolume\n(normalised objectives, reference 1.1)")
+    ax.grid(True, alpha=0.3)
+    ax2 = ax.twinx()
+    ax2.plot(g, [r.get("front_size", 0) for r in logbook], "s--", ms=2, color="C2", alpha=0.7, label="front size")
+    ax2.set_ylabel("designs on the front")
+    h1, l1 = ax.get_legend_handles_labels()
+    h2, l2 = ax2.get_legend_handles_labels()
+    ax.legend(h1 + h2, l1 + l2, fontsize=7, loc="lower right")
+    f = np.asarray(smallest_f1, dtype=float)
+    ax_f.plot(g, f, "o-", ms=3, color="C1", label="smallest f1 found (end of the front)")
+    if np.any(np.isfinite(f) & (f > 0)):
+        ax_f.set_yscale("log", nonpositive="mask")
+    res = (fidelity or {}).get("f1_resolution")
+    if res is not None and math.isfinite(float(res)) and res > 0:
+        ax_f.axhline(res, color="C3", lw=0.9, ls="-.",
+                     label=f"f1 resolution of preset {fidelity['preset']} (~{short_float(res)})")
+        lo, hi = ax_f.get_ylim()
+        ax_f.axhspan(min(lo, res), res, color="C3", alpha=0.07, lw=0)
+        ax_f.set_ylim(min(lo, 0.8 * res), max(hi, 1.25 * res))
+    ax_f.set_ylabel(f"f1 {STRAIN_UNIT}")
+    ax_f.set_xlabel("generation (0 = initial population)")
+    ax_f.xaxis.set_major_locator(MaxNLocator(integer=True, min_n_ticks=1))
+    if g.size:
+        ax_f.set_xlim(float(g.min()) - 0.5, float(g.max()) + 0.5)
+    ax_f.grid(True, which="both", alpha=0.3)
+    ax_f.legend(fontsize=7, loc="best")
+    ax.set_title(f"{title}\nobjectives, all minimised: {', '.join(labels)}\n{fidelity_label(fidelity)}", fontsize=10)
+    fig.set_layout_engine("constrained")
+    return fig
+
+
+def plot_mo_convergence(path: Path, logbook: Sequence[Mapping[str, Any]], smallest_f1: Sequence[float],
+                        labels: Sequence[str], title: str, fidelity: Mapping[str, Any] | None = None) -> Path:
+    """Write :func:`mo_convergence_figure` (a multi-objective run's ``convergence.png``); returns ``path``."""
+    return _save(mo_convergence_figure(logbook, smallest_f1, labels, title, fidelity), Path(path))
 
 
 def write_front_outputs(run_dir: Path, rows: list[dict[str, Any]], gene_names: Sequence[str], objectives: Sequence[str],

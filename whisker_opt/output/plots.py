@@ -88,6 +88,7 @@ def convergence_figure(
     title: str = "GA convergence",
     fidelity: Mapping[str, Any] | None = None,
     target_strain: str = "calibrated",
+    best_f1: Sequence[float | None] | None = None,
 ) -> Figure:
     """The convergence figure of :func:`plot_convergence` (integer generation ticks)."""
     g = np.asarray(generations, dtype=float)
@@ -97,6 +98,11 @@ def convergence_figure(
     ax = fig.add_subplot(1, 1, 1)
     ax.plot(g, best, "o-", ms=3, label="best F_p (hall of fame)")
     ax.plot(g, mean, "s--", ms=3, alpha=0.7, label="mean F_p of the feasible designs")
+    f1 = None
+    if best_f1 is not None:  # the f1 of the best design: the number the f1 resolution applies to
+        f1 = np.asarray([math.nan if v is None else float(v) for v in best_f1], dtype=float)
+        if np.isfinite(f1).any():
+            ax.plot(g, f1, "^:", ms=3, color="C4", label="f1 of the best design")
     if best_feasible is not None:
         bad = ~np.asarray(best_feasible, dtype=bool)
         if bad.any():
@@ -108,7 +114,7 @@ def convergence_figure(
                        label=f"target_fp {short_float(target_fp)} uncalibrated (× ξ = {short_float(target_fp * xi)})")
         else:
             ax.axhline(target_fp, color="0.4", lw=0.8, ls=":", label=f"target_fp {short_float(target_fp)}")
-    vals = np.concatenate([best, mean])
+    vals = np.concatenate([best, mean] + ([f1] if f1 is not None else []))
     if np.any(np.isfinite(vals) & (vals > 0)):
         ax.set_yscale("log", nonpositive="mask")
     res = (fidelity or {}).get("f1_resolution")
@@ -122,10 +128,11 @@ def convergence_figure(
     if g.size:
         ax.set_xlim(float(np.nanmin(g)) - 0.5, float(np.nanmax(g)) + 0.5)
     ax.set_xlabel("generation (0 = initial population)")
-    ax.set_ylabel(f"F_p {STRAIN_UNIT}")
+    what = "F_p, f1" if f1 is not None and np.isfinite(f1).any() else "F_p"
+    ax.set_ylabel(f"{what} {STRAIN_UNIT}")
     if xi > 0:  # the same numbers in simulated strain: F_p / ξ
         right = ax.secondary_yaxis("right", functions=(lambda y: y / xi, lambda y: y * xi))
-        right.set_ylabel(f"F_p / ξ [-] (uncalibrated strain, ξ = {xi:g})")
+        right.set_ylabel(f"{what} / ξ [-] (uncalibrated strain, ξ = {xi:g})")
     ax.set_title(f"{title}\n{fidelity_label(fidelity)}", fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7, loc="best")
@@ -142,6 +149,7 @@ def plot_convergence(
     title: str = "GA convergence",
     fidelity: Mapping[str, Any] | None = None,
     target_strain: str = "calibrated",
+    best_f1: Sequence[float | None] | None = None,
 ) -> Path:
     """Best and mean F_p per generation, log y (non-positive values are not drawn).
 
@@ -165,13 +173,16 @@ def plot_convergence(
         axis gives F_p / ξ in uncalibrated strain.
     target_strain : {'calibrated', 'uncalibrated'}
         The strain ``target_fp`` is given in (``stopping.target_strain``).
+    best_f1 : sequence of float or None, optional
+        The f1 of each generation's best design, drawn beside its F_p: the f1 resolution (and
+        the ``resolution`` stopping rule) applies to it.
 
     Returns
     -------
     Path
     """
     fig = convergence_figure(generations, best_fp, mean_fp, best_feasible, target_fp, title, fidelity,
-                             target_strain)
+                             target_strain, best_f1)
     return _save(fig, path)
 
 

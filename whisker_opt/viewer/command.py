@@ -21,7 +21,7 @@ from typing import Any, Callable, Iterator, Mapping
 
 from whisker_opt.viewer.evaluations import evaluation_group, evaluation_row
 from whisker_opt.viewer.genome import genome_scenes
-from whisker_opt.viewer.guard import ViewerError, ViewerUnavailable, is_headless, require_pyvista
+from whisker_opt.viewer.guard import ViewerError, ViewerUnavailable, display_problem, is_headless, require_pyvista
 from whisker_opt.viewer.plots import write_plots
 from whisker_opt.viewer.render import CAVITY_MODES, CLIM_MODES, interactive_plotter, render
 from whisker_opt.viewer.rundir import discover
@@ -53,9 +53,11 @@ def add_view_args(p: argparse.ArgumentParser, types: Mapping[str, Callable[[str]
                    help="render off-screen to this image (.png, .jpg, .jpeg, .bmp, .tif, .tiff) instead of "
                         "opening a window")
     p.add_argument("--field", default=None,
-                   help="colour by: strain (axial log strain LE_xx, default), displacement (|u|), mises (von Mises, "
-                        "as stored; for an older file without it, of the rubber in config.yaml), any stored array, "
-                        "name:x for a component, or none")
+                   help="colour by: change (the axial log strain the push added, deflected minus pressurised: "
+                        "zeroed at contact onset as the gauge reading; the default when a deflection is shown), "
+                        "strain (the total axial log strain LE_xx, the default otherwise), displacement (|u|), mises "
+                        "(von Mises, as stored; for an older file without it, of the rubber in config.yaml), any "
+                        "stored array, name:x for a component, or none")
     p.add_argument("--clim", dest="clim_mode", choices=CLIM_MODES, default="panel",
                    help="colour range: panel = each panel its own range and scalar bar (default; in a window, over "
                         "all the deflections of that panel), so a vented panel is not washed out by the pressurised "
@@ -145,7 +147,7 @@ def _check_metadata(source: Path) -> None:
         if path.is_file():
             try:
                 json.loads(path.read_bytes().decode("utf-8"))
-            except (UnicodeDecodeError, ValueError) as exc:
+            except (UnicodeDecodeError, ValueError, RecursionError) as exc:
                 raise _damaged(path, exc) from None
     ev = root / "evaluations.csv"
     if ev.is_file():
@@ -208,7 +210,7 @@ def _view_main(args: argparse.Namespace) -> int:
     screenshot = args.screenshot
     if screenshot is None and headless:
         screenshot = contents.root / "view.png"
-        print(f"whisker-opt view: no display found (DISPLAY/WAYLAND_DISPLAY unset); "
+        print(f"whisker-opt view: {display_problem() or 'no display found'}; "
               f"rendering off-screen to {screenshot}", file=sys.stderr)
     kw = dict(cavity=args.cavity, show_edges=not args.no_edges, clim_percentile=args.clim_percentile,
               clim_mode=getattr(args, "clim_mode", "panel"))

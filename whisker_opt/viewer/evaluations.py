@@ -23,16 +23,32 @@ from whisker_opt.viewer.sceneinfo import finite_float
 logger = logging.getLogger(__name__)
 
 
+def _distinct_settings(root: Path) -> tuple[tuple[tuple[float, float], ...], int, float]:
+    """(gene bounds, most designs listed, distinct distance) of a run's ``config.yaml`` (defaults without one)."""
+    from whisker_opt.config.optimiser import OptimiserConfig
+    from whisker_opt.viewer.rundir import config_section, read_run_config
+
+    try:
+        opt = OptimiserConfig.model_validate(config_section(read_run_config(root), "optimiser"))
+    except ValueError as exc:  # an unusable section: the defaults, said so
+        logger.warning("%s: optimiser section not usable (%s); ranking with the default gene bounds and distance",
+                       Path(root) / "config.yaml", " ".join(str(exc).split())[:200])
+        opt = OptimiserConfig()
+    return opt.genes.bounds(), 1000, opt.distinct_distance
+
+
 def evaluation_row(root: Path, rank: int | None = None, eval_id: str | int | None = None) -> dict[str, str]:
-    """A row of ``evaluations.csv``: by ``eval_id``, or the ``rank``-th best (1 = best) of
-    the successful evaluations sorted by ``F_p``.
+    """A row of ``evaluations.csv``: by ``eval_id``, or the ``rank``-th (1 = best) of the run's best
+    designs, pairwise distinct by its ``optimiser.distinct_distance``
+    (:func:`whisker_opt.optimise.best.best_designs`: the designs and order of its report and ``best.json``).
 
     Parameters
     ----------
     root : Path
         A run directory of ``whisker-opt run``.
     rank : int, optional
-        Among the distinct successful designs (a cache hit repeats a design).
+        Among the run's distinct best designs (a cache hit repeats a design, a near-copy is no
+        second design).
     eval_id : str or int, optional
         Wins over ``rank``.
 
@@ -57,18 +73,18 @@ def evaluation_row(root: Path, rank: int | None = None, eval_id: str | int | Non
         if not hit:
             raise ViewerError(f"{path}: no evaluation with eval_id={eval_id!r} ({len(rows)} rows)")
         return hit[0]
+    from whisker_opt.optimise.best import best_designs, describe_distance
+
+    bounds, most, distance = _distinct_settings(Path(root))
+    listed = best_designs(rows, bounds, most, distance)
+    if rank is None or not (1 <= rank <= len(listed)):
+        raise ViewerError(f"{path}: --rank {rank} out of range: 1..{len(listed)} successful designs "
+                          f"{describe_distance(distance)}")
+    wanted = listed[rank - 1]
     ok = [r for r in rows if r.get("status", "ok") == "ok" and finite_float(r.get("F_p")) is not None]
-    ok.sort(key=lambda r: float(r["F_p"]))
-    # the same design is evaluated once but may appear again as a cache hit
-    uniq, seen = [], set()
-    for r in ok:
-        key = tuple(r.get(k) for k in GENE_NAMES)
-        if key not in seen:
-            seen.add(key)
-            uniq.append(r)
-    if rank is None or not (1 <= rank <= len(uniq)):
-        raise ViewerError(f"{path}: --rank {rank} out of range: 1..{len(uniq)} successful distinct designs")
-    return uniq[rank - 1]
+    if wanted["eval_id"] is not None:
+        return next(r for r in ok if finite_float(r.get("eval_id")) == wanted["eval_id"])
+    return next(r for r in ok if all(finite_float(r.get(k)) == v for k, v in wanted["genes"].items()))
 
 
 def group_for_evaluation(contents: RunContents, eval_id: str | int) -> str:

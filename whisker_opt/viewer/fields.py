@@ -2,7 +2,10 @@
 
 By default a view shows the axial logarithmic strain ``LE_xx = (½ ln(F Fᵀ))_xx`` (the
 Eulerian Hencky strain, Abaqus' LE11), else the displacement magnitude, or any array
-stored in the VTU, and the von Mises stress. Stored arrays are shown as stored; what an
+stored in the VTU, and the von Mises stress. A deflected state also gets the strain the push
+added, ``LE_xx`` of the state minus ``LE_xx`` of its scene's pressurised state at the same node
+(:data:`STRAIN_CHANGE_FIELD`, :func:`add_strain_change`): zeroed at contact onset as the gauge
+reading is, so the pressurised panels show the push rather than the pressure's own strain. Stored arrays are shown as stored; what an
 older file lacks is computed by :mod:`fem.post` and, for a stress, by the run's own law
 (:mod:`whisker_opt.viewer.rubber`); this module only puts the numbers on the grid.
 """
@@ -22,6 +25,7 @@ DISPLACEMENT_NAMES = ("displacement", "u", "U", "disp", "Displacement", "DISP")
 STRAIN_FIELD = "axial_log_strain"
 MAGNITUDE_FIELD = "displacement_magnitude"
 MISES_FIELD = "von_mises"
+STRAIN_CHANGE_FIELD = "axial_log_strain_change"
 STORED_STRAIN_NAMES = ("axial_log_strain", "log_strain_axial", "le11", "le_xx", "log_strain_xx", "lexx")
 FIELD_ALIASES = {
     "strain": STRAIN_FIELD,
@@ -35,11 +39,17 @@ FIELD_ALIASES = {
     "mises": MISES_FIELD,
     "stress": MISES_FIELD,
     "von_mises_stress": MISES_FIELD,
+    "strain_change": STRAIN_CHANGE_FIELD,
+    "change": STRAIN_CHANGE_FIELD,
+    "push": STRAIN_CHANGE_FIELD,
+    "since_onset": STRAIN_CHANGE_FIELD,
+    "deflected-pressurised": STRAIN_CHANGE_FIELD,
 }
 FIELD_LABELS = {
     STRAIN_FIELD: "axial log strain LE_xx [-]",
     MAGNITUDE_FIELD: "displacement magnitude [mm]",
     MISES_FIELD: "von Mises stress [MPa]",
+    STRAIN_CHANGE_FIELD: "axial log strain added by the push (deflected − pressurised) [-]",
 }
 """Scalar-bar titles of the derived fields, each with its unit (no ``|``: VTK's text renderer
 drops it and garbles the line)."""
@@ -47,6 +57,7 @@ FIELD_UNITS = {
     STRAIN_FIELD: "-",
     MAGNITUDE_FIELD: "mm",
     MISES_FIELD: "MPa",
+    STRAIN_CHANGE_FIELD: "-",
     "X_ref": "mm",
     "pressure": "MPa",  # the hydrostatic pressure of the mixed u-p elements (older result files)
     "mixed_pressure": "MPa",  # the same, as written now (mean stress, positive in tension)
@@ -182,9 +193,33 @@ def add_derived_fields(grid, disp: str | None, law=None) -> None:
         grid.point_data[MISES_FIELD] = post.spread_to_nodes(material.at_nodes(cells, used).von_mises(F, 0.0), used)
 
 
+def add_strain_change(grid, onset) -> bool:
+    """Add :data:`STRAIN_CHANGE_FIELD`, this state's axial log strain minus that of ``onset`` (the
+    scene's pressurised state, on the same mesh) node by node, in place.
+
+    Parameters
+    ----------
+    grid : pyvista.UnstructuredGrid
+        With :data:`STRAIN_FIELD` (:func:`add_derived_fields`).
+    onset : pyvista.UnstructuredGrid
+        The pressurised state, with :data:`STRAIN_FIELD`.
+
+    Returns
+    -------
+    bool
+        False (nothing added) when either lacks the strain or the meshes differ in their nodes.
+    """
+    a, b = grid.point_data.get(STRAIN_FIELD), onset.point_data.get(STRAIN_FIELD)
+    if a is None or b is None or grid.n_points != onset.n_points \
+            or not np.allclose(np.asarray(grid.points), np.asarray(onset.points), atol=1e-9, rtol=0.0):
+        return False
+    grid.point_data[STRAIN_CHANGE_FIELD] = np.asarray(a, dtype=float) - np.asarray(b, dtype=float)
+    return True
+
+
 def field_names(grid) -> list[str]:
     """Fields a view can be coloured by: derived ones first, then stored point and cell arrays."""
-    names = [n for n in (STRAIN_FIELD, MAGNITUDE_FIELD, MISES_FIELD) if n in grid.point_data]
+    names = [n for n in (STRAIN_FIELD, STRAIN_CHANGE_FIELD, MAGNITUDE_FIELD, MISES_FIELD) if n in grid.point_data]
     skip = {"X_ref", "vtkOriginalPointIds", "vtkOriginalCellIds", *names}
     names += [k for k in grid.point_data.keys() if k not in skip]
     names += [k for k in grid.cell_data.keys() if k not in skip and k not in names]

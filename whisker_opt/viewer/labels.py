@@ -9,7 +9,7 @@ from typing import Sequence
 
 import numpy as np
 
-from whisker_opt.viewer.fields import DISPLACEMENT_NAMES, MAGNITUDE_FIELD, MISES_FIELD, STRAIN_FIELD
+from whisker_opt.viewer.fields import DISPLACEMENT_NAMES, MAGNITUDE_FIELD, MISES_FIELD, STRAIN_CHANGE_FIELD, STRAIN_FIELD
 from whisker_opt.viewer.guard import require_pyvista
 from whisker_opt.viewer.state import StateView
 
@@ -160,7 +160,9 @@ def colour_note(field: tuple[str | None, str, int | None], mode: str = "panel", 
     """Footnote on what the colours show and how their range is set (empty without a field).
 
     The colour fields are totals from the unloaded, unpressurised mesh, while the gauge
-    readings are counted from contact onset (:data:`whisker_opt.viewer.overlays.GAUGE_ZERO_NOTE`).
+    readings are counted from contact onset (:data:`whisker_opt.viewer.overlays.GAUGE_ZERO_NOTE`);
+    the strain added by the push (:data:`~whisker_opt.viewer.fields.STRAIN_CHANGE_FIELD`) is
+    counted from contact onset as the reading is.
 
     Parameters
     ----------
@@ -174,7 +176,7 @@ def colour_note(field: tuple[str | None, str, int | None], mode: str = "panel", 
     Returns
     -------
     str
-        Two lines.
+        Two lines (three for the strain added by the push).
     """
     name, label, _ = field
     if name is None:
@@ -184,6 +186,9 @@ def colour_note(field: tuple[str | None, str, int | None], mode: str = "panel", 
         words = label.split(" [")[0]
     what = (f"colours: total {words} from the unloaded state (not zeroed at contact onset)" if words
             else f"colours: {label} as stored in the mesh file")
+    if name == STRAIN_CHANGE_FIELD:
+        what = ("colours: axial log strain added by the push, this state's minus the pressurised state's\n"
+                "(zeroed at contact onset, as the gauge reading; in a vented panel equal to the total)")
     scope = "one for all panels" if mode == "shared" else (
         "each panel its own (a uniform one: that of all)" if uniform else "each panel its own")
     span = (f"{ordinal(percentile)}–{ordinal(100.0 - percentile)} percentile (beyond: end colours)"

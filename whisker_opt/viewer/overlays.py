@@ -7,7 +7,8 @@ helices and the panel text.
 * The fibre helices (:mod:`geometry.fibres`) mapped by the interpolated displacement
   (:func:`fibre_lines`).
 * The design parameters, the scene (Q, trim) and the gauge reading as text (:func:`text_lines`).
-* The panel heading in words: the scene, its pressure and trim, the state (:func:`panel_heading`).
+* The panel heading in words: the scene, its pressure and trim, the state, the fidelity preset and
+  its f1 resolution, and for a bare mesh its element count and wall layers (:func:`panel_heading`).
 
 The gauge reading ε is counted from contact onset (δ = 0, the pressurised state), as the
 optimiser reads it; the colour fields are totals from the unloaded, unpressurised mesh. The
@@ -211,7 +212,9 @@ def state_heading(info: SceneInfo, state: str) -> str:
 
 
 def panel_heading(sv: StateView) -> str:
-    """Heading of a panel: :func:`scene_heading` and, below it, :func:`state_heading`.
+    """Heading of a panel: :func:`scene_heading`, below it :func:`state_heading`, for a mesh shown
+    without a solution its element count and wall layers, and last the fidelity preset with its f1
+    resolution (:attr:`StateView.fidelity`; ``fidelity preset not recorded`` when unknown).
 
     Parameters
     ----------
@@ -221,4 +224,10 @@ def panel_heading(sv: StateView) -> str:
     -------
     str
     """
-    return scene_heading(sv.info) + (f"\n{state_heading(sv.info, sv.state)}" if sv.state else "")
+    lines = [scene_heading(sv.info)]
+    if sv.state:
+        lines.append(state_heading(sv.info, sv.state))
+    if sv.mesh_facts:
+        lines.append(sv.mesh_facts)
+    lines.append(sv.fidelity or "fidelity preset not recorded")
+    return "\n".join(lines)

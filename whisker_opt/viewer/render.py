@@ -50,7 +50,7 @@ from whisker_opt.viewer.labels import (
     wrap,
 )
 from whisker_opt.viewer.overlays import contact_point, fibre_lines, gauge_patch, panel_heading, text_lines
-from whisker_opt.viewer.state import StateView
+from whisker_opt.viewer.state import StateView, default_field
 
 logger = logging.getLogger(__name__)
 
@@ -67,6 +67,29 @@ def _clip(poly, on: bool, z: float = 0.0):
     if poly is None or not on or poly.n_points == 0:
         return poly
     return poly.clip(normal=(0.0, 0.0, 1.0), origin=(0.0, 0.0, z), invert=True)
+
+
+def section_edges(sv: StateView):
+    """The element edges on the cut ``z = cut_z``: the plane's intersection with each element's faces.
+
+    The elements are taken with their corner nodes (straight edges; VTK would cut a 10-node tet
+    into the pieces of its linear subdivision), at their warped positions, so every line drawn is
+    an element boundary and the layers through the wall can be counted.
+
+    Returns
+    -------
+    pyvista.PolyData or None
+        None for a grid without quadratic tetrahedra.
+    """
+    from whisker_opt.viewer.fields import quadratic_cells
+
+    pv = require_pyvista()
+    cells = quadratic_cells(sv.grid)
+    if not len(cells):
+        return None
+    linear = pv.UnstructuredGrid({pv.CellType.TETRA: cells[:, :4]}, np.array(sv.warped.points, dtype=float))
+    sec = linear.slice(normal=(0.0, 0.0, 1.0), origin=(0.0, 0.0, sv.cut_z))
+    return sec.extract_all_edges() if sec.n_points else None
 
 
 def add_state(
@@ -98,8 +121,9 @@ def add_state(
     clim : (float, float), optional
         Colour range (this panel's, or shared between panels: :func:`panel_clims`).
     cavity : {'clip', 'translucent', 'hidden'}
-        ``clip`` removes the half z > 0 (the cut shows the wall section and the cavity),
-        ``translucent`` shows the outer surface at 35 % opacity over the cavity.
+        ``clip`` removes the half z > 0 (the cut shows the wall section and the cavity, with the
+        element edges on it when ``show_edges``: :func:`section_edges`), ``translucent`` shows the
+        outer surface at 35 % opacity over the cavity.
     show_scalar_bar : bool
         Draw the scalar bar in this panel.
     bar_title : str, optional
@@ -137,6 +161,10 @@ def add_state(
         sec = sv.warped.slice(normal=(0.0, 0.0, 1.0), origin=(0.0, 0.0, sv.cut_z))
         if sec.n_points:
             plotter.add_mesh(sec, name=prefix + "section", **dict(mesh_kw, smooth_shading=False, show_scalar_bar=False))
+        if show_edges:
+            cut = section_edges(sv)
+            if cut is not None and cut.n_points:
+                plotter.add_mesh(cut, color="black", opacity=0.45, line_width=1, name=prefix + "section_edges")
     if sv.cavity is not None and cavity != "hidden":
         cav = _clip(sv.cavity, clip, sv.cut_z)
         if cav is not None and cav.n_points:
@@ -362,7 +390,8 @@ def render(
     ----------
     views : sequence of StateView
     field : str, optional
-        See :func:`resolve_field` (resolved on the first view).
+        See :func:`resolve_field` (resolved on the first view); default :func:`default_field`: the
+        strain the push added when the views show a deflection, else the total axial strain.
     screenshot : path-like, optional
         Write the image there (off-screen) and return its path.
     off_screen : bool, optional
@@ -386,6 +415,7 @@ def render(
     """
     if off_screen is None:
         off_screen = screenshot is not None or is_headless()
+    field = default_field(views) if field is None else field
     f = resolve_field(views[0].grid, field, str(views[0].path or views[0].title)) if views else (None, "", None)
     for v in views[1:]:  # every panel must hold the field
         if f[0] is not None and f[0] not in field_names(v.grid):
@@ -446,6 +476,7 @@ def interactive_plotter(
     if any(len(step) != len(series[0]) for step in series):
         raise ViewerError(f"every step must show {len(series[0])} panels, got {[len(step) for step in series]}")
     all_views = [v for step in series for v in step]
+    field = default_field(all_views) if field is None else field
     f = resolve_field(series[-1][0].grid, field, str(series[-1][0].path or series[-1][0].title))
     panels = [[step[i] for step in series] for i in range(len(series[0]))]
     clims = panel_clims(panels, f, clim_percentile, clim_mode)

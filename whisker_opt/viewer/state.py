@@ -5,6 +5,13 @@ The whisker surface is warped by the displacement (factor ``scale``) and drawn f
 and no internal subdivision edges are drawn; the element edges are curved polylines
 (:func:`boundary_edges`). The chamber cavity is its own surface component, found by
 connectivity. The undeformed outline is the boundary of the reference section z = 0.
+
+Every state knows the fidelity it was solved at, named in its panel's heading: the preset and its
+f1 resolution (:func:`fidelity_text`, from the file's field data, else the run's ``config.yaml``);
+a mesh without a solution (``whisker-opt mesh``) also its element count and wall layers
+(:func:`mesh_text`). A deflected state gets the strain the push added over its scene's pressurised
+state (:func:`whisker_opt.viewer.fields.add_strain_change`), the default colour field of a view
+that shows a deflection (:func:`default_field`).
 """
 
 from __future__ import annotations
@@ -21,7 +28,9 @@ import numpy as np
 
 from whisker_opt.viewer.fields import (
     DISPLACEMENT_NAMES,
+    STRAIN_CHANGE_FIELD,
     add_derived_fields,
+    add_strain_change,
     cell_volumes,
     displacement_name,
     load_grid,
@@ -70,6 +79,10 @@ class StateView:
     path : Path or None
     cut_z : float
         The section / clipping plane ``z = cut_z`` (middle of the reference bounds; 0 for a whisker).
+    fidelity : str or None
+        ``preset coarse, f1 resolution ~2e-3`` (:func:`fidelity_text`); None when unknown.
+    mesh_facts : str or None
+        Element count and wall layers of a mesh shown without a solution (:func:`mesh_text`).
     """
 
     title: str
@@ -85,6 +98,8 @@ class StateView:
     state: str = ""
     path: Path | None = None
     cut_z: float = 0.0
+    fidelity: str | None = None
+    mesh_facts: str | None = None
 
     def field_range(self, name: str | None, comp: int | None = None,
                     percentile: float = 0.0) -> tuple[float, float] | None:
@@ -180,6 +195,77 @@ def boundary_edges(points: np.ndarray, faces6: np.ndarray, n_seg: int = 4):
     return pv.PolyData(P.reshape(-1, 3), lines=lines)
 
 
+_PRESSURISED = ("pressurised", "pressurized", "inflated")
+
+
+def _field_value(grid, name: str):
+    """The first value of a field-data array of the grid, or None."""
+    fd = getattr(grid, "field_data", None)
+    if fd is None or name not in fd:
+        return None
+    arr = np.asarray(fd[name]).ravel()
+    return arr[0].item() if arr.size else None
+
+
+def fidelity_text(grid, config: Mapping[str, Any] | None = None) -> str | None:
+    """``preset coarse, f1 resolution ~2e-3`` of a state: the preset stored with the file
+    (``fidelity_preset``, ``calibration_xi``), else the ``fidelity`` section of the run's config
+    (:func:`whisker_opt.output.plots.fidelity_label`); None when neither names a preset."""
+    from whisker_opt.config.model import FidelityConfig
+    from whisker_opt.experiment.fidelity import PRESET_NAMES, RESOLUTION_CALIBRATION, describe, f1_resolution
+    from whisker_opt.output.plots import fidelity_label
+
+    preset, xi = _field_value(grid, "fidelity_preset"), _field_value(grid, "calibration_xi")
+    scene = (config or {}).get("scene") if isinstance((config or {}).get("scene"), Mapping) else {}
+    try:
+        xi = float(xi if xi is not None else scene.get("calibration", RESOLUTION_CALIBRATION))
+    except (TypeError, ValueError):
+        xi = RESOLUTION_CALIBRATION
+    if preset in PRESET_NAMES:
+        return fidelity_label({"preset": preset, "f1_resolution": f1_resolution(preset, xi)})
+    section = (config or {}).get("fidelity")
+    if isinstance(section, Mapping):
+        try:
+            return fidelity_label(describe(FidelityConfig.model_validate(dict(section)), xi))
+        except ValueError:
+            return None
+    return None
+
+
+def mesh_text(grid, path: Path | None = None) -> str:
+    """Element count and wall layers of a mesh: ``936 elements (10-node tets), 1 wall layer (a radial
+    line through the wall crosses 3 elements, median)``; the layers from the file's field data or the
+    ``mesh_report.json`` beside it (left out when neither has them)."""
+    import json
+
+    n = int(grid.n_cells)
+    text = f"{n} elements (10-node tets)" if len(quadratic_cells(grid)) == n else f"{n} elements"
+    layers, median = _field_value(grid, "wall_layers"), _field_value(grid, "elements_through_wall_median")
+    report = path.with_name("mesh_report.json") if path is not None else None
+    if layers is None and report is not None and report.is_file():
+        try:
+            rep = json.loads(report.read_text())
+            layers, median = rep.get("wall_layers"), rep.get("elements_through_wall_median")
+        except (OSError, ValueError, AttributeError):
+            layers = None
+    if layers is not None:
+        text += f", {float(layers):g} wall layer{'s' if float(layers) != 1 else ''}"
+        if median is not None:
+            text += f" (a radial line through the wall crosses {float(median):g} elements, median)"
+    return text
+
+
+def default_field(views: Sequence["StateView"]) -> str | None:
+    """The colour field when none is asked for: the strain the push added
+    (:data:`~whisker_opt.viewer.fields.STRAIN_CHANGE_FIELD`) when every view has it and one shows a
+    deflection, so that the pressurised panels show the push, not the pressure's strain; else None
+    (:func:`~whisker_opt.viewer.fields.resolve_field`'s default, the total strain)."""
+    if views and all(STRAIN_CHANGE_FIELD in v.grid.point_data for v in views) \
+            and any(v.state.lower() not in _PRESSURISED for v in views):
+        return STRAIN_CHANGE_FIELD
+    return None
+
+
 def prepare_state(
     source,
     info: SceneInfo | None = None,
@@ -189,6 +275,8 @@ def prepare_state(
     subdivision: int = 2,
     edges: bool = True,
     rubber: RunRubber | None = None,
+    onset=None,
+    config: Mapping[str, Any] | None = None,
 ) -> StateView:
     """Load a state and build its surfaces.
 
@@ -213,6 +301,11 @@ def prepare_state(
         The run's rubber (:func:`whisker_opt.viewer.rubber.run_rubber`): the law that computes
         ``von_mises`` when the file stores none (:func:`whisker_opt.viewer.fields.add_derived_fields`;
         the cap's end from :func:`whisker_opt.viewer.rubber.cap_end`).
+    onset : path-like or pyvista.UnstructuredGrid, optional
+        The scene's pressurised state: adds the strain the push added
+        (:func:`whisker_opt.viewer.fields.add_strain_change`; zero for that state itself).
+    config : mapping, optional
+        The run's ``config.yaml``: the fidelity of a file that does not store it (:func:`fidelity_text`).
 
     Returns
     -------
@@ -238,6 +331,14 @@ def prepare_state(
         logger.info("%s: no displacement array (looked for %s); drawn undeformed", where, DISPLACEMENT_NAMES)
     law = None if rubber is None else functools.partial(rubber.law, c=cap_end(grid, info.design))
     add_derived_fields(grid, disp, law)
+    if onset is not None and disp is not None:
+        if state.lower() in _PRESSURISED:
+            base = grid
+        else:
+            base = load_grid(onset) if isinstance(onset, (str, Path)) else onset.copy()
+            add_derived_fields(base, displacement_name(base, None, str(onset)), None)
+        if not add_strain_change(grid, base):
+            logger.info("%s: the pressurised state %s does not match its mesh; no strain change", where, onset)
     vol = cell_volumes(grid)
     if np.any(vol <= 0):
         logger.warning("%s: %d of %d cells have non-positive VTK volume (inverted or misordered nodes)",
@@ -267,7 +368,7 @@ def prepare_state(
                                                 non_manifold_edges=False)
     title = scene_title(info) + (f" · {state_title(info, state)}" if state else "")
     return StateView(title, grid, warped, outer, cavity, edge_poly, outline, disp, float(scale), info, state, path,
-                     cut_z)
+                     cut_z, fidelity_text(grid, config), None if disp else mesh_text(grid, path))
 
 
 def load_views(
@@ -295,7 +396,9 @@ def load_views(
         The states to load (overrides ``group``, ``scenes`` and ``state``), e.g. from
         :meth:`RunContents.select_delta`.
     **kw
-        Passed to :func:`prepare_state` (``rubber`` defaults to the run's, :attr:`RunContents.rubber`).
+        Passed to :func:`prepare_state` (``rubber`` and ``config`` default to the run's,
+        :attr:`RunContents.rubber`, :attr:`RunContents.config`); each state's ``onset`` is its scene's
+        pressurised state when the group has one.
 
     Returns
     -------
@@ -303,11 +406,13 @@ def load_views(
     """
     out = []
     kw.setdefault("rubber", contents.rubber)
+    kw.setdefault("config", contents.config)
     for f in (contents.select(group, scenes, state) if files is None else files):
         info = contents.info(f.group, f.scene)
         if notes:
             info = dataclasses.replace(info, notes={**info.notes, **notes})
-        out.append(prepare_state(f.path, info=info, state=f.state, **kw))
+        onset = next((x.path for x in contents.states(f.group, f.scene) if x.state.lower() in _PRESSURISED), None)
+        out.append(prepare_state(f.path, info=info, state=f.state, onset=onset, **kw))
     return out
 
 
