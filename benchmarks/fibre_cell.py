@@ -97,6 +97,12 @@ class Cell:
         return cls(r_i=float(d.r_inner(x)), t=d.t, r_f=float(d.r_fibre(x)), s=d.fibre_pitch / d.n_fibres,
                    side=math.sqrt(A_f), E_f=d.fibre_E, A_f=A_f)
 
+    @classmethod
+    def at(cls, r_i: float, t: float) -> "Cell":
+        """The default cell's fibre, spacing and rubber on the wall (r_i, t), fibre at mid-wall."""
+        d = cls.default()
+        return cls(r_i=r_i, t=t, r_f=r_i + t / 2, s=d.s, side=d.side, E_f=d.E_f, A_f=d.A_f)
+
     @property
     def r_o(self) -> float:
         return self.r_i + self.t
@@ -180,7 +186,7 @@ def embedded_ring(cell: Cell, mesh: TetMesh, h: float) -> EmbeddedTrusses:
     n = max(8, math.ceil(math.pi * cell.r_f / min(0.5 * h, 0.5)))
     phi = np.linspace(0.0, math.pi, n + 1)
     q = np.stack([cell.r_f * np.cos(phi), cell.r_f * np.sin(phi), np.full_like(phi, cell.s / 2)], axis=1)
-    loc = PointLocator(mesh.points, mesh.cells).locate(q)
+    loc = PointLocator(mesh.points, mesh.cells).locate(q, n_newton=30)  # curved P2 sectors of 45° on small radii need more than 4
     if not np.all(loc.inside):
         raise RuntimeError("embedded_ring: a ring point lies outside the mesh")
     seg = np.stack([np.arange(n), np.arange(1, n + 1)], axis=1)
@@ -231,8 +237,11 @@ def cell_problem(cell: Cell, mesh: TetMesh, trusses=(), fields=(), material=None
 class CellRun:
     """Load paths on one cell problem: pressure with the closed-end thrust, then a small bending."""
 
-    def __init__(self, cell: Cell, prob: Problem, top: np.ndarray) -> None:
+    def __init__(self, cell: Cell, prob: Problem, top: np.ndarray, law=None) -> None:
         self.cell, self.prob, self.top = cell, prob, top
+        #: law(Q) -> c: the wall law of the whisker scene applied about each pressurised state for the
+        #: bending (whisker_opt.wall.law.apply_law on every element of the cell); None = as meshed
+        self.law = law
         self.asm = Assembler(prob)
         self.x_top = prob.mesh.points[top, 0]
         self.state = State.zero(prob)
@@ -293,18 +302,24 @@ class CellRun:
         """EI = s · (M(+θ) − M(−θ))/(2θ) about the current pressurised state [N mm²], with M about the
         origin and with the work-conjugate M_w (the two agree at Q = 0; under pressure M also holds the
         thrust times the end plane's lateral drift, which the closed chamber leaves unrestrained)."""
-        base_state, base_load = self.state, self.load
+        base_state, base_load, base_prob, base_asm = self.state, self.load, self.prob, self.asm
+        if self.law is not None:
+            from whisker_opt.wall.law import apply_law
+
+            self.prob = apply_law(base_prob, base_state, self.law(Q), np.arange(base_prob.mesh.n_elements))
+            self.asm = Assembler(self.prob)
         m = []
         for th in (THETA, -THETA):
             self.state, self.load = base_state, base_load
             self.go(Q, U, th)
             m.append(self.forces()[1:])
-        self.state, self.load = base_state, base_load
+        self.state, self.load, self.prob, self.asm = base_state, base_load, base_prob, base_asm
         return tuple(abs(a - b) / (2 * THETA) * self.cell.s for a, b in zip(m[0], m[1]))
 
 
-def measure(cell: Cell, model: str, level: int, n_phi: int, smeared_scale: float = 1.0) -> dict:
-    """One model on one mesh: U/s at each pressure, EI(0) and EI(Q)/EI(0)."""
+def measure(cell: Cell, model: str, level: int, n_phi: int, smeared_scale: float = 1.0, pressures=PRESSURES,
+            law=None) -> dict:
+    """One model on one mesh: U/s at each pressure, EI(0) and EI(Q)/EI(0) (``law``: see :class:`CellRun`)."""
     t0 = time.perf_counter()
     if model.startswith("resolved") or model in ("weak-ring", "band"):
         r_grid, z_grid = resolved_grids(cell, level)
@@ -331,14 +346,14 @@ def measure(cell: Cell, model: str, level: int, n_phi: int, smeared_scale: float
         raise ValueError(f"--models: unknown model {model!r}; allowed resolved, resolved-rigid, weak-ring, band, "
                          "embedded, smeared, none")
     prob, top = cell_problem(cell, mesh, trusses, fields, material)
-    run = CellRun(cell, prob, top)
+    run = CellRun(cell, prob, top, law)
     row = {"model": model, "level": level, "n_el": mesh.n_elements, "n_r": len(r_grid) - 1, "n_z": len(z_grid) - 1}
     ei0 = run.bending_stiffness(0.0, 0.0)[1]
     row["EI0"] = ei0
     print(f"  {model} level {level}: {mesh.n_elements} tets, EI(0) = {ei0:.6g} N mm² "
           f"({time.perf_counter() - t0:.0f} s)", file=sys.stderr, flush=True)
     U, Q0 = 0.0, 0.0
-    for Q in PRESSURES:
+    for Q in pressures:
         try:
             U, Q0 = run.pressurise(Q, U, Q0), Q
         except SolveFailed as exc:  # the bare tube balloons (limit pressure ≈ μ ln(r_o/r_i) = 0.12 MPa)

@@ -7,6 +7,14 @@ Sub-commands (each prints markdown tables; progress on stderr):
 * ``cross3d``: the 3-D reference cell's own model (square section, fibre stiff along the hoop on rubber,
   thrust on the reference cavity area, end plane rotated about reference positions) on the 3-D cell's own
   grid and refined, to set beside ``benchmarks/fibre_cell.py --models resolved --levels 1``.
+* ``scenecheck``: the wall laws of the whisker scene (:mod:`whisker_opt.wall.law`) on the GA's mesh, checked
+  against their references. The 3-D periodic cell of ``benchmarks/fibre_cell.py`` meshed as the ``default``
+  preset meshes the chamber (one element layer through the wall, 8 sectors around, one layer per ring period),
+  the fibre an embedded truss ring, each law applied about the pressurised state as in the scene; the
+  reference is the converged 2-D cell in the 3-D cell's own model conventions (``cross3d``), with the
+  law's mechanism: ``embedded`` against bonded, ``sliding`` against sliding; ``calibrated`` (s = −2/MPa)
+  against its definition c(Q) · EI_embedded(Q). At the default wall and the four corners of the GA box
+  (t = 2 and 6 mm at its smallest and largest chamber radius): ε_z, EI(0) and EI(Q)/EI(0) at Q = 0.05 … 0.2.
 * ``table``: every variant at the default wall and at the GA box's walls (t = 2 … 6 mm at the box's
   smallest and largest outer radius), written to ``whisker_opt/wall/data/wall_law.json`` with its
   provenance; the prototype comparison (the k the thesis' beam model would infer from each law, and
@@ -16,6 +24,8 @@ Usage::
 
     OMP_NUM_THREADS=1 python3 benchmarks/wall_law.py convergence [--variants bonded,sliding] [--levels 1,2,3,4]
     OMP_NUM_THREADS=1 python3 benchmarks/wall_law.py cross3d [--levels 1,2,3]
+    OMP_NUM_THREADS=1 python3 benchmarks/wall_law.py scenecheck [--laws embedded,sliding,calibrated] [--layers 1]
+        [--n-phi 4]
     OMP_NUM_THREADS=1 python3 benchmarks/wall_law.py table [--level 3] [--variants ...] [--jobs 2]
 """
 
@@ -117,6 +127,78 @@ def convergence(variants, levels, geo=None, grid=False) -> list[dict]:
         out += rows
         print(md(rows, list(rows[0])), flush=True)
     return out
+
+
+#: Acceptance of the scene-law check: ε_z and EI(0) relative, EI(Q)/EI(0) absolute.
+CHECK_TOL = {"ez": 0.03, "EI0": 0.03, "ratio": 0.03}
+CHECK_SLOPE = -2.0
+
+
+def scenecheck(laws, n_phi: int = 4, layers: int = 1) -> list[dict]:
+    """The scene's wall laws on the GA mesh's cell against their references (see the module docstring)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import fibre_cell as fc
+
+    from whisker_opt.wall.law import WallLaw
+
+    qs = tuple(q for q in PRESSURES if q > 0)
+    geos = [default_geometry()] + [WallGeometry(r_i=r_o - t, t=t) for r_o in BOX_R_O for t in (BOX_T[0], BOX_T[-1])]
+    rows = []
+    for geo in geos:
+        cell = fc.Cell.at(geo.r_i, geo.t)
+        embedded = None
+        for name in laws:
+            t0 = time.perf_counter()
+            law_obj = WallLaw(name, CHECK_SLOPE if name == "calibrated" else 0.0)
+            if name == "sliding":
+                table = WallTable.load()
+                ei_ratio = table.lookup("sliding", "EI", geo.r_i, geo.t) / table.lookup("bonded", "EI", geo.r_i, geo.t)
+                law = lambda q, r=ei_ratio: float(np.interp(q, PRESSURES, r))  # noqa: E731
+            elif name == "calibrated":
+                law = lambda q, lo=law_obj: 1.0 + lo.slope * q  # noqa: E731
+            else:
+                law = None
+            got = fc.measure(cell, "embedded", layers, n_phi, pressures=qs, law=law)
+            if name == "embedded":
+                embedded = got
+            if name == "calibrated":
+                if embedded is None:
+                    embedded = fc.measure(cell, "embedded", layers, n_phi, pressures=qs)
+                ref = {"EI": [embedded["EI0"] * 2] + [embedded["EI0"] * 2 * embedded[f"EIw_{q}"] * law(q) for q in qs],
+                       "ez": [0.0] + [embedded[f"ez_{q}"] for q in qs], "label": "c(Q) × embedded"}
+            else:
+                mech = CELL3D.with_(name=f"cell3d-{'bonded' if name == 'embedded' else name}",
+                                    bond="bonded" if name == "embedded" else name)
+                r2 = sweep(geo, mech, Resolution(level=3))
+                ref = {"EI": r2["EI"], "ez": r2["ez"], "label": f"2-D {mech.bond}, 3-D conventions"}
+            ei0_3d = 2 * got["EI0"]  # whole tube
+            row = {"law": name, "r_i": geo.r_i, "t": geo.t, "reference": ref["label"], "EI0": ei0_3d,
+                   "EI0 err": ei0_3d / ref["EI"][0] - 1}
+            worst = {"ez": 0.0, "ratio": 0.0}
+            for k, q in enumerate(PRESSURES):
+                if q == 0:
+                    continue
+                ez_err = got[f"ez_{q}"] / ref["ez"][k] - 1
+                r3 = got[f"EIw_{q}"]
+                r_err = r3 - ref["EI"][k] / ref["EI"][0]
+                row[f"EIr_{q}"] = r3
+                row[f"dEIr_{q}"] = r_err
+                worst["ez"] = max(worst["ez"], abs(ez_err))
+                worst["ratio"] = max(worst["ratio"], abs(r_err))
+            row["max |ez err|"] = worst["ez"]
+            row["max |dEIr|"] = worst["ratio"]
+            ok = (abs(row["EI0 err"]) <= CHECK_TOL["EI0"] and worst["ez"] <= CHECK_TOL["ez"]
+                  and worst["ratio"] <= CHECK_TOL["ratio"])
+            # the calibrated law's reference is the data it is fitted to; against c(Q)·EI the row measures how far
+            # scaling the rubber's material stiffness scales EI (the fibres and the pressure's stress are not scaled)
+            row["pass"] = "-" if name == "calibrated" else ("yes" if ok else "no")
+            row["t_s"] = time.perf_counter() - t0
+            log(f"  scenecheck {name} r_i = {geo.r_i:.3f} t = {geo.t}: {row}")
+            rows.append(row)
+    cols = ["law", "r_i", "t", "reference", "EI0", "EI0 err"] + [f"EIr_{q}" for q in PRESSURES if q] + \
+        [f"dEIr_{q}" for q in PRESSURES if q] + ["max |ez err|", "max |dEIr|", "pass", "t_s"]
+    print(md(rows, cols, fmt="{:.4g}"), flush=True)
+    return rows
 
 
 def _table_job(args):
@@ -231,6 +313,10 @@ def main(argv=None) -> int:
     c.add_argument("--levels", default="1,2,3,4")
     x = sub.add_parser("cross3d")
     x.add_argument("--levels", default="1,2,3")
+    sc = sub.add_parser("scenecheck")
+    sc.add_argument("--laws", default="embedded,sliding,calibrated")
+    sc.add_argument("--layers", type=int, default=1, help="element layers through the wall (the GA's: 1)")
+    sc.add_argument("--n-phi", type=int, default=4, help="cells around the half tube (the GA's 8 sectors: 4)")
     t = sub.add_parser("table")
     t.add_argument("--variants", default=",".join(VARIANTS))
     t.add_argument("--level", type=int, default=3)
@@ -247,6 +333,8 @@ def main(argv=None) -> int:
         if bad:
             ap.error(f"--variants: unknown {bad}; allowed {', '.join(VARIANTS)}, cell3d")
         convergence(names, [int(v) for v in args.levels.split(",")])
+    elif args.cmd == "scenecheck":
+        scenecheck(args.laws.split(","), args.n_phi, args.layers)
     elif args.cmd == "cross3d":
         print("3-D cell's grid (square fibre 2 × 2 cells, 12 across the wall, 8 along):")
         convergence(["cell3d"], [1], grid=True)

@@ -247,7 +247,7 @@ def make_template(design: WhiskerDesign, sizing: MeshSizing, num_threads: int = 
         _, cells, _ = p1_to_p2(pts, tets)
         _, _, faces6 = boundary_faces(cells)
         cls = bd.classify_faces(design, pts, faces6[:, :3])
-        pts, n_unproj = _project_safely(design, pts, tets, faces6[:, :3], cls)
+        pts, n_unproj, _ = _project_safely(design, pts, tets, faces6[:, :3], cls)
         if not n_unproj:
             break
         logger.warning("template for %s: %d vertices could not be projected (epsilon %.2g, attempt %d)",

@@ -144,7 +144,7 @@ def test_preset_names_are_listed_in_one_place():
     assert homes == []  # PRESETS is a dict literal; its names are PRESET_NAMES = tuple(PRESETS)
     from whisker_opt.experiment.fidelity import PRESET_NAMES, PRESETS
 
-    assert PRESET_NAMES == tuple(PRESETS) == ("coarse", "default", "fine")
+    assert PRESET_NAMES == tuple(PRESETS) == ("coarse", "default", "level2", "fine", "level3", "level4")
 
 
 def test_the_project_speaks_of_itself_only():

@@ -84,6 +84,31 @@ def test_init_writes_a_template_that_validates(tmp_path, monkeypatch, capsys, ca
     load_config(tmp_path / "sub" / "dir" / "x.yaml")
 
 
+def _resolved(cfg) -> dict:
+    """A config's values with every optional section that is absent (null) at its defaults: a section
+    the template writes out at its defaults and one a shipped file leaves out mean the same."""
+    data = cfg.model_dump(mode="json")
+    for name, info in type(cfg).model_fields.items():
+        if data[name] is None:
+            from whisker_opt.config.fields import strip_optional
+
+            data[name] = strip_optional(info.annotation)[0]().model_dump(mode="json")
+    return data
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_every_init_case_writes_the_values_of_its_shipped_config(tmp_path, case):
+    from whisker_opt.config.template import SHIPPED
+    from whisker_opt.optimise.rundir import config_differences
+
+    assert set(SHIPPED) == set(CASES)
+    path = tmp_path / "init.yaml"
+    assert cli.main(["init", "--case", case, str(path)]) == 0
+    shipped = Path(__file__).resolve().parents[1] / "configs" / SHIPPED[case]
+    diffs = config_differences(_resolved(load_config(shipped)), _resolved(load_config(path)))
+    assert diffs == [], f"init --case {case} differs from configs/{SHIPPED[case]}: {diffs}"
+
+
 def test_init_refuses_to_overwrite_unless_forced(tmp_path, capsys):
     path = tmp_path / "mine.yaml"
     path.write_text("fidelity: {preset: fine}\n")
@@ -138,7 +163,7 @@ def test_defaults_preset_and_set_on_an_empty_file(tmp_path, monkeypatch, capsys)
     (["--set", "seed.x=1"], ["--set", "seed"]),
     (["--set", "nokey"], ["--set", "KEY=VALUE"]),
     (["--set", "a..b=1"], ["--set", "KEY=VALUE"]),
-    (["--preset", "medium"], ["--preset", "coarse, default, fine"]),
+    (["--preset", "medium"], ["--preset", "coarse, default, level2, fine, level3, level4"]),
 ])
 def test_bad_settings_are_one_line(tmp_path, capsys, argv, words):
     cfg = tmp_path / "c.yaml"

@@ -44,7 +44,9 @@ def _all_text(fig) -> str:
 # ----------------------------------------------------------------------------- fidelity presets
 def test_presets_carry_a_measured_f1_resolution():
     res = {n: p.f1_resolution for n, p in fidelity.PRESETS.items()}
-    assert res == {"coarse": 2e-3, "default": 1e-3, "fine": 7e-4}  # the figures of the module docstring
+    assert math.isnan(res.pop("level4"))  # the finest level: no finer reference, no resolution claimed
+    assert res == {"coarse": 2e-3, "default": 1e-3, "level2": 6e-4, "fine": 7e-4,
+                   "level3": 4e-4}  # the figures of the module docstring
     assert fidelity.f1_resolution("default", calibration=1.0) == pytest.approx(1e-3 / 3.9)
     assert fidelity.describe(FidelityConfig(preset="coarse")) == COARSE
     over = fidelity.describe(FidelityConfig(preset="fine", n_deflection_steps=20), calibration=3.9)
@@ -189,10 +191,14 @@ def test_target_stop_below_the_resolution_warns(tmp_path, caplog):
         s = run_optimisation(_cfg(1e-3, gens=5), run, ev, seed=1, progress=False, fidelity=COARSE)
     assert s.stop_reason == "target_fp" and s.best["F_p"] < 2e-3
     warned = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
-    assert any("below the f1 resolution ~2e-3 of preset coarse: verify at a finer preset" in m for m in warned), warned
+    # f1 and the resolution in the strain of target_fp (uncalibrated) first, calibrated beside it
+    f1 = s.best["f1"]
+    said = (f"best f1 {short_float(f1 / 3.9, 2)} uncalibrated ({short_float(f1, 2)} calibrated) is below the f1 "
+            f"resolution ~{short_float(2e-3 / 3.9, 2)} uncalibrated (2e-3 calibrated) of preset coarse")
+    assert any(said in m and "verify at a finer preset" in m for m in warned), warned
     text = report(run)
-    assert "WARNING best F_p" in text and "below the f1 resolution ~2e-3 of preset coarse" in text
-    assert "stopped on target_fp" in text and "--preset fine" in text
+    assert f"WARNING {said}" in text
+    assert "stopped on target_fp" in text and "--preset level3" in text
 
 
 def test_no_warning_above_the_resolution(tmp_path, caplog):
@@ -204,3 +210,60 @@ def test_no_warning_above_the_resolution(tmp_path, caplog):
     assert not [r for r in caplog.records if "f1 resolution" in r.getMessage()]
     assert "WARNING" not in report(run)
     assert math.isfinite(s.best["F_p"])
+
+
+# ----------------------------------------------------------------------------- what a run optimises
+def test_ga_convergence_shows_the_best_design_s_f1_against_the_resolution():
+    fig = convergence_figure([0, 1, 2], [3e-3, 1e-3, 5e-4], [8e-3, 4e-3, 2e-3], [True] * 3, 1e-3, "t", COARSE,
+                             "uncalibrated", best_f1=[2e-3, 8e-4, 3e-4])
+    text = _all_text(fig)
+    assert "f1 of the best design" in text and "f1 resolution of preset coarse" in text
+    assert fig.axes[0].get_ylabel().startswith("F_p, f1 [-]")
+
+
+def test_multi_objective_runs_plot_what_they_optimise(tmp_path, monkeypatch):
+    import whisker_opt.optimise.runner as runner_mod
+    import whisker_opt.output.pareto_plots as pp
+
+    figures = []
+    original = pp.mo_convergence_figure
+
+    def keep(*args, **kw):
+        figures.append(original(*args, **kw))
+        return figures[-1]
+
+    monkeypatch.setattr(pp, "mo_convergence_figure", keep)
+    monkeypatch.setattr(runner_mod, "plot_convergence", lambda *a, **k: pytest.fail("the GA's F_p plot drawn"))
+    cfg = OptimiserConfig.model_validate({"algorithm": "nsga2", "ga": {"population": 8}, "pareto": {"verify": False},
+                                          "stopping": {"max_generations": 3}, "executor": {"kind": "serial"}})
+    run_optimisation(cfg, tmp_path / "run", AnalyticFitness(scale=0.2), seed=1, progress=False, fidelity=COARSE)
+    assert figures and (tmp_path / "run" / "convergence.png").is_file()
+    text = _all_text(figures[-1])
+    assert "NSGA-II convergence (stopped by max_generations, generation 3" in text
+    assert "objectives, all minimised: f1, Q_i (prefer low)" in text and "preset coarse, f1 resolution ~2e-3" in text
+    assert "hypervolume of the front" in text and "smallest f1 found" in text
+    assert "F_p" not in text  # the penalised score is not what NSGA-II optimises
+    hv, f1 = figures[-1].axes[0], figures[-1].axes[1]
+    assert [round(x) for x in hv.lines[0].get_xdata()] == [0, 1, 2, 3]
+    smallest = f1.lines[0].get_ydata()
+    assert all(b <= a for a, b in zip(smallest, smallest[1:]))  # the smallest f1 so far never grows
+
+
+def test_compensation_map_cell_labels_are_readable():
+    from whisker_opt.analysis import compensation_map as cmod
+    from whisker_opt.analysis.beam import BeamResponse
+
+    m = cmod.solve_map(WhiskerDesign(), 0.2, [0.0, 1.0, 2.0, 3.0, 4.0, 5.0], [0.55, 0.7, 0.85, 1.0],
+                       lambda d, Q, a, x: BeamResponse(a=a)(d, Q, x), xatol=1e-6)
+    fig = comp_io.map_figure(m)
+    FigureCanvasAgg(fig).draw()
+    cells = [t for ax in fig.axes[:2] for t in ax.texts]
+    assert len(cells) >= 6 * 4 * 2 - 4  # a value in every cell (Δ = 0 has no recovery rate)
+    assert min(t.get_fontsize() for t in cells) >= 9
+    ticks = [t for ax in fig.axes[:2] for t in ax.get_xticklabels() + ax.get_yticklabels() if t.get_text()]
+    assert min(t.get_fontsize() for t in ticks) >= 9
+    # the labels fit their cells: no two values of one panel overlap
+    renderer = fig.canvas.get_renderer()
+    for ax in fig.axes[:2]:
+        boxes = [t.get_window_extent(renderer) for t in ax.texts if t.get_text()[:1].isdigit()]
+        assert not any(a.overlaps(b) for i, a in enumerate(boxes) for b in boxes[i + 1:])

@@ -23,6 +23,7 @@ from typing import Any, Mapping
 
 from whisker_opt.config.model import FidelityConfig, WhiskerConfig
 from whisker_opt.config.optimiser import OptimiserConfig
+from whisker_opt.config.readers import COMMAND_READS, TRIM_AND_Q_KEYS
 from whisker_opt.genes import GEOMETRY_GENES
 
 logger = logging.getLogger(__name__)
@@ -172,6 +173,8 @@ def scene_spec(cfg: WhiskerConfig, design, Q: float):
         rubber=cfg.material.rubber,
         cap_rubber=cfg.material.cap_rubber,
         fibre_model=cfg.material.fibre_model,
+        wall_law=cfg.material.wall_law,
+        wall_slope=cfg.material.wall_slope,
         base_support=cfg.scene.base_support,
         calibration=cfg.scene.calibration,
         band_width=cfg.scene.band_width,
@@ -202,8 +205,9 @@ def evaluator(cfg: WhiskerConfig, keep_curves: bool = False, validate: bool = Tr
     design validated unless ``validate`` is False).
 
     With ``optimiser.robust`` set (and ``robust`` True) it is wrapped in a :class:`RobustEvaluator`,
-    whose f1 is mean + k·std of f1 over the tolerances of the ``robustness`` section; ``robust=False``
-    gives the nominal evaluator whatever the config says.
+    whose f1 is mean + k·std of f1 over the tolerances of the ``robustness`` section; with
+    ``optimiser.wall_laws`` in a :class:`LawSetEvaluator`, whose f1 is the mean or the worst over
+    the wall laws; ``robust=False`` gives the nominal evaluator whatever the config says.
     """
     from whisker_opt.experiment.evaluator import SceneEvaluator
 
@@ -213,7 +217,88 @@ def evaluator(cfg: WhiskerConfig, keep_curves: bool = False, validate: bool = Tr
                         keep_curves)
     if robust and optimiser_of(cfg).robust is not None:
         return robust_evaluator(cfg, ev)
+    if robust and optimiser_of(cfg).wall_laws is not None:
+        return law_set_evaluator(cfg, ev)
     return ev
+
+
+# ----------------------------------------------------------------------------- keys a command does not read
+def _set_value(cfg: WhiskerConfig, key: str) -> Any:
+    """The value of ``key`` when it is set to something other than its default, else None."""
+    section, name = key.split(".")
+    sec = getattr(cfg, section)
+    if sec is None:
+        return None
+    value = getattr(sec, name)
+    default = type(sec).model_fields[name].default
+    return None if value == default else value
+
+
+def _instead(cfg: WhiskerConfig, key: str, command: str, trim: float | None) -> str:
+    """What ``command`` uses in place of ``key``, as the end of the sentence of :func:`unread_keys`."""
+    if command == "calibrate":
+        return "which takes the trims and pressures of its measurement files (calibrated.yaml keeps the key)"
+    if key == "scene.Q_i":
+        return "which meshes the unpressurised whisker" if command == "mesh" else "which takes Q_i from the gene Q_i"
+    if trim is not None:
+        return f"which is given the trim {trim:g} mm (--trim)"
+    if command in ("mesh", "simulate", "export"):
+        return f"which trims by scene.trim = {cfg.scene.trim:g} mm"
+    if command == "compensate":
+        return f"whose trims run from 0 to optimiser.trim = {optimiser_of(cfg).trim:g} mm"
+    return f"which trims by optimiser.trim = {optimiser_of(cfg).trim:g} mm"
+
+
+def unread_keys(cfg: WhiskerConfig, command: str, reads: tuple[str, ...] | None = None,
+                trim: float | None = None) -> list[str]:
+    """One line per key of :data:`~whisker_opt.config.readers.TRIM_AND_Q_KEYS` that is set (to a value
+    other than its default) and that ``command`` does not read, saying what it uses instead
+    (:mod:`whisker_opt.config.readers`).
+
+    Parameters
+    ----------
+    cfg : WhiskerConfig
+    command : str
+        A key of :data:`~whisker_opt.config.readers.COMMAND_READS`.
+    reads : tuple of str, optional
+        The keys the job reads this time, when not ``COMMAND_READS``'s (``robustness`` of a
+        config's own design also reads ``scene.Q_i``).
+    trim : float, optional
+        The trim [mm] the job was given by an argument (``mesh --trim``): then no trim key is read.
+
+    Returns
+    -------
+    list of str
+        E.g. ``scene.trim = 5 has no effect in run, which trims by optimiser.trim = 10 mm
+        (docs/config.md, "Keys read by each command")``.
+
+    Raises
+    ------
+    ValueError
+        An unknown ``command`` (naming the allowed ones).
+    """
+    if command not in COMMAND_READS:
+        raise ValueError(f"unread_keys: command={command!r} is not one of {', '.join(COMMAND_READS)}")
+    reads = COMMAND_READS[command] if reads is None else reads
+    if trim is not None:
+        reads = tuple(k for k in reads if not k.endswith(".trim"))
+    out = []
+    for key in TRIM_AND_Q_KEYS:
+        value = _set_value(cfg, key)
+        if value is None or key in reads:
+            continue
+        out.append(f"{key} = {value:g} has no effect in {command}, {_instead(cfg, key, command, trim)} "
+                   "(docs/config.md, \"Keys read by each command\")")
+    return out
+
+
+def warn_unread_keys(cfg: WhiskerConfig, command: str, reads: tuple[str, ...] | None = None,
+                     trim: float | None = None) -> list[str]:
+    """Log :func:`unread_keys` as warnings, one line each; returns them."""
+    lines = unread_keys(cfg, command, reads, trim)
+    for line in lines:
+        logger.warning("%s", line)
+    return lines
 
 
 # ----------------------------------------------------------------------------- tolerances
@@ -383,6 +468,62 @@ class RobustEvaluator:
                  f"(mean {mean:.6g}, std {std:.6g}); nominal f1 = {float(nominal.f1):.6g}")
         return EvalOutcome("ok", value, label, {"total": elapsed, "nominal": nominal.timings.get("total", 0.0)},
                            extra)
+
+
+def with_wall_law(cfg: WhiskerConfig, law: str) -> WhiskerConfig:
+    """``cfg`` with ``material.wall_law`` replaced (``material.wall_slope`` kept only for 'calibrated')."""
+    slope = cfg.material.wall_slope if law == "calibrated" else 0.0
+    return cfg.model_copy(update={"material": cfg.material.model_copy(update={"wall_law": law, "wall_slope": slope})})
+
+
+def law_set_evaluator(cfg: WhiskerConfig, ev) -> "LawSetEvaluator":
+    """``ev`` evaluated under each law of ``optimiser.wall_laws`` (:class:`LawSetEvaluator`)."""
+    spec = optimiser_of(cfg).wall_laws
+    inners = tuple(replace(ev, base_spec=scene_spec(with_wall_law(cfg, law), ev.base_spec.design, 0.0))
+                   for law in spec.laws)
+    return LawSetEvaluator(inners, tuple(spec.laws), spec.objective)
+
+
+@dataclass(frozen=True)
+class LawSetEvaluator:
+    """Picklable evaluator ``genes -> EvalOutcome`` whose f1 is the mean or the worst f1 over wall laws.
+
+    ``inners`` are the nominal evaluators, one per law of ``laws`` (the same scenes, each with its
+    ``material.wall_law``); a genome that fails under any law fails, with the law named. The outcome's
+    ``extra`` holds ``f1_<law>`` per law and ``wall_law_objective``; its ``reason`` says what the f1 it
+    carries is. Every other attribute is the first law's evaluator's.
+    """
+
+    inners: tuple
+    laws: tuple[str, ...]
+    objective: str = "mean"
+
+    def __getattr__(self, name: str):
+        if name.startswith("__") or name in ("inners", "laws", "objective"):
+            raise AttributeError(name)
+        return getattr(self.inners[0], name)
+
+    def __call__(self, genes: dict):
+        import time
+
+        from whisker_opt.experiment.outcome import EvalOutcome
+
+        t0 = time.perf_counter()
+        f1s, extra, timings = {}, {}, {}
+        for law, inner in zip(self.laws, self.inners):
+            out = inner(genes)
+            if not out.ok:
+                return EvalOutcome.failure(out.status, f"wall law {law}: {out.reason}",
+                                           {"total": time.perf_counter() - t0}, dict(out.extra))
+            f1s[law] = float(out.f1)
+            timings[law] = out.timings.get("total", 0.0)
+            extra = extra or dict(out.extra)
+        values = list(f1s.values())
+        value = max(values) if self.objective == "worst" else sum(values) / len(values)
+        extra.update({f"f1_{law}": v for law, v in f1s.items()}, wall_law_objective=self.objective)
+        label = (f"wall-law objective ({self.objective} over {', '.join(self.laws)}) in column f1 = {value:.6g}; "
+                 + ", ".join(f"{law} {v:.6g}" for law, v in f1s.items()))
+        return EvalOutcome("ok", value, label, {"total": time.perf_counter() - t0, **timings}, extra)
 
 
 def with_preset(cfg: WhiskerConfig, preset: str) -> WhiskerConfig:

@@ -58,6 +58,10 @@ def mesh(cfg: WhiskerConfig, out: Path, trim: float | None = None, method: str |
          step: bool = False, progress: bool = True) -> tuple[Any, dict]:
     """Build and mesh the config's design; write ``mesh.npz``, ``mesh.vtu`` and ``mesh_report.json``.
 
+    ``mesh.vtu`` carries, as field data, the element count, the wall layers (the sizing's and the
+    median count of elements a radial line crosses through the wall), the mesh method, the trim,
+    the gauge factor and the fidelity preset (when not overridden), which ``whisker-opt view`` names.
+
     Parameters
     ----------
     cfg : WhiskerConfig
@@ -84,6 +88,7 @@ def mesh(cfg: WhiskerConfig, out: Path, trim: float | None = None, method: str |
     from whisker_opt.experiment.fidelity import resolve
     from whisker_opt.output.progress import Progress
 
+    wiring.warn_unread_keys(cfg, "mesh", trim=trim)
     trim = cfg.scene.trim if trim is None else trim
     design = wiring.design_from_config(cfg, trim=trim)
     method = method or cfg.fidelity.mesh_method
@@ -95,7 +100,13 @@ def mesh(cfg: WhiskerConfig, out: Path, trim: float | None = None, method: str |
         wm = build_mesh(design, resolve(cfg.fidelity).sizing, method=method)
         elapsed = time.perf_counter() - t0
         wm.save(out / "mesh.npz")
-        write_vtu(out / "mesh.vtu", wm.mesh)
+        rep = wm.report
+        meta = {"calibration_xi": float(cfg.scene.calibration), "n_elements": int(wm.mesh.n_elements),
+                "wall_layers": float(rep.wall_layers), "elements_through_wall_median":
+                float(rep.elements_through_wall_median), "mesh_method": str(rep.method), "trim_mm": float(trim)}
+        if not fidelity_of(cfg).get("overrides"):  # a preset's own mesh (as the scene files say it)
+            meta["fidelity_preset"] = cfg.fidelity.preset
+        write_vtu(out / "mesh.vtu", wm.mesh, field_data=meta)  # what the mesh view names in its title
         steps.step(f"(meshed by {method}: {wm.mesh.cells.shape[0]} elements; mesh.npz and mesh.vtu written)")
         if step:
             from geometry.cad import build_solid, export_step, export_stl
@@ -106,7 +117,7 @@ def mesh(cfg: WhiskerConfig, out: Path, trim: float | None = None, method: str |
             steps.step("(whisker.step and whisker.stl written)")
     # the method actually used (e.g. 'template:default_a3.3_t3.6') stays; the one asked for beside it
     report = dict(wm.report.as_dict(), mesh_seconds=round(elapsed, 3), method_requested=method, trim_mm=trim)
-    (out / "mesh_report.json").write_text(json.dumps(report, indent=2))
+    storage.atomic_write_text(out / "mesh_report.json", json.dumps(report, indent=2))
     return design, report
 
 
@@ -167,6 +178,7 @@ def simulate(cfg: WhiskerConfig, out: Path, source: str = "config") -> Simulatio
 
     sc = cfg.scene
     specs = simulation_specs(cfg, source)
+    wiring.warn_unread_keys(cfg, "simulate")
     wiring.warn_smeared_on_one_layer(cfg)
     out = Path(out)
     delta = np.round(np.arange(0.0, sc.deflection + 0.5 * sc.delta_step, sc.delta_step), 10)
@@ -203,10 +215,14 @@ def simulate(cfg: WhiskerConfig, out: Path, source: str = "config") -> Simulatio
 def evaluate(cfg: WhiskerConfig, genes: Mapping[str, float], keep_curves: bool = False):
     """One GA evaluation of a genome: f1 and timings, or the classified failure.
 
+    The genome's whisker is trimmed by ``optimiser.trim`` and its Q_i is the gene's: a
+    ``scene.trim`` or ``scene.Q_i`` that is set is warned about (:func:`whisker_opt.wiring.unread_keys`).
+
     Returns
     -------
     whisker_opt.experiment.outcome.EvalOutcome
     """
+    wiring.warn_unread_keys(cfg, "evaluate")
     return wiring.evaluator(cfg, keep_curves=keep_curves)({k: float(v) for k, v in genes.items()})
 
 
@@ -288,12 +304,17 @@ def run_log(run_dir: Path, level: int = logging.INFO) -> Iterator[Path]:
     ------
     Path
         The log file.
+
+    Raises
+    ------
+    whisker_opt.output.storage.UnsafeLink
+        ``run.log`` is a symbolic link (:func:`whisker_opt.output.storage.log_file_handler`).
     """
     path = Path(run_dir) / RUN_LOG
     log = logging.getLogger(PACKAGE_LOGGER)
     old_level, old_propagate = log.level, log.propagate
     threshold = log.getEffectiveLevel()
-    handler = logging.FileHandler(path, mode="a", encoding="utf-8")
+    handler = storage.log_file_handler(path)
     handler.setLevel(level)
     handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s"))
     forward = _Forward(log.parent, threshold) if old_propagate and log.parent is not None else None
@@ -525,12 +546,36 @@ def run(cfg: WhiskerConfig, run_dir: Path, progress: bool = True, overwrite: boo
         with run_log(run_dir):
             logger.info("run of %s at preset %s (f1 resolution %.3g)", run_dir, fidelity["preset"],
                         fidelity["f1_resolution"])
+            wiring.warn_unread_keys(cfg, "run")
             summary = run_optimisation(opt, run_dir, ev, opt.resolve_seed(cfg.seed), progress=progress,
                                        fidelity=fidelity, callbacks=[GenerationLines(opt.stopping.max_generations)],
                                        run_config=run_config(run_dir).model_dump(mode="json"))  # as resume reads it
             finish_best(run_dir, cfg, summary)
             _verify_front(run_dir, cfg)
+            finish_law_spread(run_dir, cfg, progress)
     return summary
+
+
+def finish_law_spread(run_dir: Path, cfg: WhiskerConfig, progress: bool = False) -> None:
+    """The model-form spread of the run's best ``optimiser.law_spread_top`` designs (``law_spread.csv``, logged).
+
+    Skipped when the key is 0 or the run's evaluator is not the scene evaluator (a stand-in fitness); a failure
+    is logged as a warning and does not fail the finished run.
+    """
+    from whisker_opt.analysis.law_spread import format_spread
+    from whisker_opt.analysis.verify import law_spread_run
+    from whisker_opt.experiment.evaluator import SceneEvaluator
+
+    top = wiring.optimiser_of(cfg).law_spread_top
+    if not top or not isinstance(wiring.evaluator(cfg, robust=False), SceneEvaluator):
+        return
+    try:
+        rows, preset = law_spread_run(run_dir, top, progress)
+    except Exception as exc:  # noqa: BLE001 - the run itself is complete and saved
+        logger.warning("wall-law spread of the best design(s) not computed: %s", exc)
+        return
+    for line in format_spread(rows, preset).splitlines():
+        logger.info("%s", line)
 
 
 def _verify_front(run_dir: Path, cfg: WhiskerConfig) -> None:
@@ -596,6 +641,7 @@ def resume(run_dir: Path, progress: bool = True, max_generations: int | None = N
                                 0 if state is None else state.generation + 1)
         with run_log(run_dir):
             logger.info("resume of %s", run_dir)
+            wiring.warn_unread_keys(cfg, "resume")
             summary = resume_optimisation(run_dir, wiring.evaluator(cfg), progress=progress,
                                           fidelity=fidelity_of(cfg), max_generations=max_generations,
                                           callbacks=[lines], run_config=resolved, config_change=change)
@@ -604,5 +650,7 @@ def resume(run_dir: Path, progress: bool = True, max_generations: int | None = N
                 logger.info("rebuilding the best design's outputs (missing: %s)", ", ".join(missing))
                 finish_best(run_dir, cfg, summary)
             _verify_front(run_dir, cfg)
+            if missing or not (run_dir / "law_spread.csv").exists():
+                finish_law_spread(run_dir, cfg, progress)
     return summary
 

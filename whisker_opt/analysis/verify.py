@@ -5,8 +5,9 @@ error in f1 depends on the design: −16 % at the thesis design, +1 % at a thin-
 and −35 % at a thick-walled one (``benchmarks/README.md``, run time against error). So
 the absolute f1 of a GA optimum, and its rank against designs of a different wall
 thickness, should be confirmed at a finer preset before they are reported. This module
-re-runs the hall of fame's first ``top`` feasible designs through the same evaluator at the
-verification preset, recomputes F_p with the run's own penalty terms
+re-runs the run's ``top`` best feasible designs, pairwise distinct by ``optimiser.distinct_distance``
+(:func:`whisker_opt.optimise.best.run_best_designs`, the designs of the report and ``best.json``),
+through the same evaluator at the verification preset, recomputes F_p with the run's own penalty terms
 (:func:`whisker_opt.optimise.penalty.dynamic_penalty`: F_p = f1 + Σ_j C_j κ_j, κ_j = f1 · distance_j)
 and writes ``verify_<preset>.csv`` into the run directory (atomically).
 
@@ -48,7 +49,7 @@ def check_args(preset: str, top: int) -> None:
 
 
 def verify_run(run_dir: Path, preset: str = "fine", top: int = 3, progress: bool = True) -> list[dict[str, Any]]:
-    """Re-evaluate the best ``top`` feasible designs of ``run_dir`` at fidelity ``preset``.
+    """Re-evaluate the best ``top`` distinct feasible designs of ``run_dir`` at fidelity ``preset``.
 
     Parameters
     ----------
@@ -57,7 +58,7 @@ def verify_run(run_dir: Path, preset: str = "fine", top: int = 3, progress: bool
     preset : str
         Verification preset (:data:`whisker_opt.experiment.fidelity.PRESET_NAMES`) (the run's other fidelity overrides are dropped).
     top : int
-        Number of designs, 1 … the hall of fame's size.
+        Number of designs, 1 … 1000 (fewer when the run has fewer distinct feasible designs).
     progress : bool
         Show a tqdm bar over the scenes (stderr, on a terminal only).
 
@@ -79,7 +80,7 @@ def verify_run(run_dir: Path, preset: str = "fine", top: int = 3, progress: bool
     from whisker_opt import wiring
     from whisker_opt.config.model import load_config
     from whisker_opt.experiment.fidelity import f1_resolution
-    from whisker_opt.genes import genes_dict
+    from whisker_opt.optimise.best import describe_distance, run_best_designs
     from whisker_opt.optimise.penalty import dynamic_penalty, penalty_terms
     from whisker_opt.experiment.evaluator import SceneEvaluator
     from whisker_opt.optimise.runner import load_run, run_config_path
@@ -88,13 +89,16 @@ def verify_run(run_dir: Path, preset: str = "fine", top: int = 3, progress: bool
     run_dir = Path(run_dir)
     check_args(preset, top)
     cfg = load_config(run_config_path(run_dir))
+    wiring.warn_unread_keys(cfg, "verify")
     state, opt, _, _ = load_run(run_dir)
     if state is None:
         raise FileNotFoundError(f"{run_dir}: no checkpoint yet (the run has not finished a generation)")
-    feasible = [ind for ind in state.hof if ind.fitness.values[0] == 0.0 and (ind.info or {}).get("f1") is not None]
-    if not feasible:
-        raise VerifyError(f"verify: {run_dir} has no feasible design in its hall of fame")
-    chosen = feasible[: int(top)]
+    chosen = run_best_designs(state, opt, int(top))
+    if not chosen:
+        raise VerifyError(f"verify: {run_dir} has no feasible design")
+    if len(chosen) < int(top):
+        logger.warning("verify: %s has %d feasible design(s) %s, fewer than --top %d: verifying those",
+                       run_dir, len(chosen), describe_distance(opt.distinct_distance), int(top))
     run_preset = cfg.fidelity.preset
     if preset == run_preset:
         logger.warning("verify: preset %s is the run's own preset: the re-evaluation reproduces the run's f1 and "
@@ -108,9 +112,9 @@ def verify_run(run_dir: Path, preset: str = "fine", top: int = 3, progress: bool
     steps = Progress(len(chosen) * (len(SceneEvaluator.SCENES) if per_scene else 1), f"verify at {preset}",
                      "scene" if per_scene else "design", progress)
     with steps:
-        for rank, ind in enumerate(chosen, start=1):
-            genes = genes_dict(ind)
-            f1_run = float(ind.info["f1"])
+        for rank, best in enumerate(chosen, start=1):
+            genes = dict(best["genes"])
+            f1_run = float(best["f1"])
             logger.info("verify: design %d/%d %s at preset %s", rank, len(chosen), genes, preset)
             if per_scene:
                 out = evaluate(genes, on_scene=lambda name, s: steps.step(
@@ -120,7 +124,7 @@ def verify_run(run_dir: Path, preset: str = "fine", top: int = 3, progress: bool
             left = rank * steps.total // len(chosen) - steps.done  # the scenes a failed design did not reach
             if left > 0:
                 steps.step(f"(design {rank}/{len(chosen)}: {out.status})", n=left)
-            row = {"rank_run": rank, **genes, "f1_run": f1_run, "F_p_run": float(ind.fitness.values[1]),
+            row = {"rank_run": rank, **genes, "f1_run": f1_run, "F_p_run": float(best["F_p"]),
                    "status": out.status, "reason": out.reason,
                    "time_s": float(out.timings.get("total", float("nan"))), **resolution}
             if out.ok:
@@ -159,10 +163,52 @@ def format_rows(rows: list[dict[str, Any]], preset: str) -> str:
                      + (f", ~{short_float(first['run_f1_resolution'])} at the run's preset {first['run_preset']}"
                         if first.get("run_preset") != preset else "") + ": smaller f1 values are not resolved")
     if first.get("run_preset") == preset:
-        from whisker_opt.experiment.fidelity import PRESET_NAMES
+        import math
 
-        finer = PRESET_NAMES[PRESET_NAMES.index(preset) + 1:] if preset in PRESET_NAMES else ()
+        from whisker_opt.experiment.fidelity import PRESET_NAMES, PRESETS
+
+        after = PRESET_NAMES[PRESET_NAMES.index(preset) + 1:] if preset in PRESET_NAMES else ()
+        finer = [p for p in after if math.isfinite(PRESETS[p].f1_resolution)]  # a measured resolution
         lines.append(f"WARNING: preset {preset} is the run's own preset: these f1 values reproduce the run's and "
                      + (f"verify nothing; re-run with a finer preset (--preset {finer[-1]})" if finer
                         else "verify nothing; no finer preset exists"))
     return "\n".join(lines)
+
+
+def law_spread_run(run_dir: Path, top: int = 3, progress: bool = True) -> tuple[list[dict[str, Any]], str]:
+    """The model-form spread of a run's best ``top`` distinct feasible designs at the run's own preset.
+
+    Each design's three scenes are solved again under every available wall law
+    (:func:`whisker_opt.analysis.law_spread.law_spread`); the rows are written to ``run_dir / "law_spread.csv"``
+    (atomically). Returns the rows and the preset they were computed at.
+
+    Raises
+    ------
+    FileNotFoundError
+        ``run_dir`` has no ``config.yaml`` or no checkpoint.
+    VerifyError
+        ``top`` out of range or no feasible design.
+    """
+    from whisker_opt.analysis.law_spread import available_laws, law_spread, write_spread
+    from whisker_opt.config.model import load_config
+    from whisker_opt.optimise.best import run_best_designs
+    from whisker_opt.optimise.runner import load_run, run_config_path
+    from whisker_opt.output.progress import Progress
+
+    run_dir = Path(run_dir)
+    if not 1 <= int(top) <= 1000:
+        raise VerifyError(f"verify: top={top!r} outside the allowed range 1..1000")
+    cfg = load_config(run_config_path(run_dir))
+    state, opt, _, _ = load_run(run_dir)
+    if state is None:
+        raise FileNotFoundError(f"{run_dir}: no checkpoint yet (the run has not finished a generation)")
+    chosen = run_best_designs(state, opt, int(top))
+    if not chosen:
+        raise VerifyError(f"verify: {run_dir} has no feasible design")
+    laws = available_laws(cfg)
+    n_scenes = 3  # intact, trimmed at Q_i, trimmed and vented
+    steps = Progress(len(chosen) * len(laws) * n_scenes, "wall-law spread", "scene", progress)
+    with steps:
+        rows = law_spread(cfg, [dict(b["genes"]) for b in chosen], laws, on_scene=steps.step)
+    write_spread(rows, run_dir / "law_spread.csv")
+    return rows, cfg.fidelity.preset

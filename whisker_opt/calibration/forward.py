@@ -93,16 +93,20 @@ class BeamSimulator:
     """The beam model of docs/physics.md §8 as a simulator: ε = S(a, Q)·δ (8.6), Δl from (8.7)–(8.8).
 
     The model's E is 6·C10 (the small-strain modulus of the neo-Hookean rubber, E = 3μ = 6 C10), its gauge
-    factor ``scene.calibration``; the rest of its options are those of
+    factor ``scene.calibration``; with ``material.wall_law: calibrated`` its chamber softening is the law's
+    k(Q) = 1 + s·Q (s = ``material.wall_slope``, :mod:`whisker_opt.wall.law`), otherwise the thesis' fit of
+    :class:`~whisker_opt.analysis.beam.LinearSoftening`; the rest of its options are those of
     :class:`~whisker_opt.analysis.beam.BeamModel`.
     """
 
     calls: int = 0
 
     def _model(self, cfg: WhiskerConfig):
-        from whisker_opt.analysis.beam import BeamModel
+        from whisker_opt.analysis.beam import BeamModel, LinearSoftening
 
-        return BeamModel(E=6.0 * cfg.material.C10, calibration=cfg.scene.calibration)
+        law = {"softening": LinearSoftening(slope=cfg.material.wall_slope, intercept=1.0)} \
+            if cfg.material.wall_law == "calibrated" else {}
+        return BeamModel(E=6.0 * cfg.material.C10, calibration=cfg.scene.calibration, **law)
 
     @property
     def solved(self) -> int:

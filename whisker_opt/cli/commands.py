@@ -40,21 +40,31 @@ from whisker_opt.output.lock import RunDirLock
 
 def _user_errors() -> tuple[type[BaseException], ...]:
     # FileExistsError: `run --out DIR` where DIR already holds a run (resume it instead)
-    # MachineFailure: workers lost or killed, scheduler unreachable (the run resumes later)
+    # SchedulerUnreachable: no dask scheduler answers at optimiser.executor.scheduler_address (nothing ran)
     from geometry.design import InvalidDesignError
     from whisker_opt.analysis.verify import VerifyError
-    from whisker_opt.optimise.executors import MachineFailure
+    from whisker_opt.optimise.dask_executor import SchedulerUnreachable
     from whisker_opt.output.lock import RunDirectoryBusy
+    from whisker_opt.output.storage import UnsafeLink
 
-    return (ConfigError, FileNotFoundError, FileExistsError, InvalidDesignError, VerifyError, MachineFailure,
-            RunDirectoryError, OutputError, ArgumentError, RunDirectoryBusy)
+    return (ConfigError, FileNotFoundError, FileExistsError, InvalidDesignError, VerifyError, SchedulerUnreachable,
+            RunDirectoryError, OutputError, ArgumentError, RunDirectoryBusy, UnsafeLink)
 
 
 USER_ERRORS = _user_errors()
 """Exceptions that are the user's to fix: one line on stderr, exit status 2."""
 
-COMPUTATION_ERRORS = (ComputationFailed,)
-"""Exceptions of a computation that did not succeed on valid inputs: one line, exit status 3."""
+
+def _computation_errors() -> tuple[type[BaseException], ...]:
+    # MachineFailure: workers killed or lost, the dask scheduler lost during a run (the run resumes later)
+    from whisker_opt.optimise.executors import MachineFailure
+
+    return (ComputationFailed, MachineFailure)
+
+
+COMPUTATION_ERRORS = _computation_errors()
+"""Exceptions of a computation that did not succeed on valid inputs: one line, exit status 3 (a
+:class:`~whisker_opt.optimise.dask_executor.SchedulerUnreachable` before anything ran is a user error)."""
 
 #: ``--trim`` and ``scene.trim`` [mm] (docs/config.md)
 _TRIM = finite_float_in(0.0, 100.0, "mm")
@@ -316,6 +326,8 @@ def _verify_args(p: argparse.ArgumentParser) -> None:
                    help="fidelity preset of the re-evaluation (default: fine)")
     p.add_argument("--top", type=_TOP, default=3,
                    help="number of best feasible designs to re-evaluate, 1..1000 (default 3)")
+    p.add_argument("--no-law-spread", action="store_true",
+                   help="skip the designs' f1 and recovery rate under every chamber-wall law at the run's preset")
 
 
 def _verify_run(args: argparse.Namespace) -> int:
@@ -328,8 +340,15 @@ def _verify_run(args: argparse.Namespace) -> int:
     ensure_writable_dir(args.run_dir, f"run_dir (verify_{args.preset}.csv is written there)")
     with RunDirLock(args.run_dir, "verify"):
         rows = verify_run(args.run_dir, args.preset, args.top)
-    print(format_rows(rows, args.preset))
-    print(f"written to {args.run_dir / f'verify_{args.preset}.csv'}")
+        print(format_rows(rows, args.preset))
+        print(f"written to {args.run_dir / f'verify_{args.preset}.csv'}")
+        if not args.no_law_spread:
+            from whisker_opt.analysis.law_spread import format_spread
+            from whisker_opt.analysis.verify import law_spread_run
+
+            spread, run_preset = law_spread_run(args.run_dir, args.top, not args.no_progress)
+            print(format_spread(spread, run_preset))
+            print(f"written to {args.run_dir / 'law_spread.csv'}")
     return 0
 
 

@@ -143,7 +143,7 @@ def field_range(annotation: Any, info: FieldInfo) -> str:
         right = f"{num(c['lt'])})" if "lt" in c else (f"{num(c['le'])}]" if "le" in c else "∞)")
         return f"{left}, {right}"
     lo, hi = c.get("min_length"), c.get("max_length")
-    what = "items" if item_model(tp) is not None else "characters"
+    what = "items" if get_origin(tp) in (tuple, list) else "characters"
     if lo is not None and hi is not None:
         return f"{lo}..{hi} {what}"
     if hi is not None:

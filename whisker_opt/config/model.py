@@ -80,7 +80,7 @@ MaterialConfig = create_model(
     __doc__="Rubber: neo-Hookean W = C10 (Ī1 − 3) + (1/D1)(J − 1)² by default (D1 = 0 is fully incompressible), "
     "or a named Yeoh fit of a published silicone (docs/physics.md, model form); the cap may be of another rubber; "
     "the fibre winding embedded as lines or smeared over the wall.",
-    **declared_fields(SceneSpec, ("c10", "d1", "rubber", "cap_rubber", "fibre_model")),
+    **declared_fields(SceneSpec, ("c10", "d1", "rubber", "cap_rubber", "fibre_model", "wall_law", "wall_slope")),
 )
 
 
@@ -92,12 +92,13 @@ class _SceneSection(StrictModel):
 _SCENE_OWN: dict[str, Any] = {
     "Q_i": (float, Field(
         0.0, ge=0, le=1.0,
-        description="initial (intact) chamber pressure Q_i of `simulate` and `compensate`; the pressure of the "
-        "single scene when `pair` is false (the GA takes Q_i from its genes)",
+        description="initial (intact) chamber pressure Q_i of `simulate`, `export`, `compensate` and `robustness` "
+        "of the config's design; the pressure of the single scene when `pair` is false (the GA takes Q_i from its "
+        "genes; see Keys read by each command)",
         json_schema_extra={"unit": "MPa"},
     )),
-    "trim": (float, Field(0.0, ge=0, le=100, description="length cut off the tip Δ for `simulate` and `mesh` (the GA "
-                          "uses optimiser.trim)", json_schema_extra={"unit": "mm"})),
+    "trim": (float, Field(0.0, ge=0, le=100, description="length cut off the tip Δ for `simulate`, `export` and "
+                          "`mesh` (the GA and `compensate` use optimiser.trim)", json_schema_extra={"unit": "mm"})),
     "delta_step": (float, Field(0.01, gt=0, le=1, description="deflection sampling Δδ of the curves and of f1",
                                 json_schema_extra={"unit": "mm"})),
     "gauge_variant": (Literal["line", "centroid"], Field(

@@ -3,7 +3,8 @@
 The defaults are the thesis' GA settings: genes x = [α, l, t, Q_i] in [2.5, 6] deg × [10, 15] mm ×
 [2, 6] mm × [0.01, 0.2] MPa; penalties C = [0.5, 0.2, 0.2] on (Q_i low, t high, α low);
 population 50, tournament of size 2; stop at 50 generations, best F_p ≤ 1e-3, or a mean
-relative improvement of the best F_p over 20 generations ≤ 1e-9. The variation settings
+relative improvement of the best F_p over 20 generations ≤ 1e-9; and (not the thesis') when the
+best f1 has stayed below the preset's f1 resolution for 5 generations. The variation settings
 (SBX / polynomial-mutation indices and probabilities) are not given by the thesis; the
 defaults are the usual ones for bounded real genes (Deb & Agrawal 1995, NSGA-II code).
 Every numeric field carries its range (``Field`` constraints) and its unit
@@ -31,6 +32,7 @@ from pydantic import Field, field_validator, model_validator
 
 from whisker_opt.config.base import StrictModel
 from whisker_opt.config.robustness import RobustObjectiveConfig
+from whisker_opt.wall.law import WALL_LAW_NAMES
 from whisker_opt.genes import GENE_NAMES, GeneName
 
 
@@ -217,6 +219,12 @@ class StoppingConfig(StrictModel):
         description="stop when the mean relative improvement of the best F_p over the window <= this",
         json_schema_extra={"unit": "-"},
     )
+    resolution_generations: int = Field(
+        5, ge=0, le=100_000,
+        description="stop when the best design's f1 has stayed below the fidelity preset's f1 resolution for this "
+        "many consecutive generations (below it f1 is mesh error); 0 = off",
+        json_schema_extra={"unit": "generations"},
+    )
 
 
 class ExecutorConfig(StrictModel):
@@ -285,6 +293,27 @@ class CacheConfig(StrictModel):
     cache_failures: bool = Field(True, description="also reuse failed outcomes (timeouts, errors, ...)")
 
 
+class WallLawSetConfig(StrictModel):
+    """The GA minimises the mean or the worst f1 over several chamber-wall laws (docs/physics.md §14)."""
+
+    laws: tuple[str, ...] = Field(
+        ("embedded", "sliding"), min_length=2, max_length=len(WALL_LAW_NAMES),
+        description="the wall laws each genome is evaluated under ('calibrated' with material.wall_slope)")
+    objective: Literal["mean", "worst"] = Field(
+        "mean", description="mean: the mean of f1 over the laws; worst: the largest")
+
+    @field_validator("laws")
+    @classmethod
+    def _distinct_laws(cls, v: tuple[str, ...]) -> tuple[str, ...]:
+        bad = [n for n in v if n not in WALL_LAW_NAMES]
+        if bad:
+            raise ValueError(f"{bad[0]!r} is not one of the wall laws {', '.join(map(repr, WALL_LAW_NAMES))}")
+        dup = sorted({n for n in v if v.count(n) > 1})
+        if dup:
+            raise ValueError(f"each law once; repeated: {dup}")
+        return v
+
+
 class OptimiserConfig(StrictModel):
     """The ``optimiser:`` section of a run file: genes, penalties, GA, stopping rules, executor and cache."""
 
@@ -293,9 +322,17 @@ class OptimiserConfig(StrictModel):
 
     genes: GenesConfig = GenesConfig()
     trim: float = Field(5.0, gt=0, le=100, description="length Δ cut off the tip of the compensated (vented) "
-                      "whisker", json_schema_extra={"unit": "mm"})
+                      "whisker of the GA's genomes (run, resume, verify, evaluate, robustness); the largest trim of "
+                      "`compensate` (simulate, export and mesh use scene.trim)", json_schema_extra={"unit": "mm"})
     penalties: tuple[PenaltyConfig, ...] = Field(
         _DEFAULT_PENALTIES, max_length=4, description="preference terms C_j κ_j of the dynamic penalty, one per gene"
+    )
+    distinct_distance: float = Field(
+        0.02, ge=0, le=1,
+        description="the best designs a run lists (report, best.json, verify --top, robustness, view --rank) are "
+        "pairwise at least this far apart: the largest gene difference, each gene divided by its bound range "
+        "(0 = only repeats of one genome are dropped)",
+        json_schema_extra={"unit": "-"},
     )
     failure_penalty: float = Field(
         1e3, gt=0, le=1e12,
@@ -315,6 +352,14 @@ class OptimiserConfig(StrictModel):
     robust: RobustObjectiveConfig | None = Field(
         None, description="minimise mean + k·std of f1 over the tolerances of the robustness section instead of f1 "
         "(docs/physics.md §10); null = f1 itself")
+    law_spread_top: int = Field(
+        1, ge=0, le=1000,
+        description="at the end of a run, the best this many distinct designs are solved again under every available "
+        "chamber-wall law and their f1 and recovery rate reported (law_spread.csv); 0 = not done",
+        json_schema_extra={"unit": "-"})
+    wall_laws: WallLawSetConfig | None = Field(
+        None, description="minimise the mean or the worst f1 over several chamber-wall laws instead of f1 under "
+        "material.wall_law alone (a model-form-robust optimum); null = the one law")
     seed: int | None = Field(
         None, ge=0, le=2**32 - 1, description="GA seed; null = the run file's top-level seed",
         json_schema_extra={"unit": "-"},
@@ -341,6 +386,12 @@ class OptimiserConfig(StrictModel):
         if "f1" not in names:
             raise ValueError(f"objectives {names} must include f1")
         return v
+
+    @model_validator(mode="after")
+    def _one_robust_mode(self) -> "OptimiserConfig":
+        if self.robust is not None and self.wall_laws is not None:
+            raise ValueError("robust and wall_laws are both set: choose one robust objective (tolerances or wall laws)")
+        return self
 
     def resolve_seed(self, top_level_seed: int) -> int:
         """The seed of the GA: ``seed`` when set, else the run file's top-level seed."""

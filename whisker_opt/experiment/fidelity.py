@@ -11,6 +11,13 @@ evaluation = intact + trimmed scene on one core)::
     default   1, 8, 0.5                  ~1 100    2.7        −0.8 %
     fine      3, 12, 0.17                ~8 900    ~100       −0.3 %
 
+The mesh ladder refines every direction together (:func:`ladder_sizing`; level 1 = ``default``)::
+
+    preset    layers, sectors, dz/pitch, body  elements   eval [s], one core with 2 other jobs
+    level2    2, 10, 0.25, 5 mm                 ~4 300     15–30
+    level3    3, 12, 0.17, 3.3 mm               ~10 500    65–220
+    level4    4, 16, 0.125, 2.5 mm              ~24 000    370–410
+
 The gauge reading scatters by ±0.5 % between mesh families without a trend in the wall layers
 (one P2 layer through the wall reads within 0.7 % of three), so ``default``, the GA's, is the
 cheapest mesh within 1 % of the gauge reference; ``fine`` keeps three wall layers. f1, a
@@ -57,6 +64,22 @@ f1 resolution
     measured error, 6.3e-4, lies below. No finer reference exists at a GA optimum, so an
     optimised f1 below this is not resolved by any shipped preset.
 
+    The mesh ladder (``default`` = level 1, ``level2`` … ``level4``, :func:`ladder_sizing`; the GA's
+    increments at every level, so only the mesh differs) was measured on the template path at twelve
+    designs (``benchmarks/f1_convergence.py ladder --method template``, ``benchmarks/README.md``, "f1 over
+    the mesh ladder"); the finest level is not converged either, so each figure is the largest distance
+    to the next finer levels measured::
+
+        preset    f1_resolution  derived from
+        level2    6e-4           largest |f1(level2) − f1(level4)| over the four designs with a level 4:
+                                 5.3e-4 at the case-1 optimum (1.9e-4, 7.5e-5, 2.5e-4 at the other three), rounded up
+        level3    4e-4           largest |f1(level3) − f1(level4)|: 3.1e-4 at the stout thick-walled design
+                                 (2.3e-4, 7.7e-5, 3.0e-4 at the others), rounded up
+        level4    not measured   no finer reference (NaN: no resolution is claimed)
+
+    Against level 4 the ``default`` preset's gap is 4.3e-4 at the default design and 1.24e-3 at the
+    case-1 optimum (f1 5.7e-6 against 1.25e-3), above its 1e-3.
+
     f1 scales with the calibration ξ (``scene.calibration``): :func:`f1_resolution` converts.
     Overrides of a preset's sizing or increments (``fidelity.h_wall`` …) leave the figure of
     the named preset, which then only approximates the run's.
@@ -96,14 +119,32 @@ class Preset:
 #: Calibration factor ξ of the readings in which :attr:`Preset.f1_resolution` was measured.
 RESOLUTION_CALIBRATION = 3.9
 
+#: Sectors around the whisker at each level of the mesh ladder.
+LADDER_SECTORS = {1: 8, 2: 10, 3: 12, 4: 16}
+
+
+def ladder_sizing(k: int) -> MeshSizing:
+    """Level k = 1 … 4 of the mesh ladder: k wall layers, :data:`LADDER_SECTORS` sectors, chamber layers of
+    pitch/(2k) and body elements ≤ 10/k mm; level 1 is the ``default`` preset's sizing."""
+    if k not in LADDER_SECTORS:
+        raise ValueError(f"mesh ladder level {k!r}: allowed {', '.join(map(str, LADDER_SECTORS))}")
+    if k == 1:
+        return MeshSizing()
+    return MeshSizing(wall_layers=float(k), n_theta=LADDER_SECTORS[k], axial_pitch_fraction=0.5 / k,
+                      h_body=10.0 / k, name=f"level{k}")
+
+
 #: The named presets, cheapest first.
 PRESETS: dict[str, Preset] = {
     "coarse": Preset("coarse", MeshSizing(wall_layers=1.0, n_theta=8, axial_pitch_fraction=0.75, h_body=12.0,
                                           name="coarse"), n_pressure_steps=1, n_deflection_steps=3,
                      f1_resolution=2e-3),
     "default": Preset("default", MeshSizing(), n_pressure_steps=1, n_deflection_steps=3, f1_resolution=1e-3),
+    "level2": Preset("level2", ladder_sizing(2), n_pressure_steps=1, n_deflection_steps=3, f1_resolution=6e-4),
     "fine": Preset("fine", MeshSizing(wall_layers=3.0, n_theta=12, axial_pitch_fraction=0.17, h_body=10.0,
                                       name="fine"), n_pressure_steps=2, n_deflection_steps=10, f1_resolution=7e-4),
+    "level3": Preset("level3", ladder_sizing(3), n_pressure_steps=1, n_deflection_steps=3, f1_resolution=4e-4),
+    "level4": Preset("level4", ladder_sizing(4), n_pressure_steps=1, n_deflection_steps=3),
 }
 
 #: Names of :data:`PRESETS` (the allowed values of ``fidelity.preset``).

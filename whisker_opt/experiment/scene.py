@@ -55,6 +55,7 @@ from geometry.mesh import MeshSizing, WhiskerMesh, build_mesh
 from whisker_opt.experiment.contact import Contact, contact_band, place_contact_ring
 from whisker_opt.experiment.gauge import GaugedMesh, GaugeReader
 from whisker_opt.experiment.spec import SceneSpec, cap_elements, rubber_material
+from whisker_opt.wall.law import apply_law, chamber_elements
 
 logger = logging.getLogger(__name__)
 
@@ -409,6 +410,8 @@ def deflect_and_read(spec: SceneSpec, gm: GaugedMesh, pre: Pressurised, contact:
     The band's y-displacement goes linearly from its pressurised value u_y⁰ to
     u_y⁰ − δ (its x, z free); the pressure stays at Q. The gauge is zeroed on the
     pressurised state and read at each of ``spec.n_deflection_steps`` equal fractions.
+    A wall law other than 'embedded' (``spec.wall_law``) changes the chamber wall's incremental
+    stiffness about the pressurised state (:func:`whisker_opt.wall.law.apply_law`).
     """
     wm, u1 = gm.wm, pre.state.u
     reader = GaugeReader(wm.mesh, gm.gauge, spec.calibration)
@@ -416,6 +419,9 @@ def deflect_and_read(spec: SceneSpec, gm: GaugedMesh, pre: Pressurised, contact:
     # same mesh, faces and fibres: replace() shares the topology cache (sparsity
     # pattern, PARDISO analysis) with the pressurise problem
     prob2 = replace(pre.problem, dirichlet=(*base_dirichlet(wm, spec), Dirichlet(band, (1,))))
+    if not spec.law.identity:  # the wall law about the pressurised state (whisker_opt.wall.law)
+        prob2 = apply_law(prob2, pre.state, spec.law.factor(spec.Q, spec.design),
+                          chamber_elements(wm.mesh.points, wm.mesh.cells, spec.design))
     uy0 = u1[band, 1:2]  # (k, 1)
     pq = (spec.Q,) if spec.Q > 0 else ()
     load0 = LoadState(pq, (pre.zeros_base, *pre.extra_base, uy0))

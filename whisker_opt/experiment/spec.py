@@ -20,6 +20,7 @@ import numpy as np
 
 from geometry.design import WhiskerDesign, parameter
 from geometry.sizing import MeshSizing
+from whisker_opt.wall.law import SLOPE_RANGE, WALL_LAW_NAMES, WallLaw
 
 if TYPE_CHECKING:  # pragma: no cover
     from fem.material import IsochoricI1Material
@@ -176,6 +177,11 @@ class SceneSpec:
         (:mod:`geometry.fibres`). 'smeared': the winding as an anisotropic term of the wall
         with the same axial stiffness per length (:mod:`geometry.fibre_field`), which
         converges under mesh refinement (benchmarks/README.md).
+    wall_law : str
+        The chamber wall's law under pressure (:mod:`whisker_opt.wall.law`): 'embedded' (default),
+        'sliding' or 'calibrated'.
+    wall_slope : float
+        Slope s [1/MPa] of the 'calibrated' law c(Q) = 1 + s·Q; 0 for the others.
     """
 
     design: WhiskerDesign
@@ -212,6 +218,14 @@ class SceneSpec:
         "embedded", "", "'embedded': each helix a line of trusses in the elements that hold it; 'smeared': the "
         "winding spread over the wall as an anisotropic fibre term of the same stiffness per length "
         "(docs/physics.md)", choices=FIBRE_MODELS)
+    wall_law: str = parameter(
+        "embedded", "", "what pressure does to the chamber wall's stiffness in bending: 'embedded' (the fibres "
+        "as meshed, a perfectly bonded wall), 'sliding' (the stored wall-law table's sliding fibres) or "
+        "'calibrated' (c(Q) = 1 + wall_slope·Q); docs/physics.md §14", choices=WALL_LAW_NAMES)
+    wall_slope: float = parameter(
+        0.0, "1/MPa", "slope s of the 'calibrated' wall law c(Q) = 1 + s·Q (the wall's incremental stiffness "
+        "under pressure relative to the bonded wall's); read only by wall_law 'calibrated'",
+        ge=SLOPE_RANGE[0], le=SLOPE_RANGE[1])
 
     def __post_init__(self) -> None:
         checks = [
@@ -230,7 +244,14 @@ class SceneSpec:
             ("base_support", self.base_support, self.base_support in BASE_SUPPORTS,
              " or ".join(map(repr, BASE_SUPPORTS))),
             ("fibre_model", self.fibre_model, self.fibre_model in FIBRE_MODELS, " or ".join(map(repr, FIBRE_MODELS))),
+            ("wall_law", self.wall_law, self.wall_law in WALL_LAW_NAMES, " or ".join(map(repr, WALL_LAW_NAMES))),
         ]
         for name, value, ok, allowed in checks:
             if not ok:
                 raise ValueError(f"SceneSpec.{name}={value!r}: must be {allowed}")
+        self.law  # noqa: B018  (validates wall_law with wall_slope)
+
+    @property
+    def law(self) -> WallLaw:
+        """The wall law of the scene (:class:`whisker_opt.wall.law.WallLaw`)."""
+        return WallLaw(self.wall_law, self.wall_slope)

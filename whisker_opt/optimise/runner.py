@@ -14,8 +14,14 @@ Fidelity
     A run may be given its fidelity, ``{"preset": name, "f1_resolution": value}``
     (:func:`whisker_opt.experiment.fidelity.describe`); it is kept in the checkpointed state
     (``state.extra["fidelity"]``) and written to ``best.json``, the plots and the report. A
-    finished run whose best F_p lies below the preset's f1 resolution logs a warning (the
-    optimum is not resolved at that preset: verify it at a finer one).
+    finished run whose best f1 lies below the preset's f1 resolution logs a warning (the
+    optimum is not resolved at that preset: verify it at a finer one), as does a run whose
+    ``stopping.target_fp`` lies below it (:mod:`whisker_opt.optimise.resolution`).
+
+Best designs
+    ``best.json`` holds the best design and ``best_designs``, the run's best designs pairwise
+    distinct by ``optimiser.distinct_distance`` (:mod:`whisker_opt.optimise.best`), which the
+    report lists; ``stop_reason`` names the rule that ended the run and ``stop_detail`` says why.
 
 Progress
     A tqdm bar on stderr (shown on a terminal only) counts evaluations as each one finishes
@@ -45,8 +51,10 @@ from whisker_opt.optimise.checkpoint import (
     save_checkpoint,
 )
 from whisker_opt.optimise.backend import make_executor
+from whisker_opt.optimise.best import describe_distance, run_best_designs
 from whisker_opt.optimise.ga import EvaluationProgress, GAState, GeneticAlgorithm, best_design
 from whisker_opt.optimise.nsga2 import make_algorithm
+from whisker_opt.optimise.resolution import resolution_warning, run_fidelity, target_warning  # noqa: F401
 from whisker_opt.optimise.rundir import (  # noqa: F401 - write_run_metadata: also the workflows'
     ConfigChange,
     change_lines,
@@ -75,7 +83,7 @@ class RunSummary:
     run_dir : Path
     seed : int
     stop_reason : str
-        The stopping rule that fired (``target_fp``, ``stall`` or ``max_generations``).
+        The stopping rule that fired (``target_fp``, ``resolution``, ``stall`` or ``max_generations``).
     generations : int
         Index of the last generation (0 = initial population).
     n_evaluations : int
@@ -141,7 +149,7 @@ class _RunWriter:
     def write_tables(self, state: GAState) -> None:
         storage.write_evaluations(self.run_dir, state.records, self.eval_cols)
         storage.write_generations(self.run_dir, state.logbook, self.gen_cols)
-        storage.write_best(self.run_dir, _best_json(state))
+        storage.write_best(self.run_dir, _best_json(state, self.ga.cfg))
 
     def finish(self, state: GAState) -> None:
         self.write_tables(state)
@@ -149,12 +157,15 @@ class _RunWriter:
         self.ga.write_outputs(self.run_dir, state)  # the multi-objective mode's front
 
 
-def _best_json(state: GAState) -> dict[str, Any]:
+def _best_json(state: GAState, cfg: OptimiserConfig) -> dict[str, Any]:
     return {
         **best_design(state),
         "fidelity": run_fidelity(state),
         "seed": state.seed,
         "stop_reason": state.stop_reason,
+        "stop_detail": (state.extra or {}).get("stop_detail") if state.stop_reason else None,
+        "distinct_distance": cfg.distinct_distance,
+        "best_designs": run_best_designs(state, cfg),
         "generations": state.generation,
         "n_evaluations": state.n_evaluations,
         "n_cache_hits": state.n_cache_hits,
@@ -170,50 +181,6 @@ def _best_outcome(state: GAState) -> EvalOutcome | None:
     return state.cache.get(state.cache.key(state.hof[0]))
 
 
-def run_fidelity(state: GAState, run_dir: Path | None = None) -> dict[str, Any] | None:
-    """The fidelity a run was made at: ``state.extra["fidelity"]``, else (older runs) the preset of
-    ``run_dir/config.yaml``; None when neither is known (e.g. an analytic evaluator)."""
-    fid = (state.extra or {}).get("fidelity")
-    if fid or run_dir is None or not (Path(run_dir) / "config.yaml").is_file():
-        return dict(fid) if fid else None
-    try:
-        from whisker_opt.config.model import load_config
-        from whisker_opt.experiment.fidelity import describe
-
-        cfg = load_config(Path(run_dir) / "config.yaml")
-        return describe(cfg.fidelity, cfg.scene.calibration)
-    except Exception as exc:  # noqa: BLE001 - a report goes on without it
-        logger.info("fidelity of %s unknown: %s", run_dir, exc)
-        return None
-
-
-def resolution_warning(state: GAState, fidelity: Mapping[str, Any] | None, run_dir: Path | None = None) -> str | None:
-    """The warning when a finished run's best feasible F_p lies below its preset's f1 resolution, else None.
-
-    F_p ≥ f1, so such a best design's f1 is below the resolution too: the mesh's error in f1
-    is as large as f1 itself, and a ``target_fp`` stop there means nothing.
-    """
-    res = (fidelity or {}).get("f1_resolution")
-    if not state.hof or res is None or not math.isfinite(float(res)):
-        return None
-    b = best_design(state)
-    if not b["feasible"] or not b["F_p"] < res:
-        return None
-    preset = fidelity["preset"]  # type: ignore[index]
-    msg = f"best F_p {short_float(b['F_p'])} is below the f1 resolution ~{short_float(res)} of preset {preset}"
-    from whisker_opt.experiment.fidelity import PRESET_NAMES
-
-    finer = PRESET_NAMES[PRESET_NAMES.index(preset) + 1:] if preset in PRESET_NAMES else ()
-    if finer:
-        where = f" (whisker-opt verify {run_dir} --preset {finer[-1]})" if run_dir is not None else ""
-        msg += f": verify at a finer preset{where}"
-    else:
-        msg += ": no shipped preset resolves it; treat it as f1 ≈ 0 within mesh error"
-    if state.stop_reason == "target_fp":
-        msg += "; the run stopped on target_fp, which lies below what this preset resolves"
-    return msg
-
-
 def write_plots(run_dir: Path, state: GAState, cfg: OptimiserConfig) -> list[Path]:
     """Convergence plot, and the best design's curves when its outcome holds them.
 
@@ -225,8 +192,17 @@ def write_plots(run_dir: Path, state: GAState, cfg: OptimiserConfig) -> list[Pat
     lb = state.logbook
     fidelity = run_fidelity(state, run_dir)
     stop = f"stopped by {state.stop_reason}" if state.stop_reason else "running"
-    out.append(
-        plot_convergence(
+    if cfg.algorithm == "nsga2":  # what it optimises: the front's hypervolume and its smallest f1
+        from whisker_opt.optimise.nsga2 import objective_terms
+        from whisker_opt.output.pareto_plots import plot_mo_convergence
+
+        out.append(plot_mo_convergence(
+            Path(run_dir) / "convergence.png", lb, smallest_f1(state.records, [r["generation"] for r in lb]),
+            [o.label for o in objective_terms(cfg)],
+            f"NSGA-II convergence ({stop}, generation {state.generation}, {state.n_evaluations} evaluations)",
+            fidelity))
+    else:
+        out.append(plot_convergence(
             Path(run_dir) / "convergence.png",
             [r["generation"] for r in lb],
             [r["best_fp"] for r in lb],
@@ -236,8 +212,8 @@ def write_plots(run_dir: Path, state: GAState, cfg: OptimiserConfig) -> list[Pat
             title=f"GA convergence ({stop}, generation {state.generation}, {state.n_evaluations} evaluations)",
             fidelity=fidelity,
             target_strain=cfg.stopping.target_strain,
-        )
-    )
+            best_f1=[r.get("best_f1") for r in lb],
+        ))
     best_out = _best_outcome(state)
     curves_csv = Path(run_dir) / storage.BEST_CURVES_CSV
     if (best_out is None or "eps_i" not in best_out.extra) and curves_csv.is_file():
@@ -258,6 +234,19 @@ def write_plots(run_dir: Path, state: GAState, cfg: OptimiserConfig) -> list[Pat
                 best_out.extra.get("eps_u"), fidelity,
             )
         )
+    return out
+
+
+def smallest_f1(records: Sequence[Mapping[str, Any]], generations: Sequence[int]) -> list[float]:
+    """The smallest f1 of the feasible evaluations up to each of ``generations`` (NaN before the first)."""
+    best, out, rows = math.inf, [], sorted((int(r["generation"]), float(r["f1"])) for r in records
+                                           if r.get("f1") is not None and r.get("status", "ok") == "ok")
+    k = 0
+    for g in generations:
+        while k < len(rows) and rows[k][0] <= g:
+            best = min(best, rows[k][1])
+            k += 1
+        out.append(best if math.isfinite(best) else math.nan)
     return out
 
 
@@ -343,7 +332,11 @@ def _drive(
     callbacks: Sequence[Callable[[GAState, dict], None]],
 ) -> RunSummary:
     writer = _RunWriter(run_dir, ga, config)
+    fidelity = run_fidelity(state, run_dir)
     if state.stop_reason is None:
+        early = target_warning(ga.cfg.stopping, fidelity) if ga.cfg.algorithm == "ga" else None
+        if early:
+            logger.warning("%s", early)
         bar = _Progress(ga.cfg, state, progress)
         try:
             with make_executor(exec_cfg, evaluator) as ex:
@@ -351,14 +344,16 @@ def _drive(
         finally:
             bar.close(finished=state.stop_reason is not None)
     writer.finish(state)
-    fidelity = run_fidelity(state, run_dir)
     logger.info(
         "run %s finished: %s after generation %d, %d evaluations, %d cache hits, %d failures, best F_p=%.6g (%s)",
         run_dir, state.stop_reason, state.generation, state.n_evaluations, state.n_cache_hits,
         state.n_failures, state.hof[0].fitness.values[1],
         f"preset {fidelity['preset']}, f1 resolution {fidelity['f1_resolution']:.3g}" if fidelity else "preset unknown",
     )
-    warning = resolution_warning(state, fidelity, run_dir)
+    detail = (state.extra or {}).get("stop_detail")
+    if detail:
+        (logger.warning if state.stop_reason == "resolution" else logger.info)("run stopped by %s", detail)
+    warning = resolution_warning(state, fidelity, run_dir, ga.cfg.stopping.target_strain)
     if warning:
         logger.warning("%s", warning)
     return _summary(run_dir, state)
@@ -556,7 +551,7 @@ def resume_optimisation(
         if state is None:
             state = ga.new_state()
         elif changed and state.logbook:
-            state.stop_reason = ga.stop_reason(state)
+            ga.set_stop(state)
             logger.info("%s: the run %s", f"max_generations {cfg.stopping.max_generations}",
                         "continues" if state.stop_reason is None else f"stays stopped ({state.stop_reason})")
         if fidelity and (config_change is not None or not state.extra.get("fidelity")):
@@ -590,9 +585,12 @@ def report(run_dir: Path, max_rows: int = 60) -> str:
     Returns
     -------
     str
-        Multi-line text: run facts (with the fidelity preset and its f1 resolution), best
-        design, hall of fame and per-generation table; a ``WARNING`` line when the best F_p
-        lies below the f1 resolution (:func:`resolution_warning`).
+        Multi-line text: run facts (the stopping rule that fired and why, the fidelity preset and
+        its f1 resolution), best design, the best designs pairwise distinct by
+        ``optimiser.distinct_distance`` (:func:`whisker_opt.optimise.best.run_best_designs`, with
+        D to the nearest better one in column ``apart``) and the per-generation table; ``WARNING``
+        lines when the best f1 or ``stopping.target_fp`` lies below the f1 resolution
+        (:mod:`whisker_opt.optimise.resolution`).
     """
     run_dir = Path(run_dir)
     state, cfg, _, seed = load_run(run_dir)
@@ -612,11 +610,15 @@ def report(run_dir: Path, max_rows: int = 60) -> str:
                     f"(calibrated strain): f1 below it is not resolved")
     else:
         fid_line = "not recorded"
-    warning = resolution_warning(state, fidelity, run_dir) if state.stop_reason else None
+    strain = cfg.stopping.target_strain
+    warning = resolution_warning(state, fidelity, run_dir, strain) if state.stop_reason else None
+    early = target_warning(cfg.stopping, fidelity) if cfg.algorithm == "ga" else None
+    detail = (state.extra or {}).get("stop_detail") if state.stop_reason else None
     lines = [
         f"run            {run_dir}",
         f"seed           {seed}",
         f"status         {'finished: ' + state.stop_reason if state.stop_reason else 'interrupted (resume it)'}",
+        *([f"stopped by     {detail}"] if detail else []),
         f"fidelity       {fid_line}",
         *(f"config         {line}" for line in change_lines(state.extra)),
         f"generations    {state.generation} (+ initial population), population {cfg.ga.population}",
@@ -637,15 +639,19 @@ def report(run_dir: Path, max_rows: int = 60) -> str:
     uncal = f", {_fmt(b['F_p_uncalibrated'])} uncalibrated" if b.get("F_p_uncalibrated") is not None else ""
     lines.append(f"  F_p    {_fmt(b['F_p'])}  ({b['status']}{uncal}, generation {b['generation_found']}, "
                  f"eval {b['eval_id']}; target_fp {cfg.stopping.target_fp:g} {cfg.stopping.target_strain})")
-    if warning:
-        lines.append(f"  WARNING {warning}")
-    lines += ["", "hall of fame", "  rank " + "".join(f"{n:>11}" for n in ga.names) + f"{'f1':>13}{'F_p':>13}  status"]
-    for k, ind in enumerate(state.hof[:10]):
-        info = ind.info or {}
-        lines.append(
-            f"  {k + 1:>4} " + "".join(f"{x:>11.5g}" for x in ind)
-            + f"{_fmt(info.get('f1'), '.5g'):>13}{ind.fitness.values[1]:>13.5g}  {info.get('status', '-')}"
-        )
+    lines += [f"  WARNING {w}" for w in (warning, early) if w]
+    designs = run_best_designs(state, cfg)
+    lines += ["", f"best designs   {len(designs)} of at most {cfg.ga.hall_of_fame}, "
+              f"{describe_distance(cfg.distinct_distance)}",
+              "  rank " + "".join(f"{n:>11}" for n in ga.names) + f"{'f1':>13}{'F_p':>13}{'eval':>7}{'gen':>5}"
+              f"{'apart':>7}"]
+    for d in designs:
+        gap = d["distance_to_better"]
+        lines.append(f"  {d['rank']:>4} " + "".join(f"{d['genes'][n]:>11.5g}" for n in ga.names)
+                     + f"{d['f1']:>13.5g}{d['F_p']:>13.5g}{_fmt(d['eval_id']):>7}{_fmt(d['generation']):>5}"
+                     + f"{'-' if gap is None else format(gap, '.3f'):>7}")
+    if not designs:
+        lines.append("  (no feasible design)")
     lines += ["", "generations", f"  {'gen':>4}{'evals':>7}{'hits':>6}{'fail':>6}{'best F_p':>13}{'mean F_p':>13}{'time s':>9}"]
     rows = state.logbook
     if len(rows) > max_rows:
@@ -661,4 +667,6 @@ def report(run_dir: Path, max_rows: int = 60) -> str:
             f"  {r['generation']:>4}{r['evals']:>7}{r['cache_hits']:>6}{r['n_failures']:>6}"
             f"{r['best_fp']:>13.5g}{_fmt(r['mean_fp'], '.5g'):>13}{r['time_s']:>9.2f}"
         )
-    return "\n".join(lines + ga.report_lines(run_dir, state))
+    from whisker_opt.analysis.law_spread import report_lines as spread_lines
+
+    return "\n".join(lines + ga.report_lines(run_dir, state) + spread_lines(run_dir))
