@@ -27,7 +27,8 @@ Rows are appended to a CSV as they finish (a killed run continues where it stopp
     python3 benchmarks/f1_convergence.py directions [--designs default,case1]
     python3 benchmarks/f1_convergence.py ladder [--designs default,slim-thin,stout-thick,case1,rand0,...]
         [--levels 1,2,3,4] [--random 8] [--csv results/f1_ladder.csv]
-    python3 benchmarks/f1_convergence.py report [--csv results/f1_ladder.csv]
+    python3 benchmarks/f1_convergence.py report [--csv results/f1_ladder.csv] [--method template]
+        [--plot docs/figures/f1_ladder.png]
 """
 
 from __future__ import annotations
@@ -174,6 +175,35 @@ def report(rows: list[dict], prefix: str = "ladder") -> str:
     return "\n".join(out)
 
 
+def plot(rows: list[dict], path: Path, prefix: str = "tpl-ladder") -> None:
+    """f1 against the ladder level per design (log scale), the GA's level marked; written to ``path``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    by: dict = {}
+    for r in rows:
+        if r["mesh"].startswith(prefix):
+            by.setdefault(r["design"], {})[int(r["level"])] = float(r["f1"])
+    fig, ax = plt.subplots(figsize=(7.5, 4.8), dpi=120)
+    for name, lv in by.items():
+        ks = sorted(lv)
+        named = not name.startswith("rand")
+        ax.plot(ks, [lv[k] for k in ks], marker="o", lw=2.0 if named else 1.0, alpha=1.0 if named else 0.55,
+                ls="-" if named else "--", label=name)
+    ax.set_yscale("log")
+    ax.set_xticks([1, 2, 3, 4], ["1 (default,\nthe GA's)", "2", "3", "4"])
+    ax.set_xlabel("mesh ladder level")
+    ax.set_ylabel("f1 [calibrated strain]")
+    ax.set_title("f1 over the mesh ladder (templates as the GA meshes; dashed: seeded random designs)", fontsize=9)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7, ncol=3, loc="lower right")
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("study", choices=("directions", "ladder", "report"))
@@ -182,6 +212,7 @@ def main(argv=None) -> int:
     ap.add_argument("--levels", default="1,2,3,4")
     ap.add_argument("--random", type=int, default=8, help="ladder: number of seeded random designs")
     ap.add_argument("--csv", default=None)
+    ap.add_argument("--plot", default=None, help="report: also draw f1 over the ladder into this PNG")
     ap.add_argument("--method", choices=("swept", "template"), default="swept",
                     help="ladder: swept meshes of each design, or the shipped templates mapped to it (the GA's path)")
     args = ap.parse_args(argv)
@@ -210,7 +241,10 @@ def main(argv=None) -> int:
     if args.study == "directions":
         print(markdown_table(rows, ["design", "mesh", "elements", "time_s", "delta_l", "eps_i5", "eps_c5", "diff5", "f1"]))
     else:
-        print(report(rows, "tpl-ladder" if args.method == "template" else "ladder"))
+        prefix = "tpl-ladder" if args.method == "template" else "ladder"
+        print(report(rows, prefix))
+        if args.plot:
+            plot(rows, Path(args.plot), prefix)
     return 0
 
 

@@ -186,7 +186,9 @@ def embedded_ring(cell: Cell, mesh: TetMesh, h: float) -> EmbeddedTrusses:
     n = max(8, math.ceil(math.pi * cell.r_f / min(0.5 * h, 0.5)))
     phi = np.linspace(0.0, math.pi, n + 1)
     q = np.stack([cell.r_f * np.cos(phi), cell.r_f * np.sin(phi), np.full_like(phi, cell.s / 2)], axis=1)
-    loc = PointLocator(mesh.points, mesh.cells).locate(q, n_newton=30)  # curved P2 sectors of 45° on small radii need more than 4
+    loc = PointLocator(mesh.points, mesh.cells).locate(q)
+    if not np.all(loc.inside):  # curved P2 sectors of 45° (the GA's 8 sectors) on small radii need more iterations
+        loc = PointLocator(mesh.points, mesh.cells).locate(q, n_newton=30)
     if not np.all(loc.inside):
         raise RuntimeError("embedded_ring: a ring point lies outside the mesh")
     seg = np.stack([np.arange(n), np.arange(1, n + 1)], axis=1)

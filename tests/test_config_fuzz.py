@@ -139,7 +139,8 @@ def test_words_of_a_choice_are_listed(tmp_path):
     words = "'serial', 'processes', 'dask'"
     assert msg == f"{path}: optimiser.executor.kind: 'mpi' is not one of the allowed words: {words}"
     path, msg = _message(tmp_path, "fidelity: {preset: ultra}\n")
-    assert msg == f"{path}: fidelity.preset: 'ultra' is not one of the allowed words: 'coarse', 'default', 'fine'"
+    assert msg == (f"{path}: fidelity.preset: 'ultra' is not one of the allowed words: 'coarse', 'default', "
+                   "'level2', 'fine', 'level3', 'level4'")
 
 
 def test_unknown_keys_suggest_the_closest_key(tmp_path):

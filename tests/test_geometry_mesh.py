@@ -29,8 +29,8 @@ def test_templates_are_shipped_and_small():
     files = list(TEMPLATE_DIR.glob("*.npz"))
     assert len(files) >= 6
     assert sum(f.stat().st_size for f in files) < 2e6
-    assert set(available_sizings()) == {"coarse", "default", "fine"}
-    for name in ("coarse", "default", "fine"):  # every preset is served by a template
+    assert set(available_sizings()) == set(PRESETS)
+    for name in PRESETS:  # every preset is served by a template
         assert select_template(WhiskerDesign(), PRESETS[name].sizing) is not None
 
 

@@ -118,6 +118,8 @@ def _quiet_vtk_readers() -> Iterator[None]:
 def _damaged(path: Path, exc: BaseException) -> ViewerError:
     if isinstance(exc, UnicodeDecodeError):
         return ViewerError(f"{path}: damaged (not UTF-8 text at byte {exc.start})")
+    if isinstance(exc, RecursionError):
+        return ViewerError(f"{path}: damaged (JSON nested too deeply to read)")
     return ViewerError(f"{path}: damaged ({type(exc).__name__}: {' '.join(str(exc).split())})")
 
 
