@@ -78,24 +78,16 @@ def verify_run(run_dir: Path, preset: str = "fine", top: int = 3, progress: bool
         ``preset`` or ``top`` out of range, or the run has no feasible design.
     """
     from whisker_opt import wiring
-    from whisker_opt.config.model import load_config
     from whisker_opt.experiment.fidelity import f1_resolution
-    from whisker_opt.optimise.best import describe_distance, run_best_designs
+    from whisker_opt.optimise.best import describe_distance
     from whisker_opt.optimise.penalty import dynamic_penalty, penalty_terms
     from whisker_opt.experiment.evaluator import SceneEvaluator
-    from whisker_opt.optimise.runner import load_run, run_config_path
     from whisker_opt.output.progress import Progress, format_duration
 
     run_dir = Path(run_dir)
     check_args(preset, top)
-    cfg = load_config(run_config_path(run_dir))
+    cfg, opt, chosen = _best_of_run(run_dir, top)
     wiring.warn_unread_keys(cfg, "verify")
-    state, opt, _, _ = load_run(run_dir)
-    if state is None:
-        raise FileNotFoundError(f"{run_dir}: no checkpoint yet (the run has not finished a generation)")
-    chosen = run_best_designs(state, opt, int(top))
-    if not chosen:
-        raise VerifyError(f"verify: {run_dir} has no feasible design")
     if len(chosen) < int(top):
         logger.warning("verify: %s has %d feasible design(s) %s, fewer than --top %d: verifying those",
                        run_dir, len(chosen), describe_distance(opt.distinct_distance), int(top))
@@ -175,6 +167,24 @@ def format_rows(rows: list[dict[str, Any]], preset: str) -> str:
     return "\n".join(lines)
 
 
+def _best_of_run(run_dir: Path, top: int) -> tuple:
+    """(config, optimiser config, the best ``top`` distinct feasible designs) of a run directory.
+
+    Raises FileNotFoundError without a config or checkpoint and VerifyError without a feasible design."""
+    from whisker_opt.config.model import load_config
+    from whisker_opt.optimise.best import run_best_designs
+    from whisker_opt.optimise.runner import load_run, run_config_path
+
+    cfg = load_config(run_config_path(run_dir))
+    state, opt, _, _ = load_run(run_dir)
+    if state is None:
+        raise FileNotFoundError(f"{run_dir}: no checkpoint yet (the run has not finished a generation)")
+    chosen = run_best_designs(state, opt, int(top))
+    if not chosen:
+        raise VerifyError(f"verify: {run_dir} has no feasible design")
+    return cfg, opt, chosen
+
+
 def law_spread_run(run_dir: Path, top: int = 3, progress: bool = True) -> tuple[list[dict[str, Any]], str]:
     """The model-form spread of a run's best ``top`` distinct feasible designs at the run's own preset.
 
@@ -190,24 +200,15 @@ def law_spread_run(run_dir: Path, top: int = 3, progress: bool = True) -> tuple[
         ``top`` out of range or no feasible design.
     """
     from whisker_opt.analysis.law_spread import available_laws, law_spread, write_spread
-    from whisker_opt.config.model import load_config
-    from whisker_opt.optimise.best import run_best_designs
-    from whisker_opt.optimise.runner import load_run, run_config_path
     from whisker_opt.output.progress import Progress
+    from whisker_opt.wiring import SCENE_NAMES
 
     run_dir = Path(run_dir)
     if not 1 <= int(top) <= 1000:
         raise VerifyError(f"verify: top={top!r} outside the allowed range 1..1000")
-    cfg = load_config(run_config_path(run_dir))
-    state, opt, _, _ = load_run(run_dir)
-    if state is None:
-        raise FileNotFoundError(f"{run_dir}: no checkpoint yet (the run has not finished a generation)")
-    chosen = run_best_designs(state, opt, int(top))
-    if not chosen:
-        raise VerifyError(f"verify: {run_dir} has no feasible design")
+    cfg, _, chosen = _best_of_run(run_dir, top)
     laws = available_laws(cfg)
-    n_scenes = 3  # intact, trimmed at Q_i, trimmed and vented
-    steps = Progress(len(chosen) * len(laws) * n_scenes, "wall-law spread", "scene", progress)
+    steps = Progress(len(chosen) * len(laws) * len(SCENE_NAMES), "wall-law spread", "scene", progress)
     with steps:
         rows = law_spread(cfg, [dict(b["genes"]) for b in chosen], laws, on_scene=steps.step)
     write_spread(rows, run_dir / "law_spread.csv")
