@@ -75,10 +75,15 @@ def test_what_is_used_instead_is_named():
         wiring.unread_keys(cfg, "nope")
 
 
-def _jobs(tmp_path):
-    """Each job entered with the all-set config: (command, call)."""
+def _jobs(tmp_path, monkeypatch):
+    """Each job entered with the all-set config: (command, call).
+
+    ``verify`` refuses a run without a checkpoint before it warns, so its run directory's best designs
+    are given (the config is still read from the directory)."""
     from whisker_opt import compensation, export, robustness, workflows
+    from whisker_opt.analysis import verify
     from whisker_opt.analysis.verify import verify_run
+    from whisker_opt.optimise.runner import run_config_path
     from whisker_opt.calibration.job import prepare
 
     cfg = wo.load_config(ALL_SET)
@@ -86,6 +91,8 @@ def _jobs(tmp_path):
     run_dir.mkdir()
     (run_dir / "config.yaml").write_text(workflows.dump_config(cfg))
     genes = {"alpha": 4.0, "l": 12.0, "t": 3.0, "Q_i": 0.1}
+    monkeypatch.setattr(verify, "_best_of_run", lambda run, top: (
+        load_config(run_config_path(run)), cfg.optimiser, [{"genes": genes}]))
     calib = ROOT / "configs" / "calibrate_thesis.yaml"
     return [
         ("mesh", lambda: workflows.mesh(cfg, tmp_path / "m", progress=False)),
@@ -102,8 +109,8 @@ def _jobs(tmp_path):
     ]
 
 
-def test_every_job_warns_with_its_own_command(tmp_path, recorded):
-    for command, call in _jobs(tmp_path):
+def test_every_job_warns_with_its_own_command(tmp_path, recorded, monkeypatch):
+    for command, call in _jobs(tmp_path, monkeypatch):
         with pytest.raises(_Stop):
             call()
         got, lines = recorded[-1]
