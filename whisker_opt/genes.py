@@ -1,33 +1,135 @@
-"""The decision vector of the optimiser and how a genome becomes a whisker design.
+"""The decision vector of the optimiser and how a genome becomes a whisker design and its scene.
 
-A genome is x = [α, l, t, Q_i]: the cone half-angle α [deg] (the design's ``alpha``),
+The default genome is x = [α, l, t, Q_i]: the cone half-angle α [deg] (the design's ``alpha``),
 the x where the chamber ends l [mm], the wall thickness t [mm] and the initial chamber
-pressure Q_i [MPa]. Every other geometric parameter comes from the run file's ``design``
-section. This module is the one place that maps genes onto design fields.
+pressure Q_i [MPa]. A run file may add genes (``optimiser.genes.<name>: [lo, hi]``): any real
+number of the ``design`` section (e.g. ``L``, ``D``, ``fibre_pitch``, ``fibre_radius_frac``) or of
+the ``material`` section (``C10``, ``D1``, ``wall_slope``), named by its run-file key; they follow
+the four in the order written. Every parameter that is not a gene comes from the run file. This
+module is the one place that maps genes onto design and material fields.
 """
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Literal, Mapping
 
-#: The decision vector, in this order.
+#: The default decision vector, in this order (every genome starts with it).
 GENE_NAMES: tuple[str, ...] = ("alpha", "l", "t", "Q_i")
 GeneName = Literal["alpha", "l", "t", "Q_i"]
 
 #: The genes that are fields of :class:`geometry.design.WhiskerDesign` (Q_i is a load, not geometry).
 GEOMETRY_GENES: tuple[str, ...] = ("alpha", "l", "t")
 
+#: The run-file sections whose real numbers may be genes.
+GENE_SECTIONS: tuple[str, ...] = ("design", "material")
+#: The ``material`` keys (fields of :class:`whisker_opt.experiment.spec.SceneSpec`) that may be genes.
+MATERIAL_GENE_FIELDS: tuple[str, ...] = ("c10", "d1", "wall_slope")
+
+
+@dataclass(frozen=True)
+class GeneKey:
+    """A run-file key a gene may take, and where its value goes.
+
+    Parameters
+    ----------
+    name : str
+        The gene: its run-file key (``alpha``, ``fibre_pitch``, ``C10``, ...), or ``Q_i``.
+    section : {'design', 'material', 'load'}
+        ``design``: a field of :class:`geometry.design.WhiskerDesign`; ``material``: a field of
+        :class:`whisker_opt.experiment.spec.SceneSpec`; ``load``: the intact scene's pressure Q.
+    field : str
+        The dataclass field the value is written to.
+    unit : str
+    bounds : tuple of (str, float)
+        The key's allowed range as ``gt``/``ge``/``lt``/``le`` limits.
+    """
+
+    name: str
+    section: str
+    field: str
+    unit: str
+    bounds: tuple[tuple[str, float], ...]
+
+    def range_text(self) -> str:
+        """The allowed range, e.g. ``(0, 100]``."""
+        b = dict(self.bounds)
+        lo = f"[{b['ge']:g}" if "ge" in b else f"({b['gt']:g}" if "gt" in b else "(-inf"
+        hi = f"{b['le']:g}]" if "le" in b else f"{b['lt']:g})" if "lt" in b else "inf)"
+        return f"{lo}, {hi}"
+
+    def admits(self, x: float) -> bool:
+        """True when ``x`` lies in the key's allowed range."""
+        checks = {"gt": float.__gt__, "ge": float.__ge__, "lt": float.__lt__, "le": float.__le__}
+        return all(checks[k](float(x), float(v)) for k, v in self.bounds)
+
+
+def _real_keys(cls, section: str, names: tuple[str, ...] | None = None) -> dict[str, GeneKey]:
+    """The real-number user parameters of dataclass ``cls`` as gene keys (ints and words left out)."""
+    from geometry.design import user_parameters
+
+    out = {}
+    for f in user_parameters(cls):
+        if (names is not None and f.name not in names) or f.type not in ("float", float):
+            continue
+        m = f.metadata
+        key = m["key"] or f.name
+        out[key] = GeneKey(key, section, f.name, m["unit"], tuple(sorted(m["bounds"].items())))
+    return out
+
+
+def gene_keys() -> dict[str, GeneKey]:
+    """Every key a gene may take, by name: the four default genes, then the design's and the material's
+    real numbers."""
+    from geometry.design import WhiskerDesign
+    from whisker_opt.experiment.spec import SceneSpec
+
+    design = _real_keys(WhiskerDesign, "design")
+    material = _real_keys(SceneSpec, "material", MATERIAL_GENE_FIELDS)
+    q = GeneKey("Q_i", "load", "Q", "MPa", (("ge", 0.0), ("le", 1.0)))
+    head = {g: design[g] for g in GEOMETRY_GENES}
+    return {**head, "Q_i": q, **design, **material}
+
+
+def gene_key(name: str) -> GeneKey:
+    """The key of gene ``name``.
+
+    Raises
+    ------
+    ValueError
+        One line naming the gene and the allowed names.
+    """
+    keys = gene_keys()
+    if name not in keys:
+        raise ValueError(f"gene {name!r} is not a real number of the design or material section; allowed: "
+                         f"{', '.join(keys)}")
+    return keys[name]
+
+
+def check_gene_bounds(name: str, lo: float, hi: float) -> None:
+    """Refuse bounds [lo, hi] of gene ``name`` that leave its key's allowed range.
+
+    Raises
+    ------
+    ValueError
+        One line naming the gene, the bounds and the allowed range.
+    """
+    key = gene_key(name)
+    if not (key.admits(lo) and key.admits(hi)):
+        raise ValueError(f"gene {name}: bounds [{lo:g}, {hi:g}] leave the allowed range {key.range_text()} "
+                         f"of {key.section}.{name} [{key.unit}]")
+
 
 def design_from_genes(base, genes: Mapping[str, float], trim: float = 0.0):
-    """The design of a genome: ``base`` with α, l, t from ``genes`` and the given trim.
+    """The design of a genome: ``base`` with its design genes from ``genes`` and the given trim.
 
     Parameters
     ----------
     base : geometry.design.WhiskerDesign
         Supplies every parameter that is not a gene.
     genes : mapping
-        At least ``alpha`` [deg], ``l`` and ``t`` [mm] (numbers or numeric strings).
+        At least ``alpha`` [deg], ``l`` and ``t`` [mm] (numbers or numeric strings); any other
+        design gene (:func:`gene_keys`) present is applied too, other names are ignored.
     trim : float
         Length cut off the tip [mm].
 
@@ -36,9 +138,32 @@ def design_from_genes(base, genes: Mapping[str, float], trim: float = 0.0):
     geometry.design.WhiskerDesign
         Not validated (call ``validate()``).
     """
-    return replace(base, trim=float(trim), **{g: float(genes[g]) for g in GEOMETRY_GENES})
+    keys = gene_keys()
+    fields = {g: float(genes[g]) for g in GEOMETRY_GENES}
+    fields.update({keys[g].field: float(x) for g, x in genes.items()
+                   if g in keys and keys[g].section == "design" and g not in GEOMETRY_GENES})
+    return replace(base, trim=float(trim), **fields)
 
 
-def genes_dict(values) -> dict[str, float]:
-    """``{name: float}`` of a genome given in :data:`GENE_NAMES` order."""
-    return {n: float(x) for n, x in zip(GENE_NAMES, values)}
+def spec_from_genes(base_spec, genes: Mapping[str, float], trim: float, Q: float):
+    """The scene of a genome: ``base_spec`` with the genome's design (:func:`design_from_genes`), its
+    material genes and the pressure ``Q``.
+
+    Parameters
+    ----------
+    base_spec : whisker_opt.experiment.spec.SceneSpec
+    genes : mapping
+        Gene values by name.
+    trim : float
+        Length cut off the tip [mm].
+    Q : float
+        Chamber pressure of the scene [MPa].
+    """
+    keys = gene_keys()
+    material = {keys[g].field: float(x) for g, x in genes.items() if g in keys and keys[g].section == "material"}
+    return replace(base_spec, design=design_from_genes(base_spec.design, genes, trim), Q=float(Q), **material)
+
+
+def genes_dict(values, names: tuple[str, ...] = GENE_NAMES) -> dict[str, float]:
+    """``{name: float}`` of a genome given in ``names`` order (default :data:`GENE_NAMES`)."""
+    return {n: float(x) for n, x in zip(names, values)}

@@ -351,8 +351,12 @@ def deviated(ev, genes: Mapping[str, float], deviation) -> tuple:
     for name in GEOMETRY_GENES:
         g[name] += dev[name]
     base = ev.base_spec
-    frac = min(max(base.design.fibre_radius_frac + dev["fibre_radius"] / float(genes["t"]), 0.0), 1.0)
-    spec = replace(base, design=replace(base.design, fibre_radius_frac=frac), c10=base.c10 * (1.0 + dev["C10"] / 100.0))
+    frac = min(max(g.get("fibre_radius_frac", base.design.fibre_radius_frac) + dev["fibre_radius"] / float(genes["t"]),
+                   0.0), 1.0)
+    c10 = g.get("C10", base.c10) * (1.0 + dev["C10"] / 100.0)
+    for gene in {"fibre_radius_frac", "C10"} & set(g):  # a gene overrides the base spec: deviate the gene
+        g[gene] = frac if gene == "fibre_radius_frac" else c10
+    spec = replace(base, design=replace(base.design, fibre_radius_frac=frac), c10=c10)
     return replace(ev, base_spec=spec), g, (base.calibration + dev["calibration"]) / base.calibration
 
 
@@ -541,7 +545,7 @@ def design_scene_specs(cfg: WhiskerConfig, genes: Mapping[str, float], validate:
     ----------
     cfg : WhiskerConfig
     genes : mapping
-        ``alpha`` [deg], ``l``, ``t`` [mm], ``Q_i`` [MPa] (numbers or numeric strings).
+        ``alpha`` [deg], ``l``, ``t`` [mm], ``Q_i`` [MPa] and any added gene (numbers or numeric strings).
     validate : bool
         Check the designs (False describes stored results whose design may not pass today's checks).
 
@@ -558,7 +562,8 @@ def design_scene_specs(cfg: WhiskerConfig, genes: Mapping[str, float], validate:
     """
     intact, trimmed = evaluator(cfg, validate=validate).specs(genes, validate=False)
     if validate:
-        keys = {**design_keys(), **{g: f"gene {g}" for g in GEOMETRY_GENES}}
+        keys = design_keys()
+        keys.update({g: f"gene {g}" for g in (*GEOMETRY_GENES, *genes) if g in keys})
         validate_design(intact.design, {**keys, "trim": "trim"})
         validate_design(trimmed.design, {**keys, "trim": "optimiser.trim"})
     specs = {INTACT: intact}

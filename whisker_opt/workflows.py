@@ -256,9 +256,10 @@ def write_design_scenes(out: Path, cfg: WhiskerConfig, genes: Mapping[str, Any],
 
 
 def _clean_genes(genes: Mapping[str, Any]) -> dict[str, float]:
-    from whisker_opt.genes import GENE_NAMES
+    from whisker_opt.genes import gene_keys
 
-    return {k: float(v) for k, v in genes.items() if k in GENE_NAMES}
+    keys = gene_keys()
+    return {k: float(v) for k, v in genes.items() if k in keys}
 
 
 # ----------------------------------------------------------------------------- run / resume

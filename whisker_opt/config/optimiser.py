@@ -28,12 +28,13 @@ from __future__ import annotations
 
 from typing import Any, Literal
 
-from pydantic import Field, field_validator, model_validator
+from pydantic import ConfigDict, Field, field_validator, model_validator
 
 from whisker_opt.config.base import StrictModel
 from whisker_opt.config.robustness import RobustObjectiveConfig
 from whisker_opt.wall.law import WALL_LAW_NAMES
-from whisker_opt.genes import GENE_NAMES, GeneName
+from whisker_opt.experiment.measures import MEASURE_NAMES
+from whisker_opt.genes import GENE_NAMES, check_gene_bounds, gene_key
 
 
 
@@ -91,17 +92,63 @@ class PressureBounds(_Bounds):
     hi: float = Field(0.2, gt=0, le=1, description="upper bound of Q_i", json_schema_extra={"unit": "MPa"})
 
 
+class GeneBounds(_Bounds):
+    """Range of an added gene: ``{lo, hi}`` or ``[lo, hi]``, lo < hi, inside the range of the key it sets."""
+
+    lo: float = Field(description="lower bound of the gene")
+    hi: float = Field(description="upper bound of the gene")
+
+
 class GenesConfig(StrictModel):
-    """Bounds of the four genes [α, l, t, Q_i]."""
+    """Bounds of the genes: the four [α, l, t, Q_i] always, and any real number of the ``design`` or ``material``
+    section added as ``<key>: [lo, hi]`` (e.g. ``fibre_pitch: [2, 4]``, ``L: [60, 80]``, ``C10: [0.1, 0.2]``),
+    inside the key's own range; added genes follow the four in the order written and override the section's
+    value in every evaluation."""
+
+    model_config = ConfigDict(extra="allow")
 
     alpha: AlphaBounds = AlphaBounds()
     l: ChamberEndBounds = ChamberEndBounds()
     t: WallBounds = WallBounds()
     Q_i: PressureBounds = PressureBounds()
 
+    @model_validator(mode="before")
+    @classmethod
+    def _added_genes(cls, data: Any) -> Any:
+        if not isinstance(data, dict):
+            return data
+        data = dict(data)
+        for name in [k for k in data if k not in cls.model_fields]:
+            gene_key(str(name))
+            try:
+                b = GeneBounds.model_validate(data[name])
+            except ValueError as exc:
+                raise ValueError(f"gene {name}: {_first_error(exc)}") from None
+            check_gene_bounds(str(name), b.lo, b.hi)
+            data[name] = b
+        return data
+
+    def names(self) -> tuple[str, ...]:
+        """The genome: :data:`GENE_NAMES`, then the added genes in the order written."""
+        return (*GENE_NAMES, *(self.model_extra or {}))
+
+    def of(self, name: str) -> _Bounds:
+        """The bounds of gene ``name``."""
+        return getattr(self, name) if name in GENE_NAMES else (self.model_extra or {})[name]
+
     def bounds(self) -> tuple[tuple[float, float], ...]:
-        """``((lo, hi), ...)`` in :data:`GENE_NAMES` order."""
-        return tuple((getattr(self, g).lo, getattr(self, g).hi) for g in GENE_NAMES)
+        """``((lo, hi), ...)`` in :meth:`names` order."""
+        return tuple((self.of(g).lo, self.of(g).hi) for g in self.names())
+
+
+def _first_error(exc: ValueError) -> str:
+    """The first message of a pydantic validation error (or the error's text)."""
+    errors = getattr(exc, "errors", None)
+    if callable(errors):
+        e = errors()[0]
+        where = ".".join(map(str, e.get("loc", ())))
+        return f"{where + ': ' if where else ''}{e['msg']}"
+    return str(exc)
 
 
 class PenaltyConfig(StrictModel):
@@ -110,7 +157,7 @@ class PenaltyConfig(StrictModel):
     One term per gene at most.
     """
 
-    gene: GeneName = Field(description="gene the preference applies to")
+    gene: str = Field(description="gene the preference applies to (a gene of optimiser.genes)")
     prefer: Literal["low", "high"] = Field(description="preferred end of the gene's range")
     weight: float = Field(ge=0, le=100, description="penalty coefficient C_j", json_schema_extra={"unit": "-"})
 
@@ -125,13 +172,15 @@ _DEFAULT_PENALTIES = (
 class ObjectiveConfig(StrictModel):
     """One objective of the multi-objective mode (``algorithm: nsga2``), minimised.
 
-    ``f1`` is the compensation error (docs/physics.md §4); a gene (``alpha``, ``l``, ``t``,
-    ``Q_i``) is an objective towards its preferred end of the range, measured by the same
-    normalised distance d_j as the penalty terms. Written ``{name: t, prefer: high}`` or as
-    the bare name (preferring the low end).
+    A measure of :data:`whisker_opt.experiment.measures.MEASURES` (``f1``, the compensation error,
+    docs/physics.md §4; ``sensitivity``, ``delta_l``, ``von_mises_max``, the gauge readings) is minimised
+    (prefer low) or maximised (prefer high); a gene of ``optimiser.genes`` is an objective towards its
+    preferred end of the range, measured by the same normalised distance d_j as the penalty terms.
+    Written ``{name: t, prefer: high}`` or as the bare name (preferring the low end).
     """
 
-    name: str = Field(description="f1 or a gene name")
+    name: str = Field(description="a measure (f1, sensitivity, delta_l, von_mises_max, eps_i_line, ...) or a gene "
+                      "of optimiser.genes")
     prefer: Literal["low", "high"] = Field("low", description="preferred end (f1: low only)")
 
     @model_validator(mode="before")
@@ -142,9 +191,13 @@ class ObjectiveConfig(StrictModel):
     @field_validator("name")
     @classmethod
     def _known(cls, v: str) -> str:
-        allowed = ("f1", *GENE_NAMES)
-        if v not in allowed:
-            raise ValueError(f"name={v!r} is not one of {', '.join(map(repr, allowed))}")
+        if v in MEASURE_NAMES:
+            return v
+        try:
+            gene_key(v)
+        except ValueError:
+            raise ValueError(f"name={v!r} is neither a measure ({', '.join(MEASURE_NAMES)}) nor a gene "
+                             f"(alpha, l, t, Q_i or an added gene of optimiser.genes)") from None
         return v
 
     @model_validator(mode="after")
@@ -383,9 +436,19 @@ class OptimiserConfig(StrictModel):
         dup = sorted({n for n in names if names.count(n) > 1})
         if dup:
             raise ValueError(f"each objective once; repeated: {dup}")
-        if "f1" not in names:
+        if "f1" not in names:  # the hall of fame, best.json and the hypervolume's scale rank by f1
             raise ValueError(f"objectives {names} must include f1")
         return v
+
+    @model_validator(mode="after")
+    def _genes_of_the_genome(self) -> "OptimiserConfig":
+        genome = self.genes.names()
+        for what, name in [*(("penalties", p.gene) for p in self.penalties),
+                           *(("objectives", o.name) for o in self.objectives if o.name not in MEASURE_NAMES)]:
+            if name not in genome:
+                raise ValueError(f"{what}: gene {name!r} is not a gene of optimiser.genes; allowed: "
+                                 f"{', '.join(genome)}")
+        return self
 
     @model_validator(mode="after")
     def _one_robust_mode(self) -> "OptimiserConfig":

@@ -17,7 +17,8 @@ import numpy as np
 
 from whisker_opt.experiment.outcome import EvalOutcome
 from whisker_opt.experiment import objective
-from whisker_opt.genes import design_from_genes
+from whisker_opt.experiment.gauge import GAUGE_VARIANTS
+from whisker_opt.genes import design_from_genes, spec_from_genes
 
 logger = logging.getLogger(__name__)
 
@@ -51,13 +52,11 @@ class SceneEvaluator:
     def specs(self, genes: dict, validate: bool = True) -> tuple:
         """(intact, trimmed) SceneSpecs of a genome; both designs validated unless ``validate`` is False
         (for describing stored results whose design may not pass today's checks)."""
-        d0 = design_from_genes(self.base_spec.design, genes, trim=0.0)
-        dc = replace(d0, trim=float(self.trim))
+        intact = spec_from_genes(self.base_spec, genes, 0.0, float(genes["Q_i"]))
+        trimmed = replace(intact, design=replace(intact.design, trim=float(self.trim)), Q=0.0)
         if validate:
-            d0.validate()
-            dc.validate()
-        intact = replace(self.base_spec, design=d0, Q=float(genes["Q_i"]))
-        trimmed = replace(self.base_spec, design=dc, Q=0.0)
+            intact.design.validate()
+            trimmed.design.validate()
         return intact, trimmed
 
     def samples(self) -> np.ndarray:
@@ -111,6 +110,9 @@ class SceneEvaluator:
             "delta_l": results["intact"].delta_l,
             "eps_i_max": float(eps_i[-1]),
             "eps_c_max": float(eps_c[-1]),
+            "deflection": float(delta[-1]),
+            "readings": {v: {n: float(results[n].eps[v][-1]) for n in self.SCENES} for v in GAUGE_VARIANTS},
+            "von_mises_max": {n: results[n].von_mises_max for n in self.SCENES},
             "iterations": int(sum(r.iterations for res in results.values() for r in res.reports)),
         }
         if self.keep_curves:

@@ -31,6 +31,15 @@ from geometry.design import WhiskerDesign
 from geometry.locate import PointLocator
 from geometry.mesh import WhiskerMesh
 
+#: The gauge readings, by name, in the order a reader returns them (the one registry of the variants:
+#: :class:`GaugeReader`, the scene's result (:attr:`whisker_opt.experiment.scene.SceneResult.eps`), the
+#: evaluation's outcome and its measures (:mod:`whisker_opt.experiment.measures`) all follow it).
+GAUGE_VARIANTS: dict[str, str] = {
+    "line": "mean logarithmic strain along the gauge line, relative to contact onset, times ξ",
+    "centroid": "axial Eulerian log strain at the centroid of the element under the gauge centre, relative to "
+                "contact onset, times ξ (the thesis' readout)",
+}
+
 
 @dataclass(frozen=True)
 class GaugeGeometry:
@@ -152,7 +161,8 @@ class GaugeReader:
         self._c0 = centroid_log_strain_xx(self.mesh, u, self.gauge)
 
     def read(self, u: np.ndarray) -> tuple[float, float]:
-        """Return ``(line reading, centroid reading)``, both times the calibration factor."""
+        """Return ``(line reading, centroid reading)`` (the order of :data:`GAUGE_VARIANTS`), both times the
+        calibration factor."""
         lam = line_stretch(self.mesh, u, self.gauge)
         line = float(self.gauge.weights @ np.log(lam / self._lam0))
         cen = centroid_log_strain_xx(self.mesh, u, self.gauge) - self._c0

@@ -53,7 +53,7 @@ from geometry.design import WhiskerDesign
 from geometry.fibre_field import smeared_fibres
 from geometry.mesh import MeshSizing, WhiskerMesh, build_mesh
 from whisker_opt.experiment.contact import Contact, contact_band, place_contact_ring
-from whisker_opt.experiment.gauge import GaugedMesh, GaugeReader
+from whisker_opt.experiment.gauge import GAUGE_VARIANTS, GaugedMesh, GaugeReader
 from whisker_opt.experiment.spec import SceneSpec, cap_elements, rubber_material
 from whisker_opt.wall.law import apply_law, chamber_elements
 
@@ -98,6 +98,9 @@ class SceneResult:
     base_reaction : ndarray, shape (k + 1, 3)
         Force the base support exerts on the whisker at each solved δ [N] (x, y, z): Σ R
         over the base nodes. With Q = 0 its y component balances the contact force.
+    von_mises_max : float
+        Largest nodal von Mises stress of the deflected state (δ = ``spec.deflection``) [MPa]:
+        :func:`peak_von_mises` (NaN when not computed).
     """
 
     spec: SceneSpec
@@ -114,6 +117,12 @@ class SceneResult:
     contact_x: float = float("nan")
     contact_force: np.ndarray | None = None
     base_reaction: np.ndarray | None = None
+    von_mises_max: float = float("nan")
+
+    @property
+    def eps(self) -> dict[str, np.ndarray]:
+        """The readings at the solved deflections by gauge variant (:data:`GAUGE_VARIANTS`)."""
+        return dict(zip(GAUGE_VARIANTS, (self.eps_line, self.eps_centroid)))
 
     @property
     def contact_stiffness(self) -> float:
@@ -129,7 +138,9 @@ class SceneResult:
         The spline is 'not-a-knot' with >= 4 points, otherwise linear interpolation. Its
         error against densely solved increments is measured in benchmarks/bench_scene.py.
         """
-        return self._spline(self.eps_line if variant == "line" else self.eps_centroid, delta)
+        if variant not in GAUGE_VARIANTS:
+            raise ValueError(f"gauge variant {variant!r} is not one of {', '.join(map(repr, GAUGE_VARIANTS))}")
+        return self._spline(self.eps[variant], delta)
 
     def force(self, delta: np.ndarray, which: str = "contact") -> np.ndarray:
         """Contact force F (``which='contact'``) or the base reaction's y component (``'base_y'``)
@@ -565,7 +576,22 @@ def run_scene(spec: SceneSpec, wm: WhiskerMesh | GaugedMesh | None = None, keep_
         contact_x=float(np.mean(wm.mesh.points[dfl.band, 0] + u1[dfl.band, 0])),
         contact_force=dfl.forces[:, 0],
         base_reaction=dfl.forces[:, 1:],
+        von_mises_max=peak_von_mises(wm.mesh, dfl.states[-1], spec),
     )
+
+
+def peak_von_mises(mesh, state: State, spec: SceneSpec) -> float:
+    """Largest nodal von Mises stress of a solved state [MPa].
+
+    σ_vM = sqrt(3/2 s:s), s the deviator of the nodal Cauchy stress of the scene's own rubber
+    (:func:`fem.post.nodal_strain_stress` with :func:`scene_material`, the stress the result files
+    and the viewer show), maximised over the nodes of the mesh.
+    """
+    from fem import post
+
+    sigma = post.nodal_strain_stress(mesh.points, mesh.cells, state.u, state.p, scene_material(mesh, spec),
+                                     spec.formulation)[1]  # (n_nodes, 3, 3)
+    return float(np.nanmax(post.von_mises_stress(sigma)))
 
 
 def with_design(spec: SceneSpec, **changes) -> SceneSpec:

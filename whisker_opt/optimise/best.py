@@ -41,7 +41,7 @@ def gene_distance(a: Sequence[float], b: Sequence[float], bounds: Sequence[tuple
     Parameters
     ----------
     a, b : sequence of float
-        Genomes in :data:`whisker_opt.genes.GENE_NAMES` order.
+        Genomes in the run's gene order (``optimiser.genes.names()``).
     bounds : sequence of (lo, hi)
         The gene bounds (``optimiser.genes.bounds()``), hi > lo.
 
@@ -61,7 +61,8 @@ def _number(v: Any) -> float | None:
 
 
 def best_designs(records: Iterable[Mapping[str, Any]], bounds: Sequence[tuple[float, float]], n: int,
-                 distance: float, calibration: float | None = None) -> list[dict[str, Any]]:
+                 distance: float, calibration: float | None = None,
+                 names: Sequence[str] = GENE_NAMES) -> list[dict[str, Any]]:
     """The ``n`` best feasible designs of a run, pairwise distinct by ``distance`` (module docstring).
 
     Parameters
@@ -70,7 +71,7 @@ def best_designs(records: Iterable[Mapping[str, Any]], bounds: Sequence[tuple[fl
         Evaluation rows (``state.records`` or ``evaluations.csv`` read back): the genes by name,
         ``f1``, ``F_p``, ``status`` and ``eval_id``, ``generation``; numbers may be strings.
     bounds : sequence of (lo, hi)
-        The gene bounds in :data:`GENE_NAMES` order.
+        The gene bounds in ``names`` order.
     n : int
         Most designs returned (>= 1).
     distance : float
@@ -78,6 +79,8 @@ def best_designs(records: Iterable[Mapping[str, Any]], bounds: Sequence[tuple[fl
     calibration : float, optional
         The gauge factor ξ of the run's calibrated f1 and F_p: adds them divided by ξ
         (``f1_uncalibrated``, ``F_p_uncalibrated``); None leaves those None.
+    names : sequence of str
+        The genome (``optimiser.genes.names()``; default :data:`GENE_NAMES`).
 
     Returns
     -------
@@ -101,7 +104,7 @@ def best_designs(records: Iterable[Mapping[str, Any]], bounds: Sequence[tuple[fl
         if r.get("status", "ok") != "ok":
             continue
         f1, fp = _number(r.get("f1")), _number(r.get("F_p"))
-        genome = [_number(r.get(g)) for g in GENE_NAMES]
+        genome = [_number(r.get(g)) for g in names]
         if f1 is None or fp is None or None in genome:
             continue
         eid = _number(r.get("eval_id"))
@@ -122,7 +125,7 @@ def best_designs(records: Iterable[Mapping[str, Any]], bounds: Sequence[tuple[fl
             "rank": len(chosen) + 1,
             "eval_id": int(eid) if eid is not None else None,
             "generation": int(generation) if generation is not None else None,
-            "genes": dict(zip(GENE_NAMES, genome)),
+            "genes": dict(zip(names, genome)),
             "f1": f1,
             "F_p": fp,
             "f1_uncalibrated": f1 / xi if xi else None,
@@ -151,7 +154,7 @@ def run_best_designs(state, cfg, n: int | None = None) -> list[dict[str, Any]]:
     """
     xi = ((state.extra or {}).get("fidelity") or {}).get("calibration")
     return best_designs(state.records, cfg.genes.bounds(), cfg.ga.hall_of_fame if n is None else n,
-                        cfg.distinct_distance, xi)
+                        cfg.distinct_distance, xi, cfg.genes.names())
 
 
 def describe_distance(distance: float) -> str:

@@ -70,6 +70,7 @@ from deap import base, creator, tools
 from whisker_opt.optimise.evalcache import EvalCache, evaluation_seed
 from whisker_opt.config.optimiser import OptimiserConfig
 from whisker_opt.genes import GENE_NAMES, genes_dict
+from whisker_opt.experiment.measures import measure_values
 from whisker_opt.experiment.outcome import EvalOutcome
 from whisker_opt.optimise.penalty import PenaltyTerm, dynamic_penalty, fitness_values, penalise, penalty_terms
 from whisker_opt.output.storage import ROBUST_COLUMNS
@@ -248,7 +249,7 @@ def _invalidate(ind) -> None:
 
 
 class GeneticAlgorithm:
-    """The GA on the genes [α, l, t, Q_i].
+    """The GA on the genes of ``optimiser.genes`` ([α, l, t, Q_i] and any added ones).
 
     Parameters
     ----------
@@ -261,7 +262,9 @@ class GeneticAlgorithm:
     def __init__(self, cfg: OptimiserConfig, seed: int) -> None:
         self.cfg = cfg
         self.seed = int(seed)
-        self.names: tuple[str, ...] = GENE_NAMES
+        self.names: tuple[str, ...] = cfg.genes.names()
+        #: Measures (:mod:`whisker_opt.experiment.measures`) recorded beside f1 and handed to :meth:`fitness_of`.
+        self.measure_columns: tuple[str, ...] = ()
         bounds = cfg.genes.bounds()
         self.low = [float(lo) for lo, _ in bounds]
         self.up = [float(hi) for _, hi in bounds]
@@ -276,7 +279,7 @@ class GeneticAlgorithm:
     # ------------------------------------------------------------------ state
     def new_state(self) -> GAState:
         """A fresh state: nothing evaluated, RNGs seeded with the master seed."""
-        return GAState(
+        state = GAState(
             seed=self.seed,
             generation=-1,
             population=[],
@@ -287,6 +290,8 @@ class GeneticAlgorithm:
             rng_py=random.Random(self.seed).getstate(),
             rng_np=np.random.RandomState(self.seed % 2**32).get_state(),
         )
+        state.extra["gene_names"] = list(self.names)
+        return state
 
     def genes_of(self, ind: Sequence[float]) -> dict[str, float]:
         """Gene values by name."""
@@ -368,7 +373,8 @@ class GeneticAlgorithm:
 
     # ------------------------------------------------------------------ evaluation
     def fitness_of(self, pen, genes: dict[str, float]) -> tuple[float, ...]:
-        """DEAP fitness values of a penalised outcome: (infeasible, F_p) (:func:`fitness_values`)."""
+        """DEAP fitness values of a penalised outcome: (infeasible, F_p) (:func:`fitness_values`); ``genes`` also
+        holds the values of :attr:`measure_columns`."""
         return fitness_values(pen)
 
     def write_outputs(self, run_dir, state: GAState) -> list:
@@ -426,7 +432,8 @@ class GeneticAlgorithm:
                 n_hits += 1
             genes = self.genes_of(ind)
             pen = penalise(out, genes, self.terms, self.cfg.failure_penalty)
-            ind.fitness.values = self.fitness_of(pen, genes)
+            measures = measure_values(out, self.measure_columns)
+            ind.fitness.values = self.fitness_of(pen, {**genes, **measures})
             eval_id = len(state.records)
             if not pen.feasible:
                 n_fail += 1
@@ -439,9 +446,12 @@ class GeneticAlgorithm:
                 "status": out.status,
                 "reason": out.reason,
             }
+            if measures:
+                ind.info["measures"] = measures
             rec: dict[str, Any] = {"eval_id": eval_id, "generation": generation, **genes, "f1": pen.f1}
             if self.cfg.robust is not None:  # f1 is mean + k·std; the nominal f1 and the moments beside it
                 rec.update({k: out.extra.get(k) for k in ROBUST_COLUMNS})
+            rec.update(measures)
             for t in self.terms:
                 rec[t.column] = pen.kappas.get(t.gene)
             rec.update(
@@ -570,6 +580,11 @@ class GeneticAlgorithm:
         return state
 
 
+def gene_names(state: GAState) -> tuple[str, ...]:
+    """The genome of a run's state (:data:`GENE_NAMES` for a state saved before genomes could grow)."""
+    return tuple(state.extra.get("gene_names") or GENE_NAMES)
+
+
 def best_design(state: GAState) -> dict[str, Any]:
     """The best design so far: genes, f1, κ_j, F_p (calibrated, and divided by ξ when the run knows
     its gauge factor), status and where it was found."""
@@ -577,7 +592,7 @@ def best_design(state: GAState) -> dict[str, Any]:
     info = dict(best.info or {})
     feasible = best.fitness.values[0] == 0.0
     return {
-        "genes": genes_dict(best),
+        "genes": genes_dict(best, gene_names(state)),
         "feasible": feasible,
         "F_p": best.fitness.values[1],
         "f1": info.get("f1"),

@@ -1,10 +1,14 @@
 """Multi-objective mode (``optimiser.algorithm: nsga2``): NSGA-II on DEAP, its archive and hypervolume.
 
 Objectives (all minimised; ``optimiser.objectives``, docs/physics.md "Multi-objective mode")
-    ``f1`` itself, and for a gene g_j its normalised distance from the preferred end of its range,
+    ``f1`` itself; any other measure of :mod:`whisker_opt.experiment.measures` by name (``sensitivity``,
+    ``delta_l``, ...), itself when the low end is preferred, its negative when the high end is; and for a
+    gene g_j its normalised distance from the preferred end of its range,
     d_j = (x − lo)/(hi − lo) (prefer low) or (hi − x)/(hi − lo) (prefer high): the same d_j as the
     penalty terms (:meth:`whisker_opt.optimise.penalty.PenaltyTerm.distance`), here an objective
-    of its own instead of a factor of F_p. A failed evaluation gets (F_p of the failure, 2, ..., 2):
+    of its own instead of a factor of F_p. f1 is always one of them: the hall of fame (hence
+    ``best.json``, verify and the report) ranks by the F_p of f1, and f1_ref scales the hypervolume.
+    A failed evaluation gets F_p of the failure for every measure and 2 for every gene:
     every feasible design dominates it (its graded F_p, >= ``failure_penalty``, exceeds any
     feasible f1, and d_j <= 1), and failures rank among themselves by their graded F_p.
 
@@ -24,9 +28,10 @@ Loop (one generation; Deb et al. 2002)
 Archive and hypervolume
     The archive (``state.extra["archive"]``: eval ids) is the non-dominated subset of every
     feasible design evaluated so far, one per genome. Its hypervolume (:func:`pareto.hypervolume`)
-    is taken in normalised objectives z = (f1 / f1_ref, d_j, ...) against the reference point
+    is taken in normalised objectives z = (f1 / f1_ref, m / m_ref, d_j, ...) against the reference point
     r = (1.1, ..., 1.1), with f1_ref the largest f1 of the feasible designs of generation 0
-    (``state.extra["f1_ref"]``, fixed for the run). Every d_j <= 1 < 1.1, so the archive's
+    (``state.extra["f1_ref"]``, fixed for the run) and m_ref likewise the largest |m| of another measure
+    objective (``state.extra["measure_refs"]``). Every d_j <= 1 < 1.1, so the archive's
     hypervolume never decreases.
 
 Stopping rules (after every generation, first match wins)
@@ -48,6 +53,7 @@ from typing import Any, Callable, Mapping, Sequence
 from deap import creator, tools
 
 from whisker_opt.config.optimiser import ExecutorConfig, OptimiserConfig
+from whisker_opt.experiment.measures import MEASURES
 from whisker_opt.optimise.ga import EvaluationProgress, GAState, GeneticAlgorithm, Individual, _ga_rng, stalled
 from whisker_opt.optimise.pareto import hypervolume, non_dominated
 from whisker_opt.optimise.penalty import PenaltyTerm, dynamic_penalty
@@ -65,28 +71,34 @@ FAILED_DISTANCE = 2.0
 
 @dataclass(frozen=True)
 class Objective:
-    """One minimised objective: ``f1``, or a gene's normalised distance from its preferred end.
+    """One minimised objective: a measure (:mod:`whisker_opt.experiment.measures`; ``high`` minimises its
+    negative), or a gene's normalised distance from its preferred end.
 
     Parameters
     ----------
     name : str
-        ``f1`` or a gene name.
+        A measure name (``f1``, ``sensitivity``, ...) or a gene name.
     prefer : {"low", "high"}
-        Preferred end of a gene's range (``low`` for f1).
+        Preferred end (``low`` for f1).
     lo, hi : float
-        The gene's bounds (unused for f1).
+        The gene's bounds (unused for a measure).
+    gene : bool
+        The objective is a gene's distance.
     """
 
     name: str
     prefer: str
     lo: float = 0.0
     hi: float = 1.0
+    gene: bool = False
 
-    def value(self, f1: float, genes: Mapping[str, float]) -> float:
-        """The minimised value: f1, or d_j ∈ [0, 1] (:meth:`PenaltyTerm.distance`)."""
-        if self.name == "f1":
-            return float(f1)
-        return PenaltyTerm(self.name, self.prefer, 0.0, self.lo, self.hi).distance(float(genes[self.name]))
+    def value(self, values: Mapping[str, Any]) -> float:
+        """The minimised value from ``values`` (genes and measures by name): d_j ∈ [0, 1] of a gene
+        (:meth:`PenaltyTerm.distance`), the measure (prefer low) or its negative (prefer high)."""
+        if self.gene:
+            return PenaltyTerm(self.name, self.prefer, 0.0, self.lo, self.hi).distance(float(values[self.name]))
+        v = float(values[self.name])
+        return v if self.prefer == "low" else -v
 
     @property
     def label(self) -> str:
@@ -95,14 +107,14 @@ class Objective:
 
 
 def objective_terms(cfg: OptimiserConfig) -> tuple[Objective, ...]:
-    """The configured objectives with the bounds of their genes."""
+    """The configured objectives, genes with their bounds."""
     out = []
     for o in cfg.objectives:
-        if o.name == "f1":
-            out.append(Objective("f1", "low"))
+        if o.name in MEASURES:
+            out.append(Objective(o.name, o.prefer))
         else:
-            b = getattr(cfg.genes, o.name)
-            out.append(Objective(o.name, o.prefer, float(b.lo), float(b.hi)))
+            b = cfg.genes.of(o.name)
+            out.append(Objective(o.name, o.prefer, float(b.lo), float(b.hi), gene=True))
     return tuple(out)
 
 
@@ -132,7 +144,7 @@ def finer_preset(preset: str | None) -> str | None:
 
 
 class NSGA2(GeneticAlgorithm):
-    """NSGA-II on the genes [α, l, t, Q_i] (module docstring).
+    """NSGA-II on the genes of ``optimiser.genes`` (module docstring).
 
     Parameters
     ----------
@@ -148,24 +160,35 @@ class NSGA2(GeneticAlgorithm):
     def __init__(self, cfg: OptimiserConfig, seed: int) -> None:
         super().__init__(cfg, seed)
         self.objectives = objective_terms(cfg)
+        self.measure_columns = tuple(o.name for o in self.objectives if not o.gene and o.name != "f1")
         self.n_obj = len(self.objectives)
         self.mo_class = getattr(creator, f"WhiskerMOIndividual{self.n_obj}")
         self.toolbox.register("select", tools.selNSGA2)
 
     # ------------------------------------------------------------------ objectives
     def fitness_of(self, pen, genes: dict[str, float]) -> tuple[float, ...]:
-        """Objective vector of a penalised outcome (failures: (F_p, 2, ..., 2))."""
+        """Objective vector of a penalised outcome; ``genes`` holds the genes and the measures of
+        :attr:`measure_columns` (failures: F_p for every measure, 2 for every gene)."""
         if not pen.feasible:
-            return tuple(float(pen.fp) if o.name == "f1" else FAILED_DISTANCE for o in self.objectives)
-        return tuple(o.value(pen.f1, genes) for o in self.objectives)
+            return tuple(FAILED_DISTANCE if o.gene else float(pen.fp) for o in self.objectives)
+        return tuple(o.value({**genes, "f1": pen.f1}) for o in self.objectives)
 
     def record_objectives(self, rec: Mapping[str, Any]) -> tuple[float, ...]:
         """Objective vector of a feasible evaluation record."""
-        return tuple(o.value(float(rec["f1"]), rec) for o in self.objectives)
+        return tuple(o.value(rec) for o in self.objectives)
 
-    def normalised(self, vec: Sequence[float], f1_ref: float) -> tuple[float, ...]:
-        """z = (f1 / f1_ref, d_j, ...): the coordinates of the hypervolume."""
-        return tuple(v / f1_ref if o.name == "f1" else v for o, v in zip(self.objectives, vec))
+    def normalised(self, vec: Sequence[float], refs: Mapping[str, float]) -> tuple[float, ...]:
+        """z = (f1 / f1_ref, m / m_ref, d_j, ...): the coordinates of the hypervolume, each measure divided by
+        its reference (:meth:`measure_refs`)."""
+        return tuple(v if o.gene else v / refs[o.name] for o, v in zip(self.objectives, vec))
+
+    def measure_refs(self, state: GAState) -> dict[str, float] | None:
+        """Each measure objective's scale: the largest |value| over the feasible designs of the first generation
+        with one (``state.extra["f1_ref"]`` for f1, ``"measure_refs"`` for the others); None before."""
+        f1_ref = state.extra.get("f1_ref")
+        if not f1_ref:
+            return None
+        return {"f1": f1_ref, **state.extra.get("measure_refs", {})}
 
     # ------------------------------------------------------------------ breeding
     def initial_population(self) -> list:
@@ -255,14 +278,18 @@ class NSGA2(GeneticAlgorithm):
             feas = [float(recs[i]["f1"]) for i in range(first, len(recs)) if recs[i]["f1"] is not None]
             if feas:
                 state.extra["f1_ref"] = max(feas) if max(feas) > 0 else 1.0
+                if self.measure_columns:
+                    ok = [recs[i] for i in range(first, len(recs)) if recs[i]["f1"] is not None]
+                    state.extra["measure_refs"] = {
+                        m: max(abs(float(r[m])) for r in ok) or 1.0 for m in self.measure_columns}
 
     def hypervolume(self, state: GAState) -> float:
         """Hypervolume of the archive in normalised objectives (0 before a feasible design exists)."""
-        f1_ref = state.extra.get("f1_ref")
+        refs = self.measure_refs(state)
         arch = state.extra.get("archive", [])
-        if not f1_ref or not arch:
+        if not refs or not arch:
             return 0.0
-        pts = [self.normalised(self.record_objectives(state.records[i]), f1_ref) for i in arch]
+        pts = [self.normalised(self.record_objectives(state.records[i]), refs) for i in arch]
         return hypervolume(pts, [HV_REFERENCE] * self.n_obj)
 
     # ------------------------------------------------------------------ statistics / stopping
@@ -334,12 +361,13 @@ class NSGA2(GeneticAlgorithm):
         for i in arch:
             r = recs[i]
             rows.append({"eval_id": r["eval_id"], "generation": r["generation"], **{g: r[g] for g in self.names},
-                         "f1": r["f1"], "F_p": r["F_p"], "on_front": True,
+                         "f1": r["f1"], **{m: r.get(m) for m in self.measure_columns}, "F_p": r["F_p"], "on_front": True,
                          "penalised_optimum": state.cache.key([r[g] for g in self.names]) == best_key})
         if best is not None and not any(r["penalised_optimum"] for r in rows):
             info = best.info or {}
             rows.append({"eval_id": info.get("eval_id"), "generation": info.get("generation"),
                          **{g: float(x) for g, x in zip(self.names, best)}, "f1": info.get("f1"),
+                         **{m: info.get("measures", {}).get(m) for m in self.measure_columns},
                          "F_p": best.fitness.values[1], "on_front": False, "penalised_optimum": True})
         return rows
 
@@ -356,13 +384,14 @@ class NSGA2(GeneticAlgorithm):
 
     def _all_points(self, state: GAState) -> list[dict[str, float]]:
         """f1 and genes of every distinct feasible design evaluated (cache hits once)."""
-        return [{"f1": r["f1"], **{g: r[g] for g in self.names}} for r in state.records
+        return [{"f1": r["f1"], **{g: r[g] for g in (*self.names, *self.measure_columns)}} for r in state.records
                 if r["f1"] is not None and not r.get("cache_hit")]
 
     def _verified_front(self, rows: list[dict[str, Any]]) -> None:
         """``on_front_verified``: non-domination recomputed on the verified f1 among the verified rows."""
         ok = [r for r in rows if r.get("status_verified") == "ok"]
-        keep = set(non_dominated([tuple(o.value(float(r["f1_verified"]), r) for o in self.objectives) for r in ok]))
+        keep = set(non_dominated([tuple(o.value({**r, "f1": float(r["f1_verified"])}) for o in self.objectives)
+                                  for r in ok]))
         for j, r in enumerate(ok):
             r["on_front_verified"] = j in keep
         for r in rows:

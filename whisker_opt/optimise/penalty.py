@@ -29,6 +29,7 @@ from dataclasses import dataclass
 from typing import Mapping
 
 from whisker_opt.config.optimiser import GenesConfig, OptimiserConfig
+from whisker_opt.experiment.measures import measure
 from whisker_opt.experiment.outcome import FAILURE_STATUSES, EvalOutcome
 
 logger = logging.getLogger(__name__)
@@ -41,7 +42,7 @@ class PenaltyTerm:
     Parameters
     ----------
     gene : str
-        Gene name (see :data:`whisker_opt.config.optimiser.GENE_NAMES`).
+        Gene name (a gene of ``optimiser.genes``, :meth:`whisker_opt.config.optimiser.GenesConfig.names`).
     prefer : {"low", "high"}
         Preferred end of the range.
     weight : float
@@ -95,7 +96,7 @@ def penalty_terms(cfg: OptimiserConfig) -> tuple[PenaltyTerm, ...]:
     """The configured preference terms with the bounds of their genes."""
     genes: GenesConfig = cfg.genes
     return tuple(
-        PenaltyTerm(p.gene, p.prefer, float(p.weight), getattr(genes, p.gene).lo, getattr(genes, p.gene).hi)
+        PenaltyTerm(p.gene, p.prefer, float(p.weight), genes.of(p.gene).lo, genes.of(p.gene).hi)
         for p in cfg.penalties
     )
 
@@ -147,14 +148,15 @@ def penalise(
 ) -> Penalised:
     """Turn an outcome into fitness (dynamic penalty or graded failure penalty)."""
     if outcome.ok:
-        kappas, fp = dynamic_penalty(float(outcome.f1), genes, terms)  # type: ignore[arg-type]
+        f1 = measure("f1")(outcome)
+        kappas, fp = dynamic_penalty(f1, genes, terms)
         if fp >= failure_base:
             logger.warning(
                 "feasible F_p=%.6g >= failure_penalty=%.6g: failures still rank below it "
                 "(lexicographic fitness), but raise failure_penalty for readable tables",
                 fp, failure_base,
             )
-        return Penalised(True, float(outcome.f1), kappas, fp)  # type: ignore[arg-type]
+        return Penalised(True, f1, kappas, fp)
     return Penalised(False, None, {}, failure_penalty(outcome.status, outcome.extra.get("violation", 0.0), failure_base))
 
 

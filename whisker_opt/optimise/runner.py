@@ -139,7 +139,8 @@ class _RunWriter:
         self.ga = ga
         self.config = config
         self.eval_cols = storage.evaluation_columns(ga.names, [t.column for t in ga.terms],
-                                                    robust=ga.cfg.robust is not None)
+                                                    robust=ga.cfg.robust is not None,
+                                                    measure_columns=ga.measure_columns)
         self.gen_cols = storage.generation_columns(ga.names) + list(getattr(ga, "EXTRA_GENERATION_COLUMNS", ()))
 
     def __call__(self, state: GAState, row: dict | None = None) -> None:
@@ -643,11 +644,11 @@ def report(run_dir: Path, max_rows: int = 60) -> str:
     designs = run_best_designs(state, cfg)
     lines += ["", f"best designs   {len(designs)} of at most {cfg.ga.hall_of_fame}, "
               f"{describe_distance(cfg.distinct_distance)}",
-              "  rank " + "".join(f"{n:>11}" for n in ga.names) + f"{'f1':>13}{'F_p':>13}{'eval':>7}{'gen':>5}"
+              "  rank " + "".join(f"{n:>{max(11, len(n) + 1)}}" for n in ga.names) + f"{'f1':>13}{'F_p':>13}{'eval':>7}{'gen':>5}"
               f"{'apart':>7}"]
     for d in designs:
         gap = d["distance_to_better"]
-        lines.append(f"  {d['rank']:>4} " + "".join(f"{d['genes'][n]:>11.5g}" for n in ga.names)
+        lines.append(f"  {d['rank']:>4} " + "".join(f"{d['genes'][n]:>{max(11, len(n) + 1)}.5g}" for n in ga.names)
                      + f"{d['f1']:>13.5g}{d['F_p']:>13.5g}{_fmt(d['eval_id']):>7}{_fmt(d['generation']):>5}"
                      + f"{'-' if gap is None else format(gap, '.3f'):>7}")
     if not designs:

@@ -38,9 +38,10 @@ VERIFIED_COLUMNS = ("verified_preset", "f1_verified", "F_p_verified", "status_ve
 _UNITS = {"alpha": "deg", "l": "mm", "t": "mm", "Q_i": "MPa"}
 
 
-def front_columns(gene_names: Sequence[str]) -> list[str]:
-    """Columns of ``pareto.csv``."""
-    return ["rank", "eval_id", "generation", *gene_names, "f1", "F_p", "on_front", "penalised_optimum",
+def front_columns(gene_names: Sequence[str], measure_columns: Sequence[str] = ()) -> list[str]:
+    """Columns of ``pareto.csv`` (the measures an objective reads besides f1 after f1)."""
+    return ["rank", "eval_id", "generation", *gene_names, "f1", *measure_columns, "F_p", "on_front",
+            "penalised_optimum",
             *VERIFIED_COLUMNS]
 
 
@@ -241,7 +242,7 @@ def write_front_outputs(run_dir: Path, rows: list[dict[str, Any]], gene_names: S
     gene_names : sequence of str
         The genes, in the genome's order.
     objectives, labels : sequences of str
-        Objective names (``f1`` and genes) and their labels.
+        Objective names (``f1``, other measures and genes) and their labels.
     all_points : sequence of mapping
         f1 and genes of every feasible evaluation (grey background).
     logbook : sequence of mapping
@@ -257,7 +258,8 @@ def write_front_outputs(run_dir: Path, rows: list[dict[str, Any]], gene_names: S
     run_dir = Path(run_dir)
     for k, r in enumerate(rows, start=1):
         r["rank"] = k
-    storage.write_csv(run_dir / PARETO_CSV, front_columns(gene_names), rows)
+    measures = [o for o in objectives if o != "f1" and o not in gene_names]
+    storage.write_csv(run_dir / PARETO_CSV, front_columns(gene_names, measures), rows)
     n_front = sum(1 for r in rows if r.get("on_front"))
     state = f"stopped by {stop_reason}" if stop_reason else "running"
     out = [run_dir / PARETO_CSV]

@@ -23,8 +23,8 @@ from whisker_opt.viewer.sceneinfo import finite_float
 logger = logging.getLogger(__name__)
 
 
-def _distinct_settings(root: Path) -> tuple[tuple[tuple[float, float], ...], int, float]:
-    """(gene bounds, most designs listed, distinct distance) of a run's ``config.yaml`` (defaults without one)."""
+def _run_optimiser(root: Path):
+    """The optimiser section of a run's ``config.yaml`` (defaults without one or when unusable, said so)."""
     from whisker_opt.config.optimiser import OptimiserConfig
     from whisker_opt.viewer.rundir import config_section, read_run_config
 
@@ -34,7 +34,12 @@ def _distinct_settings(root: Path) -> tuple[tuple[tuple[float, float], ...], int
         logger.warning("%s: optimiser section not usable (%s); ranking with the default gene bounds and distance",
                        Path(root) / "config.yaml", " ".join(str(exc).split())[:200])
         opt = OptimiserConfig()
-    return opt.genes.bounds(), 1000, opt.distinct_distance
+    return opt
+
+
+def run_gene_names(root: Path) -> tuple[str, ...]:
+    """The genome of a run (``optimiser.genes.names()`` of its ``config.yaml``)."""
+    return _run_optimiser(Path(root)).genes.names()
 
 
 def evaluation_row(root: Path, rank: int | None = None, eval_id: str | int | None = None) -> dict[str, str]:
@@ -75,8 +80,9 @@ def evaluation_row(root: Path, rank: int | None = None, eval_id: str | int | Non
         return hit[0]
     from whisker_opt.optimise.best import best_designs, describe_distance
 
-    bounds, most, distance = _distinct_settings(Path(root))
-    listed = best_designs(rows, bounds, most, distance)
+    opt = _run_optimiser(Path(root))
+    distance = opt.distinct_distance
+    listed = best_designs(rows, opt.genes.bounds(), 1000, distance, names=opt.genes.names())
     if rank is None or not (1 <= rank <= len(listed)):
         raise ViewerError(f"{path}: --rank {rank} out of range: 1..{len(listed)} successful designs "
                           f"{describe_distance(distance)}")
@@ -115,7 +121,7 @@ def same_design(best: Mapping[str, Any] | None, row: Mapping[str, Any]) -> bool:
     genes = best.get("genes")
     if not isinstance(genes, Mapping):
         return False
-    pairs = [(finite_float(genes.get(k)), finite_float(row.get(k))) for k in GENE_NAMES]
+    pairs = [(finite_float(genes.get(k)), finite_float(row.get(k))) for k in (*GENE_NAMES, *genes)]
     return all(a is not None and b is not None and math.isclose(a, b, rel_tol=1e-9, abs_tol=1e-12) for a, b in pairs)
 
 
@@ -162,7 +168,8 @@ def evaluation_group(contents: RunContents, row: Mapping[str, Any], rerun: bool 
     root = contents.root
     where = f"{root / 'evaluations.csv'}: evaluation {eid or '?'}"
     genes = {}
-    for k in GENE_NAMES:
+    names = run_gene_names(root)
+    for k in names:
         genes[k] = finite_float(row.get(k))
         if genes[k] is None:
             raise ViewerError(f"{where}: gene {k}={row.get(k)!r} is not a number; cannot re-run its scenes")
@@ -173,7 +180,7 @@ def evaluation_group(contents: RunContents, row: Mapping[str, Any], rerun: bool 
     from whisker_opt import workflows
     from whisker_opt.config.model import ConfigError, load_config
 
-    final = root / f"eval_{eid or '_'.join(f'{genes[k]:.6g}' for k in GENE_NAMES)}"
+    final = root / f"eval_{eid or '_'.join(f'{genes[k]:.6g}' for k in names)}"
     tmp = root / f".{final.name}.partial"
     logger.warning("%s (status %s, F_p %s): no meshes stored; re-running its scenes (%s) into %s, "
                    "kept there for later views", where, row.get("status", "?"), row.get("F_p", "?"),
