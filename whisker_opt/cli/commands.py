@@ -26,8 +26,7 @@ from whisker_opt.cli.arguments import (
     int_in,
     nonempty_path,
     positive_float,
-    preset_setting,
-    setting,
+    settings_arguments,
 )
 from whisker_opt.cli.failures import ComputationFailed, computation_errors, describe_failure
 from whisker_opt.cli import robustness as _robustness
@@ -85,13 +84,8 @@ def _raised_by(exc: BaseException, function: str) -> bool:
 def _config_args(p: argparse.ArgumentParser, helptext: str) -> None:
     """CONFIG and the options that change it: ``--set``, ``--preset``, ``--defaults``."""
     p.add_argument("config", type=Path, help=helptext)
-    p.add_argument("--set", dest="settings", action="append", type=setting, default=[], metavar="KEY=VALUE",
-                   help="set a run-file key over the file, e.g. --set optimiser.ga.population=20 (repeatable; "
-                        "the value is read as YAML; the run directory's config.yaml holds the result)")
-    p.add_argument("--preset", dest="settings", action="append", type=preset_setting(PRESET_NAMES),
-                   metavar="{" + ",".join(PRESET_NAMES) + "}", help="fidelity preset: --set fidelity.preset=NAME")
-    p.add_argument("--defaults", action="store_true",
-                   help="accept an empty run file (every key at its default)")
+    settings_arguments(p, "optimiser.ga.population=20", "accept an empty run file (every key at its default)",
+                       "; the run directory's config.yaml holds the result")
 
 
 def _progress_arg(p: argparse.ArgumentParser) -> None:
