@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from fem.mesh import TetMesh
-from geometry.design import InvalidDesignError, WhiskerDesign  # noqa: F401  (re-exported)
+from geometry.design import WhiskerDesign
 from geometry.fibres import FibrePath
 from geometry.locate import PointLocator
 from geometry.quadratic import QuadraticMesh, upgrade

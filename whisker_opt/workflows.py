@@ -499,6 +499,30 @@ class GenerationLines:
                         f"{row.get('evals', 0)} evaluations, {state.n_evaluations} in all{stop})")
 
 
+def check_runnable(cfg: WhiskerConfig):
+    """The GA's evaluator of ``cfg``, once its design section and executor are known to work.
+
+    Called before a run directory is made, so an impossible ``design`` section or an executor that
+    cannot start (an unreachable dask scheduler) leaves nothing behind.
+
+    Returns
+    -------
+    whisker_opt.experiment.evaluator.SceneEvaluator
+
+    Raises
+    ------
+    geometry.design.InvalidDesignError
+        ``cfg.design`` does not describe a whisker.
+    whisker_opt.optimise.executors.MachineFailure
+        The executor cannot start.
+    """
+    from whisker_opt.optimise.backend import preflight
+
+    ev = wiring.evaluator(cfg)
+    preflight(wiring.optimiser_of(cfg).executor)
+    return ev
+
+
 def run(cfg: WhiskerConfig, run_dir: Path, progress: bool = True, overwrite: bool = False):
     """Run the GA of a config into ``run_dir`` and re-run its best design into ``run_dir/best``.
 
@@ -524,16 +548,14 @@ def run(cfg: WhiskerConfig, run_dir: Path, progress: bool = True, overwrite: boo
         The executor cannot start (an unreachable dask scheduler), or workers were lost during
         the run (it resumes from its last checkpoint).
     """
-    from whisker_opt.optimise.backend import preflight
     from whisker_opt.optimise.rundir import check_run_target, clear_run_dir
     from whisker_opt.optimise.runner import remove_run_temporaries, run_optimisation
     from whisker_opt.output.lock import RunDirLock
 
     opt = wiring.optimiser_of(cfg)
-    ev = wiring.evaluator(cfg)
+    ev = check_runnable(cfg)
     run_dir = Path(run_dir)
     check_run_target(run_dir, lambda path: _same_config(path, cfg), overwrite)  # before anything is written
-    preflight(opt.executor)
     run_dir.mkdir(parents=True, exist_ok=True)
     with RunDirLock(run_dir, "run"):
         if check_run_target(run_dir, lambda path: _same_config(path, cfg), overwrite):  # again, under the lock

@@ -26,7 +26,6 @@ An observation becomes the model's value of the quantity measured (:func:`predic
 
 from __future__ import annotations
 
-import logging
 from dataclasses import dataclass, replace
 from typing import Protocol
 
@@ -37,8 +36,6 @@ from fem.newton import SolveFailed
 from whisker_opt import wiring
 from whisker_opt.calibration.measurements import Extension, Observation, Response, Restore
 from whisker_opt.config.model import WhiskerConfig
-
-logger = logging.getLogger(__name__)
 
 
 class Simulator(Protocol):

@@ -221,8 +221,7 @@ def _run_args(p: argparse.ArgumentParser) -> None:
 
 
 def _run_run(args: argparse.Namespace) -> int:
-    from whisker_opt import wiring, workflows
-    from whisker_opt.optimise.backend import preflight
+    from whisker_opt import workflows
     from whisker_opt.optimise.runner import check_new_run_dir, report
     from whisker_opt.output.lock import RunDirLock
 
@@ -231,11 +230,10 @@ def _run_run(args: argparse.Namespace) -> int:
         from whisker_opt.analysis.verify import check_args
 
         check_args(args.verify, args.verify_top)
-    wiring.evaluator(cfg)  # an impossible design section is refused before the directory is made
+    workflows.check_runnable(cfg)  # an impossible design or executor is refused before the directory is made
     if args.out is not None and not args.overwrite:
         check_new_run_dir(args.out)  # a run already there: resume it instead
     _check_output(args, cfg)
-    preflight(wiring.optimiser_of(cfg).executor)  # and an unreachable dask scheduler
     run_dir = _out_dir(args, cfg, "run")
     run_dir.mkdir(parents=True, exist_ok=True)
     with RunDirLock(run_dir, "run"):  # the run and its verification: one writer

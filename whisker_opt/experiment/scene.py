@@ -566,8 +566,3 @@ def run_scene(spec: SceneSpec, wm: WhiskerMesh | GaugedMesh | None = None, keep_
         contact_force=dfl.forces[:, 0],
         base_reaction=dfl.forces[:, 1:],
     )
-
-
-def with_design(spec: SceneSpec, **changes) -> SceneSpec:
-    """A copy of ``spec`` whose design has ``changes`` applied (e.g. ``trim=5``)."""
-    return replace(spec, design=replace(spec.design, **changes))

@@ -30,7 +30,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from whisker_opt.viewer.colours import CLIM_MODES, _per_panel, panel_clims, panel_scopes  # noqa: F401  (CLIM_MODES: the command's choices)
+from whisker_opt.viewer.colours import _per_panel, panel_clims, panel_scopes
 from whisker_opt.viewer.fields import field_names, resolve_field
 from whisker_opt.viewer.guard import ViewerError, is_headless, require_pyvista
 from whisker_opt.viewer.labels import (
