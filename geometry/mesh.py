@@ -34,6 +34,7 @@ import numpy as np
 
 from fem.mesh import TetMesh
 from geometry.design import WhiskerDesign
+from geometry.errors import GeometryError
 from geometry.fibres import FibrePath
 from geometry.locate import PointLocator
 from geometry.quadratic import QuadraticMesh, upgrade
@@ -48,7 +49,7 @@ FORMAT_VERSION = 1
 METHODS = ("auto", "fresh", "template", "swept")
 
 
-class TemplateError(RuntimeError):
+class TemplateError(RuntimeError, GeometryError):
     """No template serves this sizing, or the mapped template failed the quality gate."""
 
 
