@@ -255,7 +255,7 @@ def _template(design: WhiskerDesign, sizing: MeshSizing, gate: QualityGate) -> W
         )
     pts, tets, face_class = tpl.map_template(found, design, sizing.contact_fractions)
     qm = upgrade(design, pts, tets, face_class=face_class, cylindrical=found.structured,
-                 topology=tpl.template_topology(found))
+                 topology=found.topology)
     wm = finish_mesh(design, sizing, qm, f"template:{found.name}", t0)
     fails = gate.failures(wm.report, sizing, design)
     if fails:
