@@ -157,3 +157,30 @@ def test_the_project_speaks_of_itself_only():
     hits = [f"{f}:{i}" for f in files if (ROOT / f).is_file()
             for i, line in enumerate((ROOT / f).read_text(errors="replace").splitlines(), 1) if pattern.search(line)]
     assert hits == []
+
+
+def _reached(name: str) -> set[str]:
+    """Every project module ``name`` imports, directly or through others (lazy imports included)."""
+    seen, todo = set(), [name]
+    while todo:
+        for m in GRAPH.get(todo.pop(), ()):
+            if m not in seen:
+                seen.add(m)
+                todo.append(m)
+    return seen
+
+
+@pytest.mark.parametrize("algorithm", ["whisker_opt.optimise.ga", "whisker_opt.optimise.nsga2"])
+def test_the_algorithms_write_no_files(algorithm):
+    # the algorithms hand each generation to a recorder (optimise/recorder.py); files and plots are output/'s
+    assert sorted(m for m in _reached(algorithm) if m.split(".")[:2] == ["whisker_opt", "output"]) == []
+
+
+def test_a_forbidden_import_would_be_found():
+    assert "whisker_opt.output.storage" in _reached("whisker_opt.optimise.runner")
+
+
+def test_output_imports_nothing_of_optimise():
+    bad = sorted(f"{n} -> {m}" for n, deps in GRAPH.items() if n.startswith("whisker_opt.output")
+                 for m in deps if m.startswith("whisker_opt.optimise"))
+    assert not bad

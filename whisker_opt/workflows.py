@@ -602,7 +602,7 @@ def finish_law_spread(run_dir: Path, cfg: WhiskerConfig, progress: bool = False)
 
 def _verify_front(run_dir: Path, cfg: WhiskerConfig) -> None:
     """A multi-objective run's front re-evaluated at the next finer preset (``pareto.csv``, ``pareto.png``)."""
-    from whisker_opt.optimise.nsga2 import verify_run_front
+    from whisker_opt.optimise.recorder import verify_run_front
 
     verify_run_front(run_dir, lambda preset: wiring.evaluator(wiring.with_preset(cfg, preset)), cfg.fidelity.preset)
 

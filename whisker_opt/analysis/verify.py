@@ -26,7 +26,7 @@ from typing import Any
 
 from whisker_opt.genes import GENE_NAMES
 from whisker_opt.output import storage
-from whisker_opt.output.plots import short_float
+from whisker_opt.numfmt import short_float
 
 logger = logging.getLogger(__name__)
 

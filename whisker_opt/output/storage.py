@@ -245,15 +245,11 @@ def read_csv(path: Path) -> list[dict[str, str]]:
         return list(csv.DictReader(fh))
 
 
-#: Extra columns of ``evaluations.csv`` when the GA optimises the robust objective (``optimiser.robust``):
-#: ``f1`` then holds mean + k·std of f1 under the tolerances, these the nominal f1 and the two moments.
-ROBUST_COLUMNS = ("f1_nominal", "f1_mean", "f1_std")
-
-
-def evaluation_columns(gene_names: Sequence[str], kappa_columns: Sequence[str], robust: bool = False) -> list[str]:
-    """Columns of ``evaluations.csv`` (with :data:`ROBUST_COLUMNS` after ``f1`` for a robust objective)."""
+def evaluation_columns(gene_names: Sequence[str], kappa_columns: Sequence[str],
+                       robust_columns: Sequence[str] = ()) -> list[str]:
+    """Columns of ``evaluations.csv`` (``robust_columns`` after ``f1``: what a robust objective reports beside it)."""
     return (
-        ["eval_id", "generation", *gene_names, "f1", *(ROBUST_COLUMNS if robust else ()), *kappa_columns, "F_p",
+        ["eval_id", "generation", *gene_names, "f1", *robust_columns, *kappa_columns, "F_p",
          "f1_uncalibrated", "F_p_uncalibrated", "status", "reason", "time_s", "cache_hit"]
     )
 
