@@ -22,7 +22,7 @@ The gauge reading scatters by ±0.5 % between mesh families without a trend in t
 (one P2 layer through the wall reads within 0.7 % of three), so ``default``, the GA's, is the
 cheapest mesh within 1 % of the gauge reference; ``fine`` keeps three wall layers. f1, a
 difference of two close curves, carries larger errors at every preset (``README.md``, "Fidelity
-and how far to trust f1"). Figures: ``benchmarks/bench_scene.py``, ``benchmarks/time_vs_error.py``
+and how far to trust f1"). Figures: ``benchmarks/performance/bench_scene.py``, ``benchmarks/accuracy/time_vs_error.py``
 and ``benchmarks/README.md``.
 
 Three solved deflection increments suffice for the cubic-spline curve: against 20 increments
@@ -66,7 +66,7 @@ f1 resolution
 
     The mesh ladder (``default`` = level 1, ``level2`` … ``level4``, :func:`ladder_sizing`; the GA's
     increments at every level, so only the mesh differs) was measured on the template path at twelve
-    designs (``benchmarks/f1_convergence.py ladder --method template``, ``benchmarks/README.md``, "f1 over
+    designs (``benchmarks/accuracy/f1_convergence.py ladder --method template``, ``benchmarks/README.md``, "f1 over
     the mesh ladder"); the finest level is not converged either, so each figure is the largest distance
     to the next finer levels measured::
 

@@ -32,7 +32,7 @@ CONTACT_AT: tuple[str, ...] = ("pressurised", "reference")
 #: Two-term Yeoh laws of named silicones, ``{name: (C10, C20)}`` [MPa], W = C10 (Ī1 − 3) + C20 (Ī1 − 3)²
 #: (Yeoh 1993). Each pair passes exactly through the two uniaxial points of the manufacturer's technical
 #: bulletin (Smooth-On, ASTM D412): the 100 % modulus at λ = 2 and the tensile strength at the elongation
-#: at break; fitted by ``benchmarks/fit_rubber_tds.py`` (which prints these numbers), from
+#: at break; fitted by ``benchmarks/studies/fit_rubber_tds.py`` (which prints these numbers), from
 #: Dragon Skin 30: σ100 = 86 psi, 500 psi at 364 %; Dragon Skin 10 Medium: 22 psi, 475 psi at 1000 %;
 #: Ecoflex 00-30 (the Shore 00-30 grade): 10 psi, 200 psi at 900 %. Read-only.
 RUBBER_LAWS = MappingProxyType({

@@ -14,7 +14,7 @@ L = 70, D = 18, x_ss = 6, e = 2, fibre pitch 3, the design defaults):
 
 Usage::
 
-    OMP_NUM_THREADS=1 nice -n 5 python3 benchmarks/thesis_claims.py --calibrated RESULTS/calibrated.yaml
+    OMP_NUM_THREADS=1 nice -n 5 python3 -m benchmarks.studies.thesis_claims --calibrated RESULTS/calibrated.yaml
     [--preset coarse]
 
 ``--calibrated`` is the ``calibrated.yaml`` that ``whisker-opt calibrate configs/calibrate_thesis.yaml``
@@ -35,7 +35,7 @@ from whisker_opt.calibration.forward import RestoreSearch, SceneSimulator, predi
 from whisker_opt.calibration.measurements import Restore
 from whisker_opt.config.model import load_config
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 A_VALUES = (0.45, 0.55, 0.7, 0.85, 1.0)
 Q_VALUES = (0.0, 0.002, 0.05, 0.1, 0.15, 0.2)
 

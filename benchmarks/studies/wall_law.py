@@ -6,9 +6,9 @@ Sub-commands (each prints markdown tables; progress on stderr):
   EI(0), ε_z(0.2), EI(Q)/EI(0), g(0.2), time, and the observed order of the last three levels.
 * ``cross3d``: the 3-D reference cell's own model (square section, fibre stiff along the hoop on rubber,
   thrust on the reference cavity area, end plane rotated about reference positions) on the 3-D cell's own
-  grid and refined, to set beside ``benchmarks/fibre_cell.py --models resolved --levels 1``.
+  grid and refined, to set beside ``benchmarks/studies/fibre_cell.py --models resolved --levels 1``.
 * ``scenecheck``: the wall laws of the whisker scene (:mod:`whisker_opt.wall.law`) on the GA's mesh, checked
-  against their references. The 3-D periodic cell of ``benchmarks/fibre_cell.py`` meshed as the ``default``
+  against their references. The 3-D periodic cell of ``benchmarks/studies/fibre_cell.py`` meshed as the ``default``
   preset meshes the chamber (one element layer through the wall, 8 sectors around, one layer per ring period),
   the fibre an embedded truss ring, each law applied about the pressurised state as in the scene; the
   reference is the converged 2-D cell in the 3-D cell's own model conventions (``cross3d``), with the
@@ -22,11 +22,11 @@ Sub-commands (each prints markdown tables; progress on stderr):
 
 Usage::
 
-    OMP_NUM_THREADS=1 python3 benchmarks/wall_law.py convergence [--variants bonded,sliding] [--levels 1,2,3,4]
-    OMP_NUM_THREADS=1 python3 benchmarks/wall_law.py cross3d [--levels 1,2,3]
-    OMP_NUM_THREADS=1 python3 benchmarks/wall_law.py scenecheck [--laws embedded,sliding,calibrated] [--layers 1]
+    OMP_NUM_THREADS=1 python3 -m benchmarks.studies.wall_law convergence [--variants bonded,sliding] [--levels 1,2,3,4]
+    OMP_NUM_THREADS=1 python3 -m benchmarks.studies.wall_law cross3d [--levels 1,2,3]
+    OMP_NUM_THREADS=1 python3 -m benchmarks.studies.wall_law scenecheck [--laws embedded,sliding,calibrated] [--layers 1]
         [--n-phi 4]
-    OMP_NUM_THREADS=1 python3 benchmarks/wall_law.py table [--level 3] [--variants ...] [--jobs 2]
+    OMP_NUM_THREADS=1 python3 -m benchmarks.studies.wall_law table [--level 3] [--variants ...] [--jobs 2]
 """
 
 from __future__ import annotations
@@ -43,8 +43,8 @@ from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
-from scipy.optimize import brentq
 
+from benchmarks.numerics import observed_order
 from geometry.design import WhiskerDesign
 from whisker_opt.experiment.spec import rubber_law
 from whisker_opt.wall.cell import PRESSURES, Resolution, WallCell, WallGeometry
@@ -52,7 +52,7 @@ from whisker_opt.wall.mechanisms import VARIANTS, WallMechanism
 from whisker_opt.wall.reading import inferred_k, reading_ratios
 from whisker_opt.wall.table import WallTable, default_path
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 #: The prototypes' modulus factor inferred from their gauge signals, k(Q) = −1.337 Q + 0.9958 (Q in MPa).
 PROTOTYPE_K = {q: -1.337 * q + 0.9958 for q in PRESSURES}
 CONTACT_RATIOS = (0.45, 0.55, 0.65, 0.75, 0.85, 1.0)
@@ -92,19 +92,6 @@ def sweep(geo: WallGeometry, mech: WallMechanism, res: Resolution) -> dict:
     return out
 
 
-def observed_order(levels, values) -> float:
-    """p with e ∝ level^(−p) from the last three (levels, values): (L1^−p − L2^−p)/(L2^−p − L3^−p) = d12/d23."""
-    (l1, l2, l3), (v1, v2, v3) = levels[-3:], values[-3:]
-    r = (v1 - v2) / (v2 - v3)
-    if not np.isfinite(r) or r <= 0:
-        return float("nan")
-    f = lambda p: (l1**-p - l2**-p) / (l2**-p - l3**-p) - r  # noqa: E731
-    try:
-        return float(brentq(f, 0.05, 12.0))
-    except ValueError:
-        return float("nan")
-
-
 def convergence(variants, levels, geo=None, grid=False) -> list[dict]:
     geo = geo or default_geometry()
     out = []
@@ -118,7 +105,8 @@ def convergence(variants, levels, geo=None, grid=False) -> list[dict]:
                          "ez_0.2": s["ez"][-1], **{f"EIr_{q}": ei[k] / ei[0] for k, q in enumerate(PRESSURES) if q},
                          "g_0.2": s["g"][-1], "t_s": s["time_s"]})
         if len(rows) >= 3:
-            order = {c: observed_order(levels, [r[c] for r in rows]) for c in ("EI0", "ez_0.2", "EIr_0.2")}
+            h = [1.0 / k for k in levels]  # e ∝ level^(−p)
+            order = {c: observed_order(h, [r[c] for r in rows], bracket=(0.05, 12.0)) for c in ("EI0", "ez_0.2", "EIr_0.2")}
             rows.append({"variant": name, "level": "order", **order})
         if len(rows) >= 2:
             last, prev = [r for r in rows if r["level"] != "order"][-2:][::-1]
@@ -136,16 +124,14 @@ CHECK_SLOPE = -2.0
 
 def scenecheck(laws, n_phi: int = 4, layers: int = 1) -> list[dict]:
     """The scene's wall laws on the GA mesh's cell against their references (see the module docstring)."""
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
-    import fibre_cell as fc
-
+    from benchmarks import wall_cell3d as cell3d
     from whisker_opt.wall.law import WallLaw
 
     qs = tuple(q for q in PRESSURES if q > 0)
     geos = [default_geometry()] + [WallGeometry(r_i=r_o - t, t=t) for r_o in BOX_R_O for t in (BOX_T[0], BOX_T[-1])]
     rows = []
     for geo in geos:
-        cell = fc.Cell.at(geo.r_i, geo.t)
+        cell = cell3d.Cell.at(geo.r_i, geo.t)
         embedded = None
         for name in laws:
             t0 = time.perf_counter()
@@ -158,12 +144,12 @@ def scenecheck(laws, n_phi: int = 4, layers: int = 1) -> list[dict]:
                 law = lambda q, lo=law_obj: 1.0 + lo.slope * q  # noqa: E731
             else:
                 law = None
-            got = fc.measure(cell, "embedded", layers, n_phi, pressures=qs, law=law)
+            got = cell3d.measure(cell, "embedded", layers, n_phi, pressures=qs, law=law)
             if name == "embedded":
                 embedded = got
             if name == "calibrated":
                 if embedded is None:
-                    embedded = fc.measure(cell, "embedded", layers, n_phi, pressures=qs)
+                    embedded = cell3d.measure(cell, "embedded", layers, n_phi, pressures=qs)
                 ref = {"EI": [embedded["EI0"] * 2] + [embedded["EI0"] * 2 * embedded[f"EIw_{q}"] * law(q) for q in qs],
                        "ez": [0.0] + [embedded[f"ez_{q}"] for q in qs], "label": "c(Q) × embedded"}
             else:
@@ -239,7 +225,7 @@ def build_table(variants, level: int, jobs: int) -> WallTable:
         law = rubber_law(VARIANTS[e["variant"]].rubber, VARIANTS[e["variant"]].c10, 0.0)
         e["mu"] = law.shear_modulus
         e["EI_bare"] = 3 * e["mu"] * math.pi * ((e["r_i"] + e["t"]) ** 4 - e["r_i"] ** 4) / 4
-    prov = {"code": commit(), "command": "python3 benchmarks/wall_law.py table --level %d" % level,
+    prov = {"code": commit(), "command": "python3 -m benchmarks.studies.wall_law table --level %d" % level,
             "created": datetime.date.today().isoformat(), "resolution": asdict(Resolution(level=level)),
             "wall_time_s": time.perf_counter() - t0, "variants": {v: asdict(VARIANTS[v]) for v in variants}}
     return WallTable(tuple(PRESSURES), tuple(entries), prov)

@@ -12,7 +12,7 @@ Prints three tables (the heavy refinements that the pytest suite leaves out):
 
 Usage::
 
-    python3 benchmarks/fem_convergence.py [--quick] [--solver auto|pardiso|superlu] [--only tube,cantilever,cook]
+    python3 -m benchmarks.accuracy.fem_convergence [--quick] [--solver auto|pardiso|superlu] [--only tube,cantilever,cook]
 
 The problem set-ups are those of tests/test_fem_tube.py, tests/test_fem_cantilever.py and
 tests/test_fem_cook.py (imported, so the tables and the tests cannot drift apart).
@@ -27,14 +27,12 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-
-from fem.linsolve import SOLVER_NAMES  # noqa: E402
-from fem.meshgen import box_mesh  # noqa: E402
-from fem.newton import SolveFailed, SolveOptions  # noqa: E402
-from tests.test_fem_cantilever import cantilever, elastica  # noqa: E402
-from tests.test_fem_cook import G, LAME, U_REF, cook_displacement, d1_for  # noqa: E402
-from tests.test_fem_tube import A, inflate, tube_problem  # noqa: E402
+from fem.linsolve import SOLVER_NAMES
+from fem.meshgen import box_mesh
+from fem.newton import SolveFailed, SolveOptions
+from tests.test_fem_cantilever import cantilever, elastica
+from tests.test_fem_cook import G, LAME, U_REF, cook_displacement, d1_for
+from tests.test_fem_tube import A, inflate, tube_problem
 
 
 def _rates(errs):

@@ -41,9 +41,9 @@ the same options skips the cases already in the file unless ``--fresh``),
 
 Usage::
 
-    python3 benchmarks/stress_test.py --quick              # ~10 cases, coarse preset, minutes
-    python3 benchmarks/stress_test.py --workers 2          # full: 302 cases, default preset
-    python3 benchmarks/stress_test.py --preset coarse --n-random 20 --out /tmp/stress
+    python3 -m benchmarks.reliability.stress_test --quick              # ~10 cases, coarse preset, minutes
+    python3 -m benchmarks.reliability.stress_test --workers 2          # full: 302 cases, default preset
+    python3 -m benchmarks.reliability.stress_test --preset coarse --n-random 20 --out /tmp/stress
 """
 
 from __future__ import annotations
@@ -60,8 +60,7 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _bench_common import (  # noqa: E402
+from benchmarks.common import (
     D1_K1000,
     GENE_BOX,
     append_csv,

@@ -37,7 +37,7 @@ measure from the baseline, per variant, for every design; the prototype's observ
 
 Usage::
 
-    OMP_NUM_THREADS=1 nice -n 5 python3 benchmarks/model_form.py [--preset coarse] [--designs prototype,ga-a]
+    OMP_NUM_THREADS=1 nice -n 5 python3 -m benchmarks.studies.model_form [--preset coarse] [--designs prototype,ga-a]
         [--variants baseline,contact_reference] [--out benchmarks/out/model_form]
 """
 
@@ -54,13 +54,11 @@ from pathlib import Path
 import numpy as np
 from scipy.interpolate import PchipInterpolator
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+from benchmarks.common import design_from_genes, markdown_table, preset_spec
 
-from _bench_common import design_from_genes, markdown_table, preset_spec  # noqa: E402
-
-from whisker_opt.analysis.beam import BeamModel  # noqa: E402
-from whisker_opt.experiment.scene import SceneRunner  # noqa: E402
-from whisker_opt.output.storage import atomic_write_bytes, read_csv, write_csv  # noqa: E402
+from whisker_opt.analysis.beam import BeamModel
+from whisker_opt.experiment.scene import SceneRunner
+from whisker_opt.output.storage import atomic_write_bytes, read_csv, write_csv
 
 #: Designs [α, l, t] (L = 70 mm, the other fields at their defaults).
 DESIGNS = {

@@ -6,7 +6,7 @@ default preset: under 1 hour on this 2-core machine.
 
 Usage::
 
-    python3 benchmarks/bench_case.py [configs/case1_trim5.yaml] [--out DIR]
+    python3 -m benchmarks.performance.bench_case [configs/case1_trim5.yaml] [--out DIR]
 """
 
 from __future__ import annotations

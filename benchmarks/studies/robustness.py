@@ -12,7 +12,7 @@ preset (default ``coarse``), propagates the default tolerances of the ``robustne
 and prints a table: deviated designs solved, wall time, and mean, std and worst of each output.
 Each deviated design is three FE scenes on one core.
 
-    OMP_NUM_THREADS=1 python3 benchmarks/robustness.py [--preset coarse] [--samples 32] [--mc]
+    OMP_NUM_THREADS=1 python3 -m benchmarks.studies.robustness [--preset coarse] [--samples 32] [--mc]
         [--genes 4.0515,11.069,2.6521,0.19986]
 """
 

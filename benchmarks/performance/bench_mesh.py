@@ -16,8 +16,8 @@ median fresh time of part 1 (target ≥ 100× faster).
 
 Usage::
 
-    python3 benchmarks/bench_mesh.py            # 18 fresh meshes + 100 mapped, ~15 min
-    python3 benchmarks/bench_mesh.py --quick    # default design and 2 corners at L = 70, 20 mapped
+    python3 -m benchmarks.performance.bench_mesh            # 18 fresh meshes + 100 mapped, ~15 min
+    python3 -m benchmarks.performance.bench_mesh --quick    # default design and 2 corners at L = 70, 20 mapped
 
 Outputs (``--out``, default ``results/benchmarks/mesh/``): ``fresh.csv``, ``fast_path.csv``
 and ``mesh.md`` (the printed tables). fTetWild runs on one thread (``--threads``) so the
@@ -36,13 +36,12 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _bench_common import GENE_BOX, append_csv, design_from_genes, markdown_table  # noqa: E402
+from benchmarks.common import GENE_BOX, append_csv, design_from_genes, markdown_table
 
-from fem.mesh import jacobian_determinants  # noqa: E402
-from fem.quadrature import tet_rule  # noqa: E402
-from geometry.design import WhiskerDesign  # noqa: E402
-from geometry.mesh import MeshSizing, build_mesh  # noqa: E402
+from fem.mesh import jacobian_determinants
+from fem.quadrature import tet_rule
+from geometry.design import WhiskerDesign
+from geometry.mesh import MeshSizing, build_mesh
 from whisker_opt.experiment.fidelity import PRESETS
 
 #: Acceptance limits of the meshes.

@@ -24,10 +24,10 @@ only the mesh differs between rows. Two studies:
 
 Rows are appended to a CSV as they finish (a killed run continues where it stopped)::
 
-    python3 benchmarks/f1_convergence.py directions [--designs default,case1]
-    python3 benchmarks/f1_convergence.py ladder [--designs default,slim-thin,stout-thick,case1,rand0,...]
+    python3 -m benchmarks.accuracy.f1_convergence directions [--designs default,case1]
+    python3 -m benchmarks.accuracy.f1_convergence ladder [--designs default,slim-thin,stout-thick,case1,rand0,...]
         [--levels 1,2,3,4] [--random 8] [--csv results/f1_ladder.csv]
-    python3 benchmarks/f1_convergence.py report [--csv results/f1_ladder.csv] [--method template]
+    python3 -m benchmarks.accuracy.f1_convergence report [--csv results/f1_ladder.csv] [--method template]
         [--plot docs/figures/f1_ladder.png]
 """
 
@@ -42,16 +42,15 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+from benchmarks.common import append_csv, design_from_genes, markdown_table, preset_spec, read_csv
+from benchmarks.numerics import richardson
 
-from _bench_common import append_csv, design_from_genes, markdown_table, preset_spec, read_csv  # noqa: E402
-
-from geometry.mesh import build_mesh  # noqa: E402
-from geometry.sizing import MeshSizing  # noqa: E402
-from whisker_opt.experiment import objective  # noqa: E402
-from whisker_opt.experiment.evaluator import SceneEvaluator  # noqa: E402
-from whisker_opt.experiment.fidelity import ladder_sizing  # noqa: E402
-from whisker_opt.experiment.scene import run_scene  # noqa: E402
+from geometry.mesh import build_mesh
+from geometry.sizing import MeshSizing
+from whisker_opt.experiment import objective
+from whisker_opt.experiment.evaluator import SceneEvaluator
+from whisker_opt.experiment.fidelity import ladder_sizing
+from whisker_opt.experiment.scene import run_scene
 
 #: (alpha [deg], l [mm], t [mm], Q_i [MPa])
 NAMED = {
@@ -106,31 +105,6 @@ def evaluate(name: str, genes: tuple, label: str, sizing: MeshSizing, level: int
             "eps_i5": f"{ei:.6f}", "eps_c5": f"{ec:.6f}", "diff5": f"{ei - ec:+.6f}", "f1": f"{f1:.5e}"}
 
 
-def richardson3(h: list[float], q: list[float]) -> tuple[float, float]:
-    """Observed order p and extrapolated value from three levels h₁ > h₂ > h₃ (q = q₀ + C hᵖ), or NaNs.
-
-    p solves (q₁ − q₂)/(q₂ − q₃) = (h₁ᵖ − h₂ᵖ)/(h₂ᵖ − h₃ᵖ) by bisection on p ∈ [0.1, 8]; NaN when the
-    differences change sign (no asymptotic range).
-    """
-    d1, d2 = q[0] - q[1], q[1] - q[2]
-    if d1 * d2 <= 0:
-        return float("nan"), float("nan")
-    ratio = d1 / d2
-
-    def g(p):
-        return (h[0] ** p - h[1] ** p) / (h[1] ** p - h[2] ** p) - ratio
-
-    lo, hi = 0.1, 8.0
-    if g(lo) * g(hi) > 0:
-        return float("nan"), float("nan")
-    for _ in range(100):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if g(lo) * g(mid) > 0 else (lo, mid)
-    p = 0.5 * (lo + hi)
-    c = d2 / (h[1] ** p - h[2] ** p)
-    return p, q[2] - c * h[2] ** p
-
-
 def spearman(a: list[float], b: list[float]) -> float:
     """Spearman's rank correlation (no ties expected)."""
     ra, rb = np.argsort(np.argsort(a)), np.argsort(np.argsort(b))
@@ -157,7 +131,7 @@ def report(rows: list[dict], prefix: str = "ladder") -> str:
         inc = np.diff(f1)
         row["monotone"] = "yes" if len(inc) and (np.all(inc > 0) or np.all(inc < 0)) else "no"
         if len(ks) >= 3:
-            p, rich = richardson3([1.0 / k for k in ks[-3:]], f1[-3:])
+            p, rich = richardson([1.0 / k for k in ks[-3:]], f1[-3:])
             row["p"] = f"{p:.2f}" if math.isfinite(p) else "-"
             row["richardson"] = f"{rich:.3e}" if math.isfinite(rich) else "-"
         fin = f1[-1]

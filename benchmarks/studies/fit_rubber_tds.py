@@ -17,10 +17,12 @@ Two points, two constants: the two equations are linear in (C10, C20) and are so
 (an interpolating fit, not a least-squares one). Prints the constants shipped in
 ``RUBBER_LAWS`` and checks they reproduce both points.
 
-Run: ``python3 benchmarks/fit_rubber_tds.py``
+Run: ``python3 -m benchmarks.studies.fit_rubber_tds``
 """
 
 from __future__ import annotations
+
+import argparse
 
 import numpy as np
 
@@ -52,7 +54,8 @@ def fit(s100_psi: float, sb_psi: float, eb_pct: float) -> tuple[float, float]:
     return float(c10), float(c20)
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
+    argparse.ArgumentParser(description=__doc__.splitlines()[0]).parse_args(argv)
     from whisker_opt.experiment.spec import RUBBER_LAWS
 
     print(f"{'material':<16} {'C10 [MPa]':>10} {'C20 [MPa]':>11} {'mu [MPa]':>9} {'shipped C10, C20':>22} "

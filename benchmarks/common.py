@@ -1,7 +1,7 @@
-"""Helpers shared by ``stress_test.py`` and ``time_vs_error.py`` (not a benchmark itself).
+"""Helpers shared by the benchmark scripts (not a benchmark itself): designs from genes, the
+scene spec of a preset, step statistics, failure classes, and CSV and markdown tables.
 
-The scripts import this module by name (``benchmarks/`` is on ``sys.path`` when a script
-in it runs); tests add the directory to ``sys.path`` themselves.
+Imported as ``benchmarks.common`` (run the scripts as modules from the repository root).
 """
 
 from __future__ import annotations

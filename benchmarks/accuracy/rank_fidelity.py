@@ -7,7 +7,7 @@ Failed evaluations are listed and left out of the correlation.
 
 Usage::
 
-    python3 benchmarks/rank_fidelity.py [--n 8] [--low default] [--high fine] [--seed 1]
+    python3 -m benchmarks.accuracy.rank_fidelity [--n 8] [--low default] [--high fine] [--seed 1]
 """
 
 from __future__ import annotations

@@ -12,7 +12,7 @@ output and no temporary file.
 
 Usage::
 
-    python3 benchmarks/kill_resume.py [--n 31] [--seed 0]
+    python3 -m benchmarks.reliability.kill_resume [--n 31] [--seed 0]
 """
 
 from __future__ import annotations
@@ -24,9 +24,7 @@ import tempfile
 import time
 from pathlib import Path
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-
-from tests import kill_harness as kh  # noqa: E402
+from tests import kill_harness as kh
 
 
 def _short(name: str) -> str:

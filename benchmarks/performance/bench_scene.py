@@ -9,7 +9,7 @@ increments) and the speed-up of the mapped template mesh over a fresh fTetWild m
 
 Usage::
 
-    python3 benchmarks/bench_scene.py [--repeat 3]
+    python3 -m benchmarks.performance.bench_scene [--repeat 3]
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.numerics import richardson_or_p2
 from geometry.design import WhiskerDesign
 from geometry.mesh import MeshSizing, build_mesh
 from whisker_opt.experiment.fidelity import PRESETS
@@ -52,21 +53,19 @@ def reference_eps5(runs_csv: Path):
     """(eps_ref, p, note) of the default design's intact ε(5 mm) from a time_vs_error run, or None."""
     if not runs_csv.is_file():
         return None
-    from time_vs_error import richardson
-
     with runs_csv.open() as fh:
         levels = sorted((r for r in csv.DictReader(fh) if r["design"] == "default" and r["family"] == "mesh"),
                         key=lambda r: int(r["level"]))
     if len(levels) < 2:
         return None
-    return richardson([1.0 / int(r["level"]) for r in levels], [float(r["eps5"]) for r in levels])
+    return richardson_or_p2([1.0 / int(r["level"]) for r in levels], [float(r["eps5"]) for r in levels])
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--reference-runs", type=Path, default=Path("results/benchmarks/time_vs_error/runs.csv"),
-                    help="runs.csv of benchmarks/time_vs_error.py: the mesh study giving the converged reference")
+                    help="runs.csv of benchmarks/accuracy/time_vs_error.py: the mesh study giving the converged reference")
     args = ap.parse_args()
     d = WhiskerDesign()
     rows = {}
@@ -93,7 +92,7 @@ def main() -> None:
               f"ratios far from 2^p are not asymptotic)")
     ref = reference_eps5(args.reference_runs)
     if ref is None:
-        print(f"no mesh-study reference: run benchmarks/time_vs_error.py (it writes {args.reference_runs})")
+        print(f"no mesh-study reference: run benchmarks/accuracy/time_vs_error.py (it writes {args.reference_runs})")
     else:
         q, p, note = ref
         print(f"reference eps_i(5) = {q:.6f} (Richardson over time_vs_error's swept levels L2-L4, {note}, p = {p:.2f}); "

@@ -24,7 +24,7 @@ decades); ``view`` with a ``DISPLAY`` where no X server runs. What a case must d
 The table has one row per case (case, exit code, expected code, stderr lines, traceback
 yes/no, seconds, first stderr line); the totals follow. Usage::
 
-    python3 benchmarks/bad_inputs.py [--jobs 2] [--skip-slow] [--only SUBSTRING] [--keep]
+    python3 -m benchmarks.reliability.bad_inputs [--jobs 2] [--skip-slow] [--only SUBSTRING] [--keep]
                                      [--cli "python3 -m whisker_opt.cli"]
 
 The fixtures (a tiny run made with ``whisker-opt run`` on a coarse, 2-individual,

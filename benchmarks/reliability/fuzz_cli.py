@@ -13,7 +13,7 @@ binary files. Variants that the run-file checks accept (config and design valid)
 Prints the counts of exit codes, tracebacks (target 0), stderr shapes and the slowest case;
 exits 1 when a variant misbehaves. Usage::
 
-    python3 benchmarks/fuzz_cli.py [--seed 0] [--count 300] [--jobs 2] [--thorough] [--show 10]
+    python3 -m benchmarks.reliability.fuzz_cli [--seed 0] [--count 300] [--jobs 2] [--thorough] [--show 10]
 """
 
 from __future__ import annotations
@@ -33,13 +33,12 @@ import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+ROOT = Path(__file__).resolve().parents[2]
 
-from tests.config_mutations import Variant, variants  # noqa: E402
-from whisker_opt import wiring  # noqa: E402
-from whisker_opt.config.model import ConfigError, load_config  # noqa: E402
-from geometry.design import InvalidDesignError  # noqa: E402
+from tests.config_mutations import Variant, variants
+from whisker_opt import wiring
+from whisker_opt.config.model import ConfigError, load_config
+from geometry.design import InvalidDesignError
 
 PREFIX = "whisker-opt mesh: error: "
 #: The warning of a renamed key: ``config key 'scene.Q' is deprecated: write 'scene.Q_i'``.

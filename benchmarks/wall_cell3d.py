@@ -1,4 +1,6 @@
-"""Which fibre model does a wall with resolved fibres follow? A periodic cell of the chamber wall.
+"""The 3-D periodic cell of the chamber wall with its fibre models (the cell of
+``benchmarks.studies.fibre_cell``, also checked by ``benchmarks.studies.wall_law cross3d`` and
+``scenecheck``).
 
 The chamber wall of the default design (cavity radius 5.6 mm, wall 3 mm, fibres of 0.38 mm at mid-wall,
 1.5 mm apart) is modelled as a straight tube of fibre *rings* (the double helix of pitch 3 mm rises 4° from
@@ -28,46 +30,30 @@ Fibre models on the same cell:
 * ``smeared``: the ring's stiffness spread uniformly over the wall, k = E_f A_f r_f /(s · t · r), one
   fibre strain per element, as ``material.fibre_model: smeared``;
 * ``none``: the rubber tube alone.
-
-Printed per model and mesh: the axial strain of the wall U/s at Q = 0.1 and 0.2 MPa (the chamber's
-extension per unit length, Δl/(l − c) of a whisker), the bending stiffness EI at Q = 0 and its ratio
-EI(Q)/EI(0) (the thesis' prototypes: k(Q) = −1.337 Q + 0.9958, 0.862 at 0.1 and 0.728 at 0.2 MPa,
-inferred from their gauge signals). Usage::
-
-    OMP_NUM_THREADS=1 python3 benchmarks/fibre_cell.py [--models resolved,embedded,smeared,none]
-        [--levels 1,2] [--n-phi 16]
-
-On one core: resolved level 1 (9 216 tets) about 5 min, level 2 (36 864 tets) 90 min; embedded and
-smeared up to 12 wall layers under 2.5 min each. 16 cells around the half tube change EI(0) of resolved level
-1 by 0.06 % against 24 (1902.06 against 1903.13 N mm²).
 """
+
 
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 import time
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from _bench_common import markdown_table  # noqa: E402
-from fem.assembly import Assembler  # noqa: E402
-from fem.loadpath import solve_path  # noqa: E402
-from fem.loads import LoadState  # noqa: E402
-from fem.material import NeoHookean  # noqa: E402
-from fem.mesh import TetMesh, boundary_faces, mapped_points  # noqa: E402
-from fem.meshgen import box_mesh  # noqa: E402
-from fem.newton import SolveFailed  # noqa: E402
-from fem.problem import Dirichlet, EmbeddedTrusses, FollowerPressure, Problem, SmearedFibres  # noqa: E402
-from fem.quadrature import tet_rule  # noqa: E402
-from fem.state import State  # noqa: E402
-from geometry.design import WhiskerDesign  # noqa: E402
-from geometry.locate import PointLocator  # noqa: E402
+from fem.assembly import Assembler
+from fem.loadpath import solve_path
+from fem.loads import LoadState
+from fem.material import NeoHookean
+from fem.mesh import TetMesh, boundary_faces, mapped_points
+from fem.meshgen import box_mesh
+from fem.newton import SolveFailed
+from fem.problem import Dirichlet, EmbeddedTrusses, FollowerPressure, Problem, SmearedFibres
+from fem.quadrature import tet_rule
+from fem.state import State
+from geometry.design import WhiskerDesign
+from geometry.locate import PointLocator
 
 #: The thesis' prototypes' effective modulus of the chamber region, k(Q) = −1.337 Q + 0.9958 (Q in MPa).
 PROTOTYPE_K = {0.1: -1.337 * 0.1 + 0.9958, 0.2: -1.337 * 0.2 + 0.9958}
@@ -368,45 +354,3 @@ def measure(cell: Cell, model: str, level: int, n_phi: int, smeared_scale: float
               f"({time.perf_counter() - t0:.0f} s)", file=sys.stderr, flush=True)
     row["t_s"] = time.perf_counter() - t0
     return row
-
-
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--models", default="resolved,resolved-rigid,embedded,smeared,none")
-    ap.add_argument("--levels", default=None, help="resolved: 1,2 (fibre cut into 2k × 2k); others: wall layers "
-                                                   "(default 1,2,3,4,6,8)")
-    ap.add_argument("--n-phi", type=int, default=16, help="cells around the half tube (even)")
-    ap.add_argument("--smeared-scale", type=float, default=1.0,
-                    help="factor on the smeared model's stiffness (1 = as in the product)")
-    args = ap.parse_args(argv)
-    if not args.smeared_scale > 0:
-        ap.error(f"--smeared-scale={args.smeared_scale}: must be > 0")
-    if args.n_phi < 2 or args.n_phi % 2:
-        ap.error(f"--n-phi={args.n_phi}: must be an even integer >= 2 (a node row at 90° carries the pin)")
-    cell = Cell.default()
-    print(f"cell: r_i = {cell.r_i:.3f} mm, t = {cell.t} mm, r_f = {cell.r_f:.3f} mm, s = {cell.s} mm, "
-          f"fibre square {cell.side:.4f} mm, E_f A_f = {cell.E_f * cell.A_f:.0f} N; n_phi = {args.n_phi}")
-    rows = []
-    for model in args.models.split(","):
-        default = "1,2" if model.startswith("resolved") else "1,2,3,4,6,8"
-        for level in (int(v) for v in (args.levels or default).split(",")):
-            row = measure(cell, model, level, args.n_phi, args.smeared_scale)
-            rows.append(row)
-            print(markdown_table([row], list(row)), flush=True)
-    ref = [r for r in rows if r["model"] == "resolved"]
-    cols = ["model", "level", "n_el", "n_r", "n_z"] + [f"ez_{Q}" for Q in PRESSURES] + ["EI0"] + \
-        [f"EIr_{Q}" for Q in PRESSURES] + [f"EIw_{Q}" for Q in PRESSURES] + ["t_s"]
-    print()
-    print(markdown_table(rows, cols))
-    print("prototype k(Q): " + ", ".join(f"{Q}: {k:.3f}" for Q, k in PROTOTYPE_K.items()))
-    if ref:
-        r = ref[-1]
-        print("relative to resolved level", r["level"])
-        rel = [{"model": x["model"], "level": x["level"],
-                **{c: x.get(c, math.nan) / r[c] for c in cols if c.startswith(("ez_", "EI"))}} for x in rows]
-        print(markdown_table(rel, ["model", "level"] + [c for c in cols if c.startswith(("ez_", "EI"))]))
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -9,7 +9,7 @@ and f1 against that benchmark's Richardson references, read from its ``runs.csv`
 
 Usage::
 
-    python3 benchmarks/sizing_study.py [--variants base,th12,L2] [--runs results/benchmarks/time_vs_error/runs.csv]
+    python3 -m benchmarks.accuracy.sizing_study [--variants base,th12,L2] [--runs results/benchmarks/time_vs_error/runs.csv]
 """
 
 from __future__ import annotations
@@ -20,8 +20,7 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import time_vs_error as tv  # noqa: E402
+from benchmarks import mesh_study
 
 #: variant name -> MeshSizing fields changed from the default preset
 VARIANTS = {
@@ -48,19 +47,19 @@ def main() -> None:
     if unknown:
         ap.error(f"--variants: unknown {unknown}; allowed: {list(VARIANTS)}")
     if not args.runs.is_file():
-        ap.error(f"--runs: {args.runs} does not exist; run benchmarks/time_vs_error.py first")
+        ap.error(f"--runs: {args.runs} does not exist; run benchmarks/accuracy/time_vs_error.py first")
     with args.runs.open() as fh:
         runs = [r for r in csv.DictReader(fh) if r["family"] == "mesh"]
-    _, refs = tv.analyse(runs)
+    _, refs = mesh_study.analyse(runs)
     base = PRESETS["default"].sizing
     print(f"{'variant':14s} {'design':12s} {'elements':>8} {'time [s]':>8} {'err dl':>8} {'err eps5':>8} {'err f1':>8}")
     for name in names:
-        for d in tv.DESIGNS:
+        for d in mesh_study.DESIGNS:
             if d not in refs:
                 continue
-            cfg = tv.Config(name, "study", overrides={"sizing": replace(base, **VARIANTS[name]), "mesh_method": "swept"})
-            r = tv.evaluate(d, cfg)
-            e = {q: (r[q] - refs[d][q][0]) / refs[d][q][0] for q in tv.QUANTITIES}
+            cfg = mesh_study.Config(name, "study", overrides={"sizing": replace(base, **VARIANTS[name]), "mesh_method": "swept"})
+            r = mesh_study.evaluate(d, cfg)
+            e = {q: (r[q] - refs[d][q][0]) / refs[d][q][0] for q in mesh_study.QUANTITIES}
             print(f"{name:14s} {d:12s} {r['n_elements']:>8d} {r['time_s']:>8.1f} {e['delta_l']:>+8.2%} "
                   f"{e['eps5']:>+8.2%} {e['f1']:>+8.1%}", flush=True)
 

@@ -5,7 +5,7 @@ For each design of ``time_vs_error.py`` and each fibre model (``SceneSpec.fibre_
 k (nominal size h = 1/k, ``time_vs_error.mesh_level``), then, over the last three levels, whether each
 quantity changes monotonically, its observed order p and the Richardson value. Usage::
 
-    OMP_NUM_THREADS=1 python3 benchmarks/fibre_models.py [--designs default,slim-thin,stout-thick]
+    OMP_NUM_THREADS=1 python3 -m benchmarks.studies.fibre_models [--designs default,slim-thin,stout-thick]
         [--levels 1,2,3] [--models embedded,smeared]
 
 Levels 1-3 take about 5 min per design and model on one core; level 4 500-800 s per evaluation.
@@ -15,38 +15,12 @@ from __future__ import annotations
 
 import argparse
 import math
-import sys
-from pathlib import Path
 
-from scipy.optimize import brentq
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from _bench_common import markdown_table  # noqa: E402
-from gauge_readings import measure  # noqa: E402
+from benchmarks.common import markdown_table
+from benchmarks.numerics import richardson
+from benchmarks.readings import measure
 
 QUANTITIES = (("dl_mm", "Δl"), ("eps_i_line", "ε_i(5)"), ("eps_c_line", "ε_c(5)"), ("f1_line", "f1"))
-
-
-def observed_order(h: tuple[float, float, float], q: tuple[float, float, float]) -> tuple[float, float]:
-    """Observed order p and Richardson value q∞ of three values q at sizes h (h1 > h2 > h3).
-
-    Solves (q1 − q2)/(q2 − q3) = (h1^p − h2^p)/(h2^p − h3^p) for p in [0.1, 10] (non-uniform
-    refinement ratios), q∞ = q3 − (q2 − q3) h3^p/(h2^p − h3^p). Returns (nan, nan) when the
-    three values are not monotone or p falls outside the bracket.
-    """
-    d1, d2 = q[0] - q[1], q[1] - q[2]
-    if d1 == 0 or d2 == 0 or d1 * d2 < 0:
-        return math.nan, math.nan
-    target = d1 / d2
-
-    def g(p):
-        return (h[0] ** p - h[1] ** p) / (h[1] ** p - h[2] ** p) - target
-
-    if g(0.1) * g(10.0) > 0:
-        return math.nan, math.nan
-    p = brentq(g, 0.1, 10.0, xtol=1e-10)
-    return p, q[2] - d2 * h[2] ** p / (h[1] ** p - h[2] ** p)
 
 
 def summarise(rows: list[dict]) -> list[dict]:
@@ -62,7 +36,7 @@ def summarise(rows: list[dict]) -> list[dict]:
             if len(rs) >= 3:
                 h = tuple(1.0 / r["level"] for r in rs[-3:])
                 diffs = [b - a for a, b in zip(vals, vals[1:])]
-                p, qinf = observed_order(h, tuple(vals[-3:]))
+                p, qinf = richardson(h, vals[-3:], bracket=(0.1, 10.0))
                 row.update(monotone="yes" if all(d * diffs[0] > 0 for d in diffs) else "no",
                            p=f"{p:.2f}" if math.isfinite(p) else "-",
                            richardson=f"{qinf:.5g}" if math.isfinite(qinf) else "-",

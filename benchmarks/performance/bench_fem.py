@@ -9,9 +9,9 @@ comparison is like for like; the agreement of the two answers is printed too.
 
 Usage::
 
-    python3 benchmarks/bench_fem.py            # 10k and 30k DOFs (CalculiX on both)
-    python3 benchmarks/bench_fem.py --full     # also 100k DOFs
-    python3 benchmarks/bench_fem.py --no-ccx   # our solver only
+    python3 -m benchmarks.performance.bench_fem            # 10k and 30k DOFs (CalculiX on both)
+    python3 -m benchmarks.performance.bench_fem --full     # also 100k DOFs
+    python3 -m benchmarks.performance.bench_fem --no-ccx   # our solver only
 
 Prints one table; speed-ups are ratios measured in the same run on the same machine.
 ``lin.sol.`` is our time in PARDISO (analysis, factorisations, refined solves) and

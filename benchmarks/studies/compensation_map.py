@@ -10,7 +10,7 @@ Solves the map of a config twice on the FE scene, each from a fresh runner:
 and prints both times, their ratio, the largest |ΔQ| between the two maps and the cells whose
 decision (root or bound) differs. The warm map is written as `whisker-opt compensate --map` writes it.
 
-    OMP_NUM_THREADS=1 nice -n 5 python3 benchmarks/compensation_map.py configs/compensate_default.yaml \
+    OMP_NUM_THREADS=1 nice -n 5 python3 -m benchmarks.studies.compensation_map configs/compensate_default.yaml \
         --step 0.5 --a 0.45 0.55 0.7 0.85 1 --out /tmp/compensation_map
 """
 
