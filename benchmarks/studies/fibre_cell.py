@@ -12,8 +12,7 @@ inferred from their gauge signals). Usage::
         [--levels 1,2] [--n-phi 16]
 
 On one core: resolved level 1 (9 216 tets) about 5 min, level 2 (36 864 tets) 90 min; embedded and
-smeared up to 12 wall layers under 2.5 min each. 16 cells around the half tube change EI(0) of resolved level
-1 by 0.06 % against 24 (1902.06 against 1903.13 N mm²).
+smeared up to 12 wall layers under 2.5 min each. Measured figures: ``benchmarks/results/fibre_cell.md``.
 """
 
 from __future__ import annotations
