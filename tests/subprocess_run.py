@@ -66,7 +66,8 @@ def run_command(argv: list[str], *, cwd: Path | str = REPO, timeout: float = 300
     t0 = time.perf_counter()
     try:
         proc = subprocess.run([str(a) for a in argv], cwd=cwd, env=child_env(env), capture_output=True, text=True,
-                              timeout=timeout, input=stdin, stdin=None if stdin is not None else subprocess.DEVNULL)
+                              errors="replace", timeout=timeout, input=stdin,
+                              stdin=None if stdin is not None else subprocess.DEVNULL)
         return Finished(proc.returncode, proc.stdout, proc.stderr, time.perf_counter() - t0)
     except subprocess.TimeoutExpired as exc:
         def text(b):

@@ -10,8 +10,9 @@ binary files. Variants that the run-file checks accept (config and design valid)
 * write exactly one line to stderr, ``whisker-opt mesh: error: <what>``, naming the file or
   the key at fault, and no Python traceback.
 
-Prints the counts of exit codes, tracebacks (target 0), stderr shapes and the slowest case;
-exits 1 when a variant misbehaves. Usage::
+The check of one variant is the test harness :mod:`tests.cli_fuzz_harness`; ``tests/test_cli_fuzz_sample.py``
+runs a cheap sample in the test suite. Prints the counts of exit codes, tracebacks (target 0), stderr
+shapes and the slowest case; exits 1 when a variant misbehaves. Usage::
 
     python3 -m benchmarks.reliability.fuzz_cli [--seed 0] [--count 300] [--jobs 2] [--thorough] [--show 10]
 """
@@ -25,97 +26,15 @@ import logging
 import os
 import re
 import shutil
-import subprocess
 import sys
 import tempfile
 import time
-import warnings
-from dataclasses import dataclass
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[2]
-
+from tests.cli_fuzz_harness import needs_cli, run_one
 from tests.config_mutations import Variant, variants
-from whisker_opt import wiring
-from whisker_opt.config.model import ConfigError, load_config
-from geometry.design import InvalidDesignError
 
-PREFIX = "whisker-opt mesh: error: "
-#: The warning of a renamed key: ``config key 'scene.Q' is deprecated: write 'scene.Q_i'``.
-DEPRECATION = re.compile(r"config key '[^']+' is deprecated: write '[^']+'$")
-
-
-@dataclass
-class Outcome:
-    """What the command line did with one variant."""
-
-    variant: Variant
-    path: Path
-    code: int
-    seconds: float
-    stderr: str
-    wrote: bool
-
-    @property
-    def lines(self) -> list[str]:
-        """Lines on stderr, without the deprecation warnings of renamed keys (which the file uses on purpose)."""
-        return [ln for ln in self.stderr.splitlines() if ln.strip() and not DEPRECATION.search(ln)]
-
-    @property
-    def deprecations(self) -> int:
-        return sum(bool(DEPRECATION.search(ln)) for ln in self.stderr.splitlines())
-
-    @property
-    def traceback(self) -> bool:
-        return "Traceback (most recent call last)" in self.stderr
-
-    def problems(self) -> list[str]:
-        """Why this outcome is not a clean one-line refusal (empty when it is)."""
-        out = []
-        if self.code != 2:
-            out.append(f"exit {self.code}")
-        if self.traceback:
-            out.append("traceback")
-        errors = [ln for ln in self.lines if ln.startswith(PREFIX)]
-        if len(errors) != 1:
-            out.append(f"{len(errors)} error lines")
-        elif str(self.path) not in errors[0] and "design." not in errors[0]:
-            out.append("names neither the file nor a design key")
-        if self.wrote:
-            out.append("wrote output")
-        return out
-
-
-def needs_cli(v: Variant, path: Path) -> bool:
-    """True when the run-file checks refuse the variant (so ``mesh`` must fail before computing)."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # renamed keys are read on purpose
-        try:
-            cfg = load_config(path)
-        except ConfigError:
-            return True
-    try:
-        wiring.design_from_config(cfg, cfg.scene.trim)
-    except InvalidDesignError:
-        return True
-    return False
-
-
-def command() -> list[str]:
-    """``whisker-opt`` on PATH, else the same entry point through this interpreter."""
-    exe = shutil.which("whisker-opt")
-    return [exe] if exe else [sys.executable, "-m", "whisker_opt.cli.main"]
-
-
-def run_one(v: Variant, path: Path, out: Path, timeout: float) -> Outcome:
-    t0 = time.perf_counter()
-    try:
-        proc = subprocess.run([*command(), "mesh", str(path), "--out", str(out)], capture_output=True, text=True,
-                              timeout=timeout, cwd=path.parent, errors="replace")
-        code, err = proc.returncode, proc.stderr
-    except subprocess.TimeoutExpired as exc:
-        code, err = -999, f"timed out after {timeout} s\n{exc.stderr or ''}"
-    return Outcome(v, path, code, time.perf_counter() - t0, err, out.exists())
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def main(argv: list[str] | None = None) -> int:
