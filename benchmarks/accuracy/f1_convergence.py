@@ -43,8 +43,8 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.common import append_csv, design_from_genes, markdown_table, preset_spec, read_csv
+from benchmarks.mesh_study import DESIGNS, Q_I
 from benchmarks.numerics import richardson
-
 from geometry.mesh import build_mesh
 from geometry.sizing import MeshSizing
 from whisker_opt.experiment import objective
@@ -52,13 +52,8 @@ from whisker_opt.experiment.evaluator import SceneEvaluator
 from whisker_opt.experiment.fidelity import ladder_sizing
 from whisker_opt.experiment.scene import run_scene
 
-#: (alpha [deg], l [mm], t [mm], Q_i [MPa])
-NAMED = {
-    "default": (2.862, 15.0, 3.0, 0.2),
-    "slim-thin": (6.0, 15.0, 2.0, 0.2),
-    "stout-thick": (2.5, 10.0, 6.0, 0.2),
-    "case1": (4.0515, 11.069, 2.6521, 0.19986),
-}
+#: (alpha [deg], l [mm], t [mm], Q_i [MPa]): the designs of the time-vs-error study at its Q_i, and the case-1 optimum
+NAMED = {**{name: (*genes, Q_I) for name, genes in DESIGNS.items()}, "case1": (4.0515, 11.069, 2.6521, 0.19986)}
 BOX = ((2.5, 6.0), (10.0, 15.0), (2.0, 6.0), (0.01, 0.2))
 SEED = 2026
 TRIM = 5.0

@@ -30,7 +30,8 @@ from benchmarks.readings import VARIANTS, measure
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--designs", default=",".join(DESIGNS), help="comma-separated names of benchmarks.mesh_study.DESIGNS")
+    ap.add_argument("--designs", default=",".join(DESIGNS),
+                    help="comma-separated names of benchmarks.mesh_study.DESIGNS")
     ap.add_argument("--levels", default="1,2,3", help="swept mesh levels (4 takes 500-800 s per evaluation)")
     ap.add_argument("--fibre-model", default="embedded", choices=("embedded", "smeared"),
                     help="SceneSpec.fibre_model of every scene")

@@ -57,7 +57,8 @@ def main() -> None:
         for d in mesh_study.DESIGNS:
             if d not in refs:
                 continue
-            cfg = mesh_study.Config(name, "study", overrides={"sizing": replace(base, **VARIANTS[name]), "mesh_method": "swept"})
+            cfg = mesh_study.Config(name, "study",
+                                    overrides={"sizing": replace(base, **VARIANTS[name]), "mesh_method": "swept"})
             r = mesh_study.evaluate(d, cfg)
             e = {q: (r[q] - refs[d][q][0]) / refs[d][q][0] for q in mesh_study.QUANTITIES}
             print(f"{name:14s} {d:12s} {r['n_elements']:>8d} {r['time_s']:>8.1f} {e['delta_l']:>+8.2%} "

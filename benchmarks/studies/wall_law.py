@@ -106,7 +106,8 @@ def convergence(variants, levels, geo=None, grid=False) -> list[dict]:
                          "g_0.2": s["g"][-1], "t_s": s["time_s"]})
         if len(rows) >= 3:
             h = [1.0 / k for k in levels]  # e ∝ level^(−p)
-            order = {c: observed_order(h, [r[c] for r in rows], bracket=(0.05, 12.0)) for c in ("EI0", "ez_0.2", "EIr_0.2")}
+            order = {c: observed_order(h, [r[c] for r in rows], bracket=(0.05, 12.0))
+                     for c in ("EI0", "ez_0.2", "EIr_0.2")}
             rows.append({"variant": name, "level": "order", **order})
         if len(rows) >= 2:
             last, prev = [r for r in rows if r["level"] != "order"][-2:][::-1]
