@@ -2,7 +2,7 @@
 
 A run ranks designs at its own fidelity preset (usually ``default``). That preset's mesh
 error in f1 depends on the design: −16 % at the thesis design, +1 % at a thin-walled corner
-and −35 % at a thick-walled one (``benchmarks/README.md``, run time against error). So
+and −35 % at a thick-walled one (``benchmarks/results/time_vs_error.md``). So
 the absolute f1 of a GA optimum, and its rank against designs of a different wall
 thickness, should be confirmed at a finer preset before they are reported. This module
 re-runs the run's ``top`` best feasible designs, pairwise distinct by ``optimiser.distinct_distance``

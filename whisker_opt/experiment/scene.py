@@ -24,7 +24,7 @@
     section may slide axially and rotate under the edge: a frictionless edge whose local
     indentation is ignored, as the thesis neglected the contact's lateral slip. The
     band's width changes the reading little (measured in tests/test_scene.py and
-    benchmarks/bench_scene.py). The gauge (:mod:`whisker_opt.experiment.gauge`) is
+    benchmarks/performance/bench_scene.py). The gauge (:mod:`whisker_opt.experiment.gauge`) is
     zeroed at contact onset and read at each solved deflection, and so are the contact force F
     (the band's reaction in −y, work-conjugate to δ) and the base reaction
     (:func:`contact_reactions`).
@@ -127,7 +127,7 @@ class SceneResult:
         """Gauge reading at arbitrary deflections by a cubic spline through the solved points.
 
         The spline is 'not-a-knot' with >= 4 points, otherwise linear interpolation. Its
-        error against densely solved increments is measured in benchmarks/bench_scene.py.
+        error against densely solved increments is measured in benchmarks/performance/bench_scene.py.
         """
         return self._spline(self.eps_line if variant == "line" else self.eps_centroid, delta)
 
@@ -305,7 +305,7 @@ def pressurise(spec: SceneSpec, wm: WhiskerMesh, start: tuple[float, State] | No
     ``start = (Q0, state)``: a warm start, the pressure raised from Q0 to Q in one requested
     step from ``state``, a converged state at Q0 of this mesh or of one with the same nodes
     and elements (Newton removes the difference); the result equals the cold path's within
-    the solver tolerances (measured in benchmarks/compensation_map.py). Default: from the
+    the solver tolerances (measured in benchmarks/studies/compensation_map.py). Default: from the
     reference state at 0 in ``spec.n_pressure_steps`` steps.
     """
     prob1 = make_problem(wm, spec, None)
