@@ -77,7 +77,7 @@ def verify_run(run_dir: Path, preset: str = "fine", top: int = 3, progress: bool
     VerifyError
         ``preset`` or ``top`` out of range, or the run has no feasible design.
     """
-    from whisker_opt import wiring
+    import whisker_opt.wiring as wiring
     from whisker_opt.experiment.fidelity import f1_resolution
     from whisker_opt.optimise.best import describe_distance
     from whisker_opt.optimise.penalty import dynamic_penalty, penalty_terms

@@ -33,7 +33,7 @@ import numpy as np
 from scipy import optimize
 
 from fem.newton import SolveFailed
-from whisker_opt import wiring
+import whisker_opt.wiring as wiring
 from whisker_opt.calibration.measurements import Extension, Observation, Response, Restore
 from whisker_opt.config.model import WhiskerConfig
 

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from geometry.design import InvalidDesignError
-from whisker_opt import wiring
+import whisker_opt.wiring as wiring
 from whisker_opt.calibration.fit import FitOutcome, Problem, Weighted, fit
 from whisker_opt.calibration.forward import BeamSimulator, RestoreSearch, SceneSimulator
 from whisker_opt.calibration.measurements import check_names, read_measurements

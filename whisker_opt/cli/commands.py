@@ -126,7 +126,8 @@ def _mesh_args(p: argparse.ArgumentParser) -> None:
 
 
 def _mesh_run(args: argparse.Namespace) -> int:
-    from whisker_opt import wiring, workflows
+    import whisker_opt.wiring as wiring
+    import whisker_opt.workflows as workflows
 
     cfg = _read(args)
     wiring.design_from_config(cfg, trim=cfg.scene.trim if args.trim is None else args.trim)  # refuse before mkdir
@@ -153,7 +154,7 @@ def _simulate_args(p: argparse.ArgumentParser) -> None:
 
 
 def _simulate_run(args: argparse.Namespace) -> int:
-    from whisker_opt import workflows
+    import whisker_opt.workflows as workflows
 
     cfg = _read(args)
     specs = workflows.simulation_specs(cfg, str(args.config))  # refuse a bad pair before creating the directory
@@ -188,7 +189,8 @@ def _export_args(p: argparse.ArgumentParser) -> None:
 
 
 def _export_run(args: argparse.Namespace) -> int:
-    from whisker_opt import export, workflows
+    import whisker_opt.export as export
+    import whisker_opt.workflows as workflows
 
     cfg = _read(args)
     specs = workflows.simulation_specs(cfg, str(args.config))  # refuse a bad pair before creating the directory
@@ -221,7 +223,7 @@ def _run_args(p: argparse.ArgumentParser) -> None:
 
 
 def _run_run(args: argparse.Namespace) -> int:
-    from whisker_opt import workflows
+    import whisker_opt.workflows as workflows
     from whisker_opt.optimise.runner import check_new_run_dir, report
     from whisker_opt.output.lock import RunDirLock
 
@@ -274,7 +276,7 @@ def _resume_args(p: argparse.ArgumentParser) -> None:
 
 
 def _resume_run(args: argparse.Namespace) -> int:
-    from whisker_opt import workflows
+    import whisker_opt.workflows as workflows
     from whisker_opt.optimise.checkpoint import (
         DAMAGED_NAME,
         OLDER_NAME,
@@ -391,7 +393,7 @@ def _check_step(step: float, trim_max: float, source: str) -> None:
 
 def _compensate_map_run(args: argparse.Namespace, cfg) -> int:
     """The map Q(Δ, a) (``--map``/``--a``): solve, write, print the Q table."""
-    from whisker_opt import compensation
+    import whisker_opt.compensation as compensation
 
     a_values = compensation.MAP_CONTACT_RATIOS if args.a is None else args.a
     if len(set(a_values)) < 2:
@@ -422,7 +424,8 @@ def _compensate_map_run(args: argparse.Namespace, cfg) -> int:
 def _compensate_run(args: argparse.Namespace) -> int:
     """Δ → Q table (FE, with the analytic Q beside it) and the beam-vs-FE sensitivity comparison; prints both.
     With ``--map`` (or ``--a``) the map Q(Δ, a) instead (:func:`_compensate_map_run`)."""
-    from whisker_opt import compensation, wiring
+    import whisker_opt.compensation as compensation
+    import whisker_opt.wiring as wiring
 
     cfg = _read(args)
     # the workflow checks these again; here before a directory is made

@@ -73,8 +73,8 @@ def _settings(args: argparse.Namespace) -> tuple[str, ...]:
 
 def run(args: argparse.Namespace) -> int:
     """Read the source, refuse bad inputs, study the designs, print the table and write the files."""
-    from whisker_opt import robustness as rb
-    from whisker_opt import wiring
+    import whisker_opt.robustness as rb
+    import whisker_opt.wiring as wiring
     from whisker_opt.cli.rundir import check_run_dir
     from whisker_opt.config.model import load_config
     from whisker_opt.workflows import CONFIG_YAML, new_run_dir
