@@ -20,7 +20,7 @@ from typing import Any, Iterator, Mapping
 
 import numpy as np
 
-from whisker_opt import wiring
+import whisker_opt.wiring as wiring
 from whisker_opt.config.model import ConfigError, WhiskerConfig, dump_config
 from whisker_opt.output import storage
 
