@@ -8,7 +8,7 @@ direction a (|a| = 1)::
 
 (Bonet & Wood 2008, §6.5; k = E_f A_f ρ_L with ρ_L the fibre length per volume). Stiff
 fibres (k/μ ~ 10³) make E_a ≈ 0 a constraint; imposed at every quadrature point of a P2
-tetrahedron it made coarse whisker meshes too stiff (benchmarks/README.md), as incompressibility
+tetrahedron it made coarse whisker meshes too stiff (benchmarks/results/fibre_models.md), as incompressibility
 does. As the mean dilatation does for J, the
 element therefore carries one fibre strain, its k-weighted mean (c_q = w_q k_q,
 C_e = Σ_q c_q)::

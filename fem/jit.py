@@ -5,7 +5,7 @@ Why compiled: the vectorised numpy tangent (:meth:`fem.assembly.Assembler.evalua
 materialises the (n_el, 30, 30) element matrices plus (n_el, n_terms·n_qp, 30) factors and
 scatters them with ``np.bincount``; at 12k elements that is ~0.3 GB of memory traffic per
 tangent, 0.25–0.44 s, and assembly was 54–70 % of a modified-Newton iteration in
-``benchmarks/bench_fem.py`` (our solve 2.9×/4.1× CalculiX's at 10k/30k DOFs
+``benchmarks/performance/bench_fem.py`` (our solve 2.9×/4.1× CalculiX's at 10k/30k DOFs
 against a 5× target). This kernel computes the same sums per element and quadrature
 point with no temporaries. The numpy path stays the reference implementation and the
 fallback when numba is missing; ``tests/test_fem_jit.py`` checks the two agree to

@@ -3,7 +3,7 @@
 ``pardiso`` (Intel MKL PARDISO via pypardiso, real non-symmetric, mtype 11) is the
 default: measured 0.77 / 4.3 / 26 s per factorisation at 19k / 58k / 146k P2 DOFs on
 this machine kind, against 9.9 / 154 s for SuperLU (see
-``benchmarks/bench_fem.py``). The symbolic analysis (reordering, phase 11) is done
+``benchmarks/performance/bench_fem.py``). The symbolic analysis (reordering, phase 11) is done
 once per sparsity pattern and reused by every numerical factorisation (phase 22).
 The saddle-point systems of the mixed u–p formulation have zero diagonal blocks when
 D1 = 0; PARDISO handles them with weighted matching (2×2 pivots), falling back to
@@ -84,13 +84,13 @@ class PardisoSolver:
       2×2 pivot. On the whisker scene's D1 = 0 tangent (15.5k DOFs) it perturbs no
       pivot and the first solve is accurate to 1e-10, against 2662 perturbed pivots
       and 4 refinement sweeps without matching: 0.11 s + 6 ms per solve instead of
-      0.07–0.1 s + 70 ms (measured 2026-11-23, ``benchmarks/bench_fem.py``).
+      0.07–0.1 s + 70 ms (measured 2026-11-23, ``benchmarks/performance/bench_fem.py``).
     * ``perturb``: no matching, pivot perturbation 1e-8 (iparm(10)=8). Matching gave
       useless factors on some clamped D1 = 0 meshes (Cook, cantilever: residuals up to
       1e32 in the solver verification) where this strategy converges in ≤ 4 sweeps.
     * ``scaled``: weighted matching with symmetric scaling and pivot perturbation 1e-8
       (iparm(13)=1, iparm(11)=1, iparm(10)=8), the last resort. Fibres 10⁵ times stiffer
-      than the rubber (a wall cell with embedded fibre rings, ``benchmarks/fibre_cell.py``)
+      than the rubber (a wall cell with embedded fibre rings, ``benchmarks/studies/fibre_cell.py``)
       left both strategies above at |Ax − b|/|b| ≈ 5e-5 and 4e6 after refinement; these
       factors solve it (matching and scaling with the 1e-13 perturbation did not: 3e2).
 
@@ -323,7 +323,7 @@ def _mkl_rt_name() -> str | None:
 
 
 class SuperLUSolver:
-    """scipy SuperLU: slow for 3-D P2 problems (benchmarks/bench_fem.py); fallback only."""
+    """scipy SuperLU: slow for 3-D P2 problems (benchmarks/performance/bench_fem.py); fallback only."""
 
     name = "superlu"
 

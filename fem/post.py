@@ -20,7 +20,6 @@ from __future__ import annotations
 import numpy as np
 
 from fem import element
-from fem.material import von_mises_stress  # noqa: F401  (re-exported: σ_vM of stored stresses)
 
 
 def nodal_deformation_gradient(points: np.ndarray, cells: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -31,8 +31,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from geometry.errors import GeometryError
 
-class InvalidDesignError(ValueError):
+
+class InvalidDesignError(ValueError, GeometryError):
     """A parameter set that does not describe a whisker.
 
     Attributes

@@ -18,7 +18,7 @@ surface, ``w(ρ) = 1/(2h)`` for |ρ| < h, h = min(frac, 1 − frac)·t (frac = �
 wall). A uniform band is represented exactly by the element layers of a structured wall
 mesh at frac = ½ on every mesh level; a profile peaked at r_f is not (its element means
 alternate between odd and even numbers of wall layers, which made Δl non-monotone under
-refinement: benchmarks/README.md).
+refinement: benchmarks/results/fibre_models.md).
 
 k (times the window c ≤ x ≤ l) is replaced by its element mean, integrated with a
 degree-8 rule over each curved element, so that every element carries exactly its share

@@ -14,9 +14,10 @@ For a query point q:
 
 A point is "found" when that minimum barycentric coordinate is >= ``-tol``. Points not
 found, or found only within the tolerance (slightly negative barycentric coordinate),
-are retried with 4 and 16 times as many candidates and 8 x as many Newton starts (stretched or
+are retried with 4 and 16 times as many candidates, each with its own Newton start (stretched or
 curved elements, e.g. of the swept mesh, can have their centroids far from points near
-their faces, and a straight-tet guess may rank the true host low).
+their faces, and a straight-tet guess may rank the true host low: a strongly curved host's
+straight tet can miss the point by more than the whole element).
 """
 
 from __future__ import annotations
@@ -98,7 +99,7 @@ class PointLocator:
             if len(miss) == 0 or k >= len(self.cells):
                 break
             k2 = min(len(self.cells), k * factor)
-            sub = self._locate(q[miss], k2, min(k2, 8 * factor), tol)
+            sub = self._locate(q[miss], k2, k2, tol)
             better = (sub.inside & ~loc.inside[miss]) | (
                 (sub.inside == loc.inside[miss]) & (_min_bary(sub.local_coords) > lam[miss])
             )

@@ -33,7 +33,8 @@ from pathlib import Path
 import numpy as np
 
 from fem.mesh import TetMesh
-from geometry.design import InvalidDesignError, WhiskerDesign  # noqa: F401  (re-exported)
+from geometry.design import WhiskerDesign
+from geometry.errors import GeometryError
 from geometry.fibres import FibrePath
 from geometry.locate import PointLocator
 from geometry.quadratic import QuadraticMesh, upgrade
@@ -48,7 +49,7 @@ FORMAT_VERSION = 1
 METHODS = ("auto", "fresh", "template", "swept")
 
 
-class TemplateError(RuntimeError):
+class TemplateError(RuntimeError, GeometryError):
     """No template serves this sizing, or the mapped template failed the quality gate."""
 
 
@@ -254,7 +255,7 @@ def _template(design: WhiskerDesign, sizing: MeshSizing, gate: QualityGate) -> W
         )
     pts, tets, face_class = tpl.map_template(found, design, sizing.contact_fractions)
     qm = upgrade(design, pts, tets, face_class=face_class, cylindrical=found.structured,
-                 topology=tpl.template_topology(found))
+                 topology=found.topology)
     wm = finish_mesh(design, sizing, qm, f"template:{found.name}", t0)
     fails = gate.failures(wm.report, sizing, design)
     if fails:

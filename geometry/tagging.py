@@ -27,6 +27,7 @@ import numpy as np
 
 from geometry import boundary as bd
 from geometry.design import WhiskerDesign
+from geometry.errors import GeometryError
 from geometry.fibres import FibrePath, fibre_phases, sample_helix
 from geometry.locate import PointLocator
 from geometry.quadratic import QuadraticMesh
@@ -34,7 +35,7 @@ from geometry.quadratic import QuadraticMesh
 FACE_SET_NAMES = ("base", "cavity", "outer", "tip", "gauge", "cavity_wall", "cavity_start", "cavity_end")
 
 
-class FibreLocationError(RuntimeError):
+class FibreLocationError(RuntimeError, GeometryError):
     """A fibre point lies outside the mesh."""
 
 

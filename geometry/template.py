@@ -41,7 +41,7 @@ import json
 import logging
 import math
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cached_property, lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -72,6 +72,15 @@ class Template:
     tets: np.ndarray  # (n_el, 4) int64
     face_class: np.ndarray  # (n_f,) int64
     structured: bool = False  # a swept mesh: cylindrical mid-edge nodes (geometry.quadratic)
+
+    @cached_property
+    def topology(self) -> tuple:
+        """TET10 connectivity, edges and boundary faces (:func:`geometry.quadratic.mesh_topology`),
+        computed once per loaded template: the map moves vertices only, so every mesh mapped from
+        this template shares them."""
+        from geometry.quadratic import mesh_topology
+
+        return mesh_topology(self.points, self.tets)
 
 
 def template_designs() -> list[WhiskerDesign]:
@@ -139,23 +148,6 @@ def select_template(design: WhiskerDesign, sizing: MeshSizing, directory: str = 
     if not cands:
         return None
     return min(cands, key=lambda t: template_distance(design, t.design))
-
-
-_TOPOLOGY: dict[tuple[str, str, int], tuple] = {}
-
-
-def template_topology(tpl: Template) -> tuple:
-    """TET10 connectivity, edges and boundary faces of a template (computed once per process).
-
-    The map moves vertices only, so every mesh mapped from one template shares them
-    (:func:`geometry.quadratic.mesh_topology`).
-    """
-    from geometry.quadratic import mesh_topology
-
-    key = (tpl.name, tpl.sizing_key, len(tpl.tets))
-    if key not in _TOPOLOGY:
-        _TOPOLOGY[key] = mesh_topology(tpl.points, tpl.tets)
-    return _TOPOLOGY[key]
 
 
 # ---------------------------------------------------------------------- the map

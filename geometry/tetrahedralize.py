@@ -24,13 +24,14 @@ import numpy as np
 
 from fem.mesh import orient_linear, signed_volumes_linear
 from geometry.design import WhiskerDesign
+from geometry.errors import GeometryError
 from geometry.sizing import MeshSizing, background_mesh
 from geometry.surface import closed_surface
 
 logger = logging.getLogger(__name__)
 
 
-class MeshingError(RuntimeError):
+class MeshingError(RuntimeError, GeometryError):
     """fTetWild failed, timed out or returned an unusable mesh."""
 
 

@@ -1,6 +1,6 @@
 """SIGKILL a GA run at chosen moments, resume it, and compare it with an uninterrupted run.
 
-Shared by ``tests/test_kill_resume.py`` and ``benchmarks/kill_resume.py``. The run is
+Shared by ``tests/test_kill_resume.py`` and ``benchmarks/reliability/kill_resume.py``. The run is
 :func:`whisker_opt.optimise.runner.run_optimisation` with the analytic evaluator
 (:class:`tests.analytic_fitness.AnalyticFitness`, ``sleep_s`` per evaluation) on the serial
 executor, in a child process (:data:`CHILD`). The child emulates a slow disk by sleeping in

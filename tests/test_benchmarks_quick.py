@@ -1,20 +1,17 @@
-"""Smoke tests of the stability and time-vs-error benchmark scripts (benchmarks/stress_test.py, time_vs_error.py).
+"""Smoke tests of the stability benchmark (benchmarks/reliability/stress_test.py) and of the convergence
+numerics the benchmarks share (benchmarks/numerics.py).
 
 Fast (< 30 s): the case list, the failure classification of designed-to-fail cases, one
 converged coarse scene, and the Richardson / Pareto helpers on data with known answers.
 """
 
 import math
-import sys
-from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-
-import stress_test  # noqa: E402
-import time_vs_error  # noqa: E402
-from fem.newton import SolveOptions  # noqa: E402
+from benchmarks import numerics
+from benchmarks.reliability import stress_test
+from fem.newton import SolveOptions
 
 
 def test_case_list_covers_box_corners_and_edge_midpoints():
@@ -60,10 +57,24 @@ def test_ga_scene_converges_with_finite_readings_at_coarse():
 def test_richardson_and_pareto_on_known_data():
     """q = 1 + 0.5 h^1.5 on h = 1/2, 1/3, 1/4 extrapolates to 1 with p = 1.5; Pareto mask by hand."""
     h = [1.0, 0.5, 1 / 3, 0.25]
-    q_ref, p, note = time_vs_error.richardson(h, [1 + 0.5 * x**1.5 for x in h])
+    q_ref, p, note = numerics.richardson_or_p2(h, [1 + 0.5 * x**1.5 for x in h])
     assert q_ref == pytest.approx(1.0, abs=1e-12) and p == pytest.approx(1.5, abs=1e-9) and note == "observed"
-    q_ref, p, note = time_vs_error.richardson(h, [1.0, 1.2, 1.1, 1.15])  # not monotone: p = 2 from two finest
+    q_ref, p, note = numerics.richardson_or_p2(h, [1.0, 1.2, 1.1, 1.15])  # not monotone: p = 2 from two finest
     assert note == "assumed p=2" and q_ref == pytest.approx(1.15 + 0.05 * (1 / 16) / (1 / 9 - 1 / 16))
-    mask = time_vs_error.pareto([1, 2, 3, 4], [5, 1, 2, 0.5])
+    mask = numerics.pareto([1, 2, 3, 4], [5, 1, 2, 0.5])
     assert mask.tolist() == [True, True, False, True]
-    assert time_vs_error.front_ratio([1, 2, 3, 4], [5, 1, 2, 0.5], 2) == 2.0
+    assert numerics.front_ratio([1, 2, 3, 4], [5, 1, 2, 0.5], 2) == 2.0
+
+
+def test_observed_order_and_richardson_value_on_known_data():
+    """q = 2 − 3 h^2.5 on non-uniform h: p = 2.5 and q∞ = 2 in any bracket holding 2.5; NaN (no asymptotic
+    range) when the differences change sign, vanish, or p lies outside the bracket."""
+    h = [1.0, 0.6, 0.45]
+    q = [2 - 3 * x**2.5 for x in h]
+    p, q_inf = numerics.richardson(h, q)
+    assert p == pytest.approx(2.5, abs=1e-9) and q_inf == pytest.approx(2.0, abs=1e-9)
+    assert numerics.observed_order([1 / k for k in (1, 2, 3)], [1 - 1 / k**3 for k in (1, 2, 3)],
+                                   bracket=(0.05, 12.0)) == pytest.approx(3.0, abs=1e-9)
+    assert math.isnan(numerics.observed_order(h, q, bracket=(0.1, 2.0)))
+    assert all(math.isnan(v) for v in numerics.richardson(h, [1.0, 1.2, 1.1]))
+    assert math.isnan(numerics.observed_order(h, [1.0, 1.0, 1.0]))

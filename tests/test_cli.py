@@ -1,21 +1,17 @@
 """The console script on user errors: one line on stderr, exit code 2, no traceback.
 
-Runs ``python -m whisker_opt.cli.main`` in a subprocess, as a user would run ``whisker-opt``.
+Runs ``python -m whisker_opt.cli`` in a subprocess (:func:`tests.subprocess_run.run_cli`), as a user would
+run ``whisker-opt``.
 """
-
-import subprocess
-import sys
-from pathlib import Path
 
 import pytest
 
-REPO = Path(__file__).resolve().parents[1]
+from tests.subprocess_run import REPO, run_cli
 
 
 def _cli(*args, cwd=REPO):
-    proc = subprocess.run([sys.executable, "-m", "whisker_opt.cli.main", *map(str, args)], cwd=cwd,
-                          capture_output=True, text=True, timeout=300)
-    return proc.returncode, proc.stdout, proc.stderr
+    done = run_cli(*args, cwd=cwd, timeout=300)
+    return done.returncode, done.stdout, done.stderr
 
 
 def _one_line_error(rc, err, command):

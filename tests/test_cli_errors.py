@@ -5,7 +5,7 @@ Runs ``whisker_opt.cli.main.main`` in-process on a table of bad option values, u
 folders and damaged run directories (a tiny run: coarse preset, 2 individuals, generation 0 only);
 then the previous-checkpoint fallback (``resume --from-previous``) and a scene that does not
 converge (exit status 3, with the scene, the load reached and the reason).
-``benchmarks/bad_inputs.py`` runs many more cases as subprocesses.
+``benchmarks/reliability/bad_inputs.py`` runs many more cases as subprocesses.
 """
 
 from __future__ import annotations

@@ -94,7 +94,7 @@ def test_ranges_come_from_the_field_constraints(rows):
     assert rows["optimiser.penalties"]["range"] == "at most 4 items"
     assert rows["output.name"]["range"] == "1..100 characters"
     assert rows["fidelity.preset"]["range"] == ", ".join(f"`{n}`" for n in PRESET_NAMES)
-    assert rows["optimiser.penalties[].gene"]["range"] == "`alpha`, `l`, `t`, `Q_i`"
+    assert "optimiser.genes" in rows["optimiser.penalties[].gene"]["description"]  # any gene of the genome
 
 
 def test_range_derivation_ignores_the_description():

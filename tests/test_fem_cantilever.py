@@ -10,7 +10,7 @@ Required: small load within 2 % of Euler–Bernoulli; k = 1, 2 within 2 % of the
 Model: box 10 × 1 × 1 (L/h = 10; the Timoshenko shear correction 3EI/(κGAL²) ≈ 0.9 %),
 30 × 3 × 3 cells, base x = 0 clamped, dead traction P/h² in +y on the tip face, D1 = 0,
 μ = 1; tip displacement read at the centre of the tip face. Refinement table in
-benchmarks/fem_convergence.py.
+benchmarks/accuracy/fem_convergence.py.
 """
 
 from __future__ import annotations

@@ -15,7 +15,7 @@ quantity) and compare λa at P(1.1), P(1.2), …, P(1.5).
 Model: a quarter sector (symmetry u_y = 0 on φ = 0 and u_x = 0 on φ = π/2), one layer of
 elements with u_z = 0 on both end faces (plane strain), follower pressure on the inner face.
 The convergence rate under refinement (≈ h^1.8 in max nodal radius, the O(h²) of P2/P0) is
-printed by benchmarks/fem_convergence.py.
+printed by benchmarks/accuracy/fem_convergence.py.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The periodic wall cell of ``benchmarks/fibre_cell.py`` and the solver paths it needs.
+"""The periodic wall cell of ``benchmarks/wall_cell3d.py`` (the cell of ``benchmarks/studies/fibre_cell.py``) and the solver paths it needs.
 
 References
 ----------
@@ -14,8 +14,6 @@ References
 from __future__ import annotations
 
 import math
-import sys
-from pathlib import Path
 
 import pytest
 
@@ -23,9 +21,7 @@ from fem.linsolve import SOLVERS
 from fem.loadpath import solve_path
 from fem.newton import SolveOptions
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-
-import fibre_cell as fc  # noqa: E402
+from benchmarks import wall_cell3d as fc
 
 
 @pytest.fixture(scope="module")

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from whisker_opt.optimise.executors import SerialExecutor
-from whisker_opt.optimise.ga import GeneticAlgorithm, best_design
+from whisker_opt.optimise.ga import GeneticAlgorithm, Recorder, best_design
 from whisker_opt.config.optimiser import OptimiserConfig
 from whisker_opt.genes import GENE_NAMES
 from whisker_opt.experiment.outcome import EvalOutcome
@@ -362,3 +362,35 @@ def test_resolution_stop_is_said_in_the_log_report_and_best_json(tmp_path, caplo
     assert "status         finished: resolution" in text
     assert "stopped by     resolution: the best design's f1" in text
     assert "WARNING stopping.target_fp = 1e-06" in text and "WARNING best f1" in text
+
+
+class _Seen(Recorder):
+    """A recorder that notes what it is handed, and checks it is the state's last generation."""
+
+    def __init__(self) -> None:
+        self.seen: list[int] = []
+
+    def generation(self, state, row) -> None:
+        assert row is state.logbook[-1] and row["generation"] == state.generation == len(state.logbook) - 1
+        self.seen.append(row["generation"])
+
+
+@pytest.mark.parametrize("algorithm", ["ga", "nsga2"])
+def test_a_recorder_sees_each_generation_once_in_order(algorithm):
+    from whisker_opt.optimise.nsga2 import make_algorithm
+
+    cfg = make_cfg(pop=6, gens=4, algorithm=algorithm)
+    ga = make_algorithm(cfg, 5)
+    state, rec, after = ga.new_state(), _Seen(), []
+    with SerialExecutor(AnalyticFitness()) as ex:
+        ga.run(state, ex, [lambda st, row: after.append((row["generation"], list(rec.seen)))], recorder=rec)
+        assert rec.seen == [0, 1, 2, 3, 4] and state.stop_reason == "max_generations"
+        # the recorder hears of a generation before the callbacks do
+        assert after == [(g, list(range(g + 1))) for g in range(5)]
+        # a run that has stopped hands nothing more; one extended continues after its last generation
+        ga.run(state, ex, recorder=rec)
+        assert rec.seen == [0, 1, 2, 3, 4]
+        ga.cfg = cfg.model_copy(update={"stopping": cfg.stopping.model_copy(update={"max_generations": 6})})
+        ga.set_stop(state)
+        ga.run(state, ex, recorder=rec)
+    assert rec.seen == list(range(7))

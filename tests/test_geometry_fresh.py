@@ -5,7 +5,7 @@ three wall layers (:func:`geometry.mesh.fresh_sizing`); the TET10 upgrade puts b
 nodes on the exact surfaces. The tag, surface and fibre checks of the template meshes
 (tests/test_geometry_mesh.py) run here again on this unstructured mesh. The whole
 acceptance table (default design and the eight box corners at L = 70 and 60) is
-``benchmarks/bench_mesh.py``.
+``benchmarks/performance/bench_mesh.py``.
 """
 
 import numpy as np

@@ -273,6 +273,19 @@ def test_fast_path_100_random_designs_in_the_ga_box(preset):
     assert worst_vol <= 1e-3 and worst_area <= 1e-3 and worst_q > 0.08
 
 
+@pytest.mark.parametrize("preset", ["coarse", "default"])
+def test_fibres_located_in_the_strongly_curved_elements_of_a_box_corner(preset):
+    """The thickest, steepest, shortest corner of the GA box: on the coarse mesh a fibre point's host
+    is a strongly curved element whose straight tet misses the point by more than the element."""
+    d = WhiskerDesign(alpha=6.0, l=15.0, t=6.0, trim=10.0)
+    wm = build_mesh(d, PRESETS[preset].sizing, method="template")
+    for f in wm.fibres:
+        X = wm.mesh.points[wm.mesh.cells[f.host_elements]]  # (n, 10, 3)
+        N = element.shape_functions(f.local_coords)
+        assert np.abs(np.einsum("na,nai->ni", N, X) - f.points_ref).max() < 1e-8
+        assert element.barycentric(f.local_coords).min() >= 0.0
+
+
 def test_template_refuses_absolute_sizing():
     with pytest.raises(TemplateError):
         build_mesh(WhiskerDesign(), MeshSizing(h_wall=0.9), method="template")

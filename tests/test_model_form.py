@@ -14,9 +14,6 @@ References
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -72,9 +69,8 @@ def test_yeoh_uniaxial_reaction_matches_closed_form(name, lam):
 
 
 def test_shipped_yeoh_constants_pass_through_the_published_points():
-    """RUBBER_LAWS reproduce the fit of benchmarks/fit_rubber_tds.py (both data points to 0.1 %)."""
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-    import fit_rubber_tds as fit
+    """RUBBER_LAWS reproduce the fit of benchmarks/studies/fit_rubber_tds.py (both data points to 0.1 %)."""
+    from benchmarks.studies import fit_rubber_tds as fit
 
     for name, (s100, sb, eb) in fit.TDS.items():
         c10, c20 = RUBBER_LAWS[f"yeoh_{name}"]
@@ -252,10 +248,9 @@ def test_fibre_model_key_chooses_trusses_or_the_smeared_field():
 
 
 def test_compensable_trim_root_of_the_study():
-    """benchmarks/model_form.py: the root of ε(L − Δ, 0) = target on a linear ε(Δ) is exact; a target
+    """benchmarks/studies/model_form.py: the root of ε(L − Δ, 0) = target on a linear ε(Δ) is exact; a target
     below ε(L, 0) compensates nothing, one above the largest trim's reading lies beyond it."""
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-    import model_form
+    from benchmarks.studies import model_form
 
     trims = [0.0, 1.0, 2.0, 5.0, 10.0]
     eps = [1.0 + 0.1 * t for t in trims]

@@ -192,10 +192,11 @@ def test_pareto_outputs_verification_and_report(tmp_path):
     assert [float(opt[g]) for g in GENE_NAMES] == [float(best[g]) for g in GENE_NAMES]
     # verify with a "finer" evaluator whose f1 differs: verified values and non-domination recomputed on them
     from whisker_opt.optimise.checkpoint import load_checkpoint
+    from whisker_opt.optimise.recorder import verify_front
 
     finer = AnalyticFitness(optimum=(3.0, 12.0, 4.0, 0.10), offset=1e-4)
     state, _ = load_checkpoint(tmp_path)
-    vrows = NSGA2(cfg, 2).verify_front(tmp_path, state, finer, "default")
+    vrows = verify_front(tmp_path, NSGA2(cfg, 2), state, finer, "default")
     rows = read_csv(tmp_path / "pareto.csv")
     assert len(rows) == len(vrows) and all(r["verified_preset"] == "default" for r in rows)
     for r in rows:
@@ -205,7 +206,7 @@ def test_pareto_outputs_verification_and_report(tmp_path):
     want = set(non_dominated(pts))
     assert {i for i, r in enumerate(rows) if r["on_front_verified"] == "True"} == want
     # rows already verified are kept (no evaluator call), and the report shows the front
-    NSGA2(cfg, 2).verify_front(tmp_path, state, AnalyticFitness(offset=1.0), "default")
+    verify_front(tmp_path, NSGA2(cfg, 2), state, AnalyticFitness(offset=1.0), "default")
     assert [r["f1_verified"] for r in read_csv(tmp_path / "pareto.csv")] == [r["f1_verified"] for r in rows]
     text = report(tmp_path)
     assert "Pareto front" in text and "verified at preset default" in text and "penalised optimum" in text
@@ -234,7 +235,7 @@ def test_finer_preset():
     ({"objectives": ["f1"]}, "objectives", "1 objective(s) ['f1']; allowed 2..5 items"),
     ({"objectives": ["Q_i", "t"]}, "objectives", "must include f1"),
     ({"objectives": ["f1", "Q_i", "Q_i"]}, "objectives", "repeated: ['Q_i']"),
-    ({"objectives": ["f1", "Q"]}, "objectives.1.name", "name='Q' is not one of 'f1', 'alpha', 'l', 't', 'Q_i'"),
+    ({"objectives": ["f1", "Q"]}, "objectives.1.name", "name='Q' is neither a measure (f1, sensitivity"),
     ({"objectives": [{"name": "f1", "prefer": "high"}, "Q_i"]}, "objectives.0", "f1 is minimised"),
     ({"objectives": ["f1", {"name": "t", "prefer": "up"}]}, "objectives.1.prefer", "'low', 'high'"),
     ({"pareto": {"verify_max": 0}}, "pareto.verify_max", "0 is outside 1..10000"),

@@ -4,16 +4,15 @@ and a report that rebuilds the best design's curves plot."""
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
+
+from tests.subprocess_run import run_cli
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def _cli(*args, cwd):
-    return subprocess.run([sys.executable, "-m", "whisker_opt.cli", *map(str, args)], cwd=cwd, capture_output=True,
-                          text=True, timeout=600)
+    return run_cli(*args, cwd=cwd, timeout=600)
 
 
 def test_mesh_reports_the_method_used_and_the_trim(tmp_path):

@@ -222,7 +222,7 @@ def test_ga_convergence_shows_the_best_design_s_f1_against_the_resolution():
 
 
 def test_multi_objective_runs_plot_what_they_optimise(tmp_path, monkeypatch):
-    import whisker_opt.optimise.runner as runner_mod
+    import whisker_opt.optimise.recorder as recorder_mod
     import whisker_opt.output.pareto_plots as pp
 
     figures = []
@@ -233,7 +233,7 @@ def test_multi_objective_runs_plot_what_they_optimise(tmp_path, monkeypatch):
         return figures[-1]
 
     monkeypatch.setattr(pp, "mo_convergence_figure", keep)
-    monkeypatch.setattr(runner_mod, "plot_convergence", lambda *a, **k: pytest.fail("the GA's F_p plot drawn"))
+    monkeypatch.setattr(recorder_mod, "plot_convergence", lambda *a, **k: pytest.fail("the GA's F_p plot drawn"))
     cfg = OptimiserConfig.model_validate({"algorithm": "nsga2", "ga": {"population": 8}, "pareto": {"verify": False},
                                           "stopping": {"max_generations": 3}, "executor": {"kind": "serial"}})
     run_optimisation(cfg, tmp_path / "run", AnalyticFitness(scale=0.2), seed=1, progress=False, fidelity=COARSE)

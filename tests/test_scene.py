@@ -139,7 +139,8 @@ def test_off_tip_contact_ring_is_placed_at_a_LQ(runner):
 def test_reading_rises_with_pressure_at_every_contact_ratio(runner):
     """ε(δ = 1 mm) at Q = 0.1 MPa exceeds that at Q = 0 for a = 0.5, 0.75 and 1.
 
-    Measured on this mesh (README of benchmarks/): +3.7 %, +5.5 %, +8.4 %. From 0.1 to
+    Measured on this mesh (benchmarks/results/compensation.md, "Off-tip sensitivity against pressure"):
+    +3.7 %, +5.5 %, +8.4 %. From 0.1 to
     0.2 MPa the neo-Hookean model's reading falls again at a < 1 (−3.5 % at a = 0.5);
     see the README for that measurement and why the thesis' device differs.
     """

@@ -401,7 +401,7 @@ def test_repeated_loads_and_renders_keep_the_heap_intact(tmp_path, box):
 
 # ------------------------------------------------------------------ three panels, deflection states, other evaluations
 class _FakeResult:
-    """What :func:`whisker_opt.output.scenes.write_scene_vtus` needs of a SceneResult."""
+    """What :func:`whisker_opt.output.scenes.write_scene_files` needs of a SceneResult."""
 
     def __init__(self, mesh: TetMesh, deltas, amplitude: float, pre: float = 0.0):
         from types import SimpleNamespace
@@ -417,7 +417,7 @@ class _FakeResult:
 def _write_triple(folder, box, with_json=True):
     """A scene folder as `simulate`/`run` write it: intact at Q_i, trimmed uncompensated, trimmed vented,
     solved at delta = 1, 2, 3 mm."""
-    from whisker_opt.output.scenes import write_scene_vtus
+    from whisker_opt.output.scenes import write_scene_files
 
     short = box_mesh(8.0, 2.0, 2.0, 4, 1, 1)
     deltas = [1.0, 2.0, 3.0]
@@ -428,7 +428,7 @@ def _write_triple(folder, box, with_json=True):
     }
     entries = {}
     for name, (mesh, q, trim, eps, amp) in cases.items():
-        paths = write_scene_vtus(folder, name, _FakeResult(mesh, deltas, amp, pre=0.0005 if q else 0.0))
+        paths = write_scene_files(folder, name, _FakeResult(mesh, deltas, amp, pre=0.0005 if q else 0.0)).states
         assert len(paths) == 4  # pressurised, delta_1.00, delta_2.00, deflected (delta_3.00 is the same state)
         entries[name] = {"Q_MPa": q, "trim": trim, "solved_delta_mm": [0.0, *deltas], "eps_line": eps,
                          "eps_centroid": [e * 0.9 for e in eps], "gauge_variant": "line"}

@@ -268,13 +268,11 @@ def run(cfg: WhiskerConfig, out: str | Path | None = None, progress: bool = Fals
     >>> summary.stop_reason, summary.best["genes"]                         # doctest: +SKIP
     ('max_generations', {'alpha': 3.9..., 'l': 12.2..., 't': 2.1..., 'Q_i': 0.12...})
     """
-    from whisker_opt import wiring, workflows
-    from whisker_opt.optimise.backend import preflight
+    import whisker_opt.workflows as workflows
 
     cfg = _checked_config(cfg, "run")
     if out is None:  # refuse an impossible design or executor before creating the directory
-        wiring.evaluator(cfg)
-        preflight(wiring.optimiser_of(cfg).executor)
+        workflows.check_runnable(cfg)
     return workflows.run(cfg, _out_dir(cfg, out, "run"), progress=progress)
 
 
@@ -314,7 +312,7 @@ def resume(run_dir: str | Path, progress: bool = False, allow_config_change: boo
     >>> summary.stop_reason                                                # doctest: +SKIP
     'max_generations'
     """
-    from whisker_opt import workflows
+    import whisker_opt.workflows as workflows
 
     run_dir = _checked_path(run_dir, "run_dir", "resume")
     return workflows.resume(run_dir, progress=progress, allow_config_change=allow_config_change)

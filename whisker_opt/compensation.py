@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from whisker_opt import wiring
+import whisker_opt.wiring as wiring
 from whisker_opt.analysis.compensation_map import CompensationMap, MapRangeError
 from whisker_opt.config.model import ConfigError, WhiskerConfig
 from whisker_opt.workflows import fidelity_of

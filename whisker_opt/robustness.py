@@ -27,7 +27,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from whisker_opt import wiring
+import whisker_opt.wiring as wiring
 from whisker_opt.config.model import ConfigError, WhiskerConfig
 
 logger = logging.getLogger(__name__)

@@ -20,7 +20,7 @@ from typing import Any, Iterator, Mapping
 
 import numpy as np
 
-from whisker_opt import wiring
+import whisker_opt.wiring as wiring
 from whisker_opt.config.model import ConfigError, WhiskerConfig, dump_config
 from whisker_opt.output import storage
 
@@ -500,6 +500,30 @@ class GenerationLines:
                         f"{row.get('evals', 0)} evaluations, {state.n_evaluations} in all{stop})")
 
 
+def check_runnable(cfg: WhiskerConfig):
+    """The GA's evaluator of ``cfg``, once its design section and executor are known to work.
+
+    Called before a run directory is made, so an impossible ``design`` section or an executor that
+    cannot start (an unreachable dask scheduler) leaves nothing behind.
+
+    Returns
+    -------
+    whisker_opt.experiment.evaluator.SceneEvaluator
+
+    Raises
+    ------
+    geometry.design.InvalidDesignError
+        ``cfg.design`` does not describe a whisker.
+    whisker_opt.optimise.executors.MachineFailure
+        The executor cannot start.
+    """
+    from whisker_opt.optimise.backend import preflight
+
+    ev = wiring.evaluator(cfg)
+    preflight(wiring.optimiser_of(cfg).executor)
+    return ev
+
+
 def run(cfg: WhiskerConfig, run_dir: Path, progress: bool = True, overwrite: bool = False):
     """Run the GA of a config into ``run_dir`` and re-run its best design into ``run_dir/best``.
 
@@ -525,16 +549,14 @@ def run(cfg: WhiskerConfig, run_dir: Path, progress: bool = True, overwrite: boo
         The executor cannot start (an unreachable dask scheduler), or workers were lost during
         the run (it resumes from its last checkpoint).
     """
-    from whisker_opt.optimise.backend import preflight
     from whisker_opt.optimise.rundir import check_run_target, clear_run_dir
     from whisker_opt.optimise.runner import remove_run_temporaries, run_optimisation
     from whisker_opt.output.lock import RunDirLock
 
     opt = wiring.optimiser_of(cfg)
-    ev = wiring.evaluator(cfg)
+    ev = check_runnable(cfg)
     run_dir = Path(run_dir)
     check_run_target(run_dir, lambda path: _same_config(path, cfg), overwrite)  # before anything is written
-    preflight(opt.executor)
     run_dir.mkdir(parents=True, exist_ok=True)
     with RunDirLock(run_dir, "run"):
         if check_run_target(run_dir, lambda path: _same_config(path, cfg), overwrite):  # again, under the lock
@@ -581,7 +603,7 @@ def finish_law_spread(run_dir: Path, cfg: WhiskerConfig, progress: bool = False)
 
 def _verify_front(run_dir: Path, cfg: WhiskerConfig) -> None:
     """A multi-objective run's front re-evaluated at the next finer preset (``pareto.csv``, ``pareto.png``)."""
-    from whisker_opt.optimise.nsga2 import verify_run_front
+    from whisker_opt.optimise.recorder import verify_run_front
 
     verify_run_front(run_dir, lambda preset: wiring.evaluator(wiring.with_preset(cfg, preset)), cfg.fidelity.preset)
 

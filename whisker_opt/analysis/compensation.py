@@ -323,23 +323,9 @@ def fe_compensation(design: WhiskerDesign, Q_i: float, trim: float, response: Re
             compensation_error=float("nan"), scalar=scalar, at_bound="upper", n_evaluations=n_eval,
         )
 
-    g_hi, g_lo = gap(Q_i), gap(0.0)
-    cands = [(g_lo, 0.0, "lower"), (g_hi, Q_i, "upper")]
-    if method == "bounded":
-        res = optimize.minimize_scalar(gap, bounds=(0.0, Q_i), method="bounded",
-                                       options={"xatol": xatol, "maxiter": maxiter})
-        if not res.success:
-            logger.warning("fe_compensation Δ=%g: bounded search did not converge (%s)", trim, res.message)
-        cands.append((float(res.fun), float(res.x), None))
-    else:  # 'root': zero of the signed mean difference, bracketed by the end points
-        def signed(q: float) -> float:
-            return float(np.mean(curve(q) - eps_o))
-
-        s_lo, s_hi = signed(0.0), signed(Q_i)
-        if s_lo * s_hi < 0.0:
-            q_r = float(optimize.brentq(signed, 0.0, Q_i, xtol=xatol, maxiter=maxiter))
-            cands.append((gap(q_r), q_r, None))
-    g_best, q_best, bound = min(cands, key=lambda c: c[0])
+    g_hi = gap(Q_i)
+    g_best, q_best, bound = _best_vent_pressure(gap, lambda q: float(np.mean(curve(q) - eps_o)), Q_i, trim,
+                                                method, xatol, maxiter)
     eps_b, eps_c = curve(Q_i), curve(q_best)
     rec, err = curve_measures(eps_o, eps_b, eps_c, scalar)
     if bound == "lower":
@@ -352,6 +338,29 @@ def fe_compensation(design: WhiskerDesign, Q_i: float, trim: float, response: Re
         gap_before=g_hi, gap_after=g_best, recovery_rate=rec, compensation_error=err, scalar=scalar,
         at_bound=bound, n_evaluations=n_eval,
     )
+
+
+def _best_vent_pressure(gap: Callable[[float], float], signed: Callable[[float], float], Q_i: float, trim: float,
+                        method: str, xatol: float, maxiter: int) -> tuple[float, float, str | None]:
+    """(gap, Q, bound) of the best vent pressure in [0, Q_i] (:func:`fe_compensation`'s search).
+
+    The end points are candidates; ``bounded`` adds Brent's bounded minimum of ``gap``, ``root`` the
+    Brent root of ``signed`` (the signed mean difference) when the end points bracket one. ``bound`` is
+    ``'lower'`` or ``'upper'`` when an end point wins, else None.
+    """
+    cands = [(gap(0.0), 0.0, "lower"), (gap(Q_i), Q_i, "upper")]
+    if method == "bounded":
+        res = optimize.minimize_scalar(gap, bounds=(0.0, Q_i), method="bounded",
+                                       options={"xatol": xatol, "maxiter": maxiter})
+        if not res.success:
+            logger.warning("fe_compensation Δ=%g: bounded search did not converge (%s)", trim, res.message)
+        cands.append((float(res.fun), float(res.x), None))
+    else:  # 'root': zero of the signed mean difference, bracketed by the end points
+        s_lo, s_hi = signed(0.0), signed(Q_i)
+        if s_lo * s_hi < 0.0:
+            q_r = float(optimize.brentq(signed, 0.0, Q_i, xtol=xatol, maxiter=maxiter))
+            cands.append((gap(q_r), q_r, None))
+    return min(cands, key=lambda c: c[0])
 
 
 # --------------------------------------------------------------------------- table

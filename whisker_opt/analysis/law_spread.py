@@ -64,7 +64,7 @@ def law_spread(cfg, designs: Sequence[Mapping[str, float]], laws: Sequence[str] 
     """
     import numpy as np
 
-    from whisker_opt import wiring
+    import whisker_opt.wiring as wiring
     from whisker_opt.analysis.compensation import curve_measures
     from whisker_opt.genes import GENE_NAMES
     from whisker_opt.experiment import objective

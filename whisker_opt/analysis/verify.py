@@ -2,7 +2,7 @@
 
 A run ranks designs at its own fidelity preset (usually ``default``). That preset's mesh
 error in f1 depends on the design: −16 % at the thesis design, +1 % at a thin-walled corner
-and −35 % at a thick-walled one (``benchmarks/README.md``, run time against error). So
+and −35 % at a thick-walled one (``benchmarks/results/time_vs_error.md``). So
 the absolute f1 of a GA optimum, and its rank against designs of a different wall
 thickness, should be confirmed at a finer preset before they are reported. This module
 re-runs the run's ``top`` best feasible designs, pairwise distinct by ``optimiser.distinct_distance``
@@ -26,7 +26,7 @@ from typing import Any
 
 from whisker_opt.genes import GENE_NAMES
 from whisker_opt.output import storage
-from whisker_opt.output.plots import short_float
+from whisker_opt.numfmt import short_float
 
 logger = logging.getLogger(__name__)
 
@@ -77,7 +77,7 @@ def verify_run(run_dir: Path, preset: str = "fine", top: int = 3, progress: bool
     VerifyError
         ``preset`` or ``top`` out of range, or the run has no feasible design.
     """
-    from whisker_opt import wiring
+    import whisker_opt.wiring as wiring
     from whisker_opt.experiment.fidelity import f1_resolution
     from whisker_opt.optimise.best import describe_distance
     from whisker_opt.optimise.penalty import dynamic_penalty, penalty_terms

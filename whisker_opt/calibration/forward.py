@@ -26,7 +26,6 @@ An observation becomes the model's value of the quantity measured (:func:`predic
 
 from __future__ import annotations
 
-import logging
 from dataclasses import dataclass, replace
 from typing import Protocol
 
@@ -34,11 +33,9 @@ import numpy as np
 from scipy import optimize
 
 from fem.newton import SolveFailed
-from whisker_opt import wiring
+import whisker_opt.wiring as wiring
 from whisker_opt.calibration.measurements import Extension, Observation, Response, Restore
 from whisker_opt.config.model import WhiskerConfig
-
-logger = logging.getLogger(__name__)
 
 
 class Simulator(Protocol):

@@ -9,14 +9,13 @@ fits (:mod:`~whisker_opt.calibration.fit`) and writes the outputs (:mod:`~whiske
 from __future__ import annotations
 
 import difflib
-import logging
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from geometry.design import InvalidDesignError
-from whisker_opt import wiring
+import whisker_opt.wiring as wiring
 from whisker_opt.calibration.fit import FitOutcome, Problem, Weighted, fit
 from whisker_opt.calibration.forward import BeamSimulator, RestoreSearch, SceneSimulator
 from whisker_opt.calibration.measurements import check_names, read_measurements
@@ -24,7 +23,6 @@ from whisker_opt.calibration.parameters import ModelParameter, configure, resolv
 from whisker_opt.calibration.report import format_summary, write_outputs
 from whisker_opt.config.model import ConfigError, WhiskerConfig
 
-logger = logging.getLogger(__name__)
 
 #: The model evaluations of a stopped calibration, in its output folder.
 JOURNAL = "calibration.partial.json"

@@ -215,6 +215,33 @@ def preset_setting(choices: tuple[str, ...]) -> Callable[[str], str]:
     return check
 
 
+def settings_arguments(p: argparse.ArgumentParser, example: str, defaults_help: str, after: str = "") -> None:
+    """The options that change a run file on the command line: ``--set``, ``--preset``, ``--defaults``.
+
+    ``--set KEY=VALUE`` and ``--preset NAME`` append to one list, ``args.settings``, in the order given
+    (read by :func:`whisker_opt.config.model.load_config`); ``--defaults`` is ``args.defaults``.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The command's parser.
+    example : str
+        A ``KEY=VALUE`` example for the command's ``--set`` help.
+    defaults_help : str
+        What ``--defaults`` means for the command.
+    after : str
+        Help text added after the ``--set`` example, e.g. where the result is stored.
+    """
+    from whisker_opt.experiment.fidelity import PRESET_NAMES
+
+    p.add_argument("--set", dest="settings", action="append", type=setting, default=[], metavar="KEY=VALUE",
+                   help=f"set a run-file key over the file, e.g. --set {example} (repeatable; "
+                        f"the value is read as YAML{after})")
+    p.add_argument("--preset", dest="settings", action="append", type=preset_setting(PRESET_NAMES),
+                   metavar="{" + ",".join(PRESET_NAMES) + "}", help="fidelity preset: --set fidelity.preset=NAME")
+    p.add_argument("--defaults", action="store_true", help=defaults_help)
+
+
 def image_path(text: str) -> Path:
     """An argparse type: the path of an image file to write (``--screenshot``).
 

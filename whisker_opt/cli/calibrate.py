@@ -18,10 +18,9 @@ import argparse
 import sys
 from pathlib import Path
 
-from whisker_opt.cli.arguments import ensure_writable_dir, nonempty_path, preset_setting, setting
+from whisker_opt.cli.arguments import ensure_writable_dir, nonempty_path, settings_arguments
 from whisker_opt.cli.failures import ComputationFailed, computation_errors, describe_failure
 from whisker_opt.config.model import load_config
-from whisker_opt.experiment.fidelity import PRESET_NAMES
 from whisker_opt.output.lock import RunDirLock
 
 #: Exit status of a fit that wrote its outputs but did not converge (budget exhausted, nothing moved).
@@ -33,13 +32,8 @@ HELP = "fit model parameters to measurements of a prototype; write calibration.j
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """CONFIG, ``--set``/``--preset``/``--defaults`` as for the other commands, and ``--out``."""
     p.add_argument("config", type=Path, help="YAML run file with a `calibration` section (docs/calibration.md)")
-    p.add_argument("--set", dest="settings", action="append", type=setting, default=[], metavar="KEY=VALUE",
-                   help="set a run-file key over the file, e.g. --set calibration.max_evaluations=10 (repeatable; "
-                        "the value is read as YAML)")
-    p.add_argument("--preset", dest="settings", action="append", type=preset_setting(PRESET_NAMES),
-                   metavar="{" + ",".join(PRESET_NAMES) + "}", help="fidelity preset: --set fidelity.preset=NAME")
-    p.add_argument("--defaults", action="store_true", help="accept an empty run file (it then has no calibration "
-                   "section, which is refused)")
+    settings_arguments(p, "calibration.max_evaluations=10",
+                       "accept an empty run file (it then has no calibration section, which is refused)")
     p.add_argument("--out", type=nonempty_path, default=None,
                    help="output folder (default: a new one under output.results_dir)")
     p.add_argument("--no-progress", action="store_true", default=argparse.SUPPRESS, help="no progress bar")

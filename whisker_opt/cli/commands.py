@@ -26,8 +26,7 @@ from whisker_opt.cli.arguments import (
     int_in,
     nonempty_path,
     positive_float,
-    preset_setting,
-    setting,
+    settings_arguments,
 )
 from whisker_opt.cli.failures import ComputationFailed, computation_errors, describe_failure
 from whisker_opt.cli import robustness as _robustness
@@ -85,13 +84,8 @@ def _raised_by(exc: BaseException, function: str) -> bool:
 def _config_args(p: argparse.ArgumentParser, helptext: str) -> None:
     """CONFIG and the options that change it: ``--set``, ``--preset``, ``--defaults``."""
     p.add_argument("config", type=Path, help=helptext)
-    p.add_argument("--set", dest="settings", action="append", type=setting, default=[], metavar="KEY=VALUE",
-                   help="set a run-file key over the file, e.g. --set optimiser.ga.population=20 (repeatable; "
-                        "the value is read as YAML; the run directory's config.yaml holds the result)")
-    p.add_argument("--preset", dest="settings", action="append", type=preset_setting(PRESET_NAMES),
-                   metavar="{" + ",".join(PRESET_NAMES) + "}", help="fidelity preset: --set fidelity.preset=NAME")
-    p.add_argument("--defaults", action="store_true",
-                   help="accept an empty run file (every key at its default)")
+    settings_arguments(p, "optimiser.ga.population=20", "accept an empty run file (every key at its default)",
+                       "; the run directory's config.yaml holds the result")
 
 
 def _progress_arg(p: argparse.ArgumentParser) -> None:
@@ -132,7 +126,8 @@ def _mesh_args(p: argparse.ArgumentParser) -> None:
 
 
 def _mesh_run(args: argparse.Namespace) -> int:
-    from whisker_opt import wiring, workflows
+    import whisker_opt.wiring as wiring
+    import whisker_opt.workflows as workflows
 
     cfg = _read(args)
     wiring.design_from_config(cfg, trim=cfg.scene.trim if args.trim is None else args.trim)  # refuse before mkdir
@@ -159,7 +154,7 @@ def _simulate_args(p: argparse.ArgumentParser) -> None:
 
 
 def _simulate_run(args: argparse.Namespace) -> int:
-    from whisker_opt import workflows
+    import whisker_opt.workflows as workflows
 
     cfg = _read(args)
     specs = workflows.simulation_specs(cfg, str(args.config))  # refuse a bad pair before creating the directory
@@ -194,7 +189,8 @@ def _export_args(p: argparse.ArgumentParser) -> None:
 
 
 def _export_run(args: argparse.Namespace) -> int:
-    from whisker_opt import export, workflows
+    import whisker_opt.export as export
+    import whisker_opt.workflows as workflows
 
     cfg = _read(args)
     specs = workflows.simulation_specs(cfg, str(args.config))  # refuse a bad pair before creating the directory
@@ -227,8 +223,7 @@ def _run_args(p: argparse.ArgumentParser) -> None:
 
 
 def _run_run(args: argparse.Namespace) -> int:
-    from whisker_opt import wiring, workflows
-    from whisker_opt.optimise.backend import preflight
+    import whisker_opt.workflows as workflows
     from whisker_opt.optimise.runner import check_new_run_dir, report
     from whisker_opt.output.lock import RunDirLock
 
@@ -237,11 +232,10 @@ def _run_run(args: argparse.Namespace) -> int:
         from whisker_opt.analysis.verify import check_args
 
         check_args(args.verify, args.verify_top)
-    wiring.evaluator(cfg)  # an impossible design section is refused before the directory is made
+    workflows.check_runnable(cfg)  # an impossible design or executor is refused before the directory is made
     if args.out is not None and not args.overwrite:
         check_new_run_dir(args.out)  # a run already there: resume it instead
     _check_output(args, cfg)
-    preflight(wiring.optimiser_of(cfg).executor)  # and an unreachable dask scheduler
     run_dir = _out_dir(args, cfg, "run")
     run_dir.mkdir(parents=True, exist_ok=True)
     with RunDirLock(run_dir, "run"):  # the run and its verification: one writer
@@ -282,7 +276,7 @@ def _resume_args(p: argparse.ArgumentParser) -> None:
 
 
 def _resume_run(args: argparse.Namespace) -> int:
-    from whisker_opt import workflows
+    import whisker_opt.workflows as workflows
     from whisker_opt.optimise.checkpoint import (
         DAMAGED_NAME,
         OLDER_NAME,
@@ -399,7 +393,7 @@ def _check_step(step: float, trim_max: float, source: str) -> None:
 
 def _compensate_map_run(args: argparse.Namespace, cfg) -> int:
     """The map Q(Δ, a) (``--map``/``--a``): solve, write, print the Q table."""
-    from whisker_opt import compensation
+    import whisker_opt.compensation as compensation
 
     a_values = compensation.MAP_CONTACT_RATIOS if args.a is None else args.a
     if len(set(a_values)) < 2:
@@ -430,7 +424,8 @@ def _compensate_map_run(args: argparse.Namespace, cfg) -> int:
 def _compensate_run(args: argparse.Namespace) -> int:
     """Δ → Q table (FE, with the analytic Q beside it) and the beam-vs-FE sensitivity comparison; prints both.
     With ``--map`` (or ``--a``) the map Q(Δ, a) instead (:func:`_compensate_map_run`)."""
-    from whisker_opt import compensation, wiring
+    import whisker_opt.compensation as compensation
+    import whisker_opt.wiring as wiring
 
     cfg = _read(args)
     # the workflow checks these again; here before a directory is made

@@ -23,11 +23,9 @@ from whisker_opt.cli.arguments import (
     int_in,
     nonempty_path,
     parse_finite,
-    preset_setting,
-    setting,
+    settings_arguments,
 )
 from whisker_opt.cli.failures import ComputationFailed, computation_errors, describe_failure
-from whisker_opt.experiment.fidelity import PRESET_NAMES
 from whisker_opt.output.lock import RunDirLock
 
 HELP = "propagate fabrication tolerances to f1 and the recovery rate of a run's best designs or a config's design"
@@ -55,12 +53,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="best feasible designs of a run studied (robustness.top), 1..1000")
     p.add_argument("--genes", type=genome, action="append", default=[], metavar="ALPHA,L,T,Q_I",
                    help="with a CONFIG: study this genome instead of the config's design (repeatable)")
-    p.add_argument("--set", dest="settings", action="append", type=setting, default=[], metavar="KEY=VALUE",
-                   help="set a run-file key over the file (or the run's config.yaml), e.g. "
-                        "--set robustness.tolerances.alpha=0.5 (repeatable)")
-    p.add_argument("--preset", dest="settings", action="append", type=preset_setting(PRESET_NAMES),
-                   metavar="{" + ",".join(PRESET_NAMES) + "}", help="fidelity preset: --set fidelity.preset=NAME")
-    p.add_argument("--defaults", action="store_true", help="accept an empty run file (every key at its default)")
+    settings_arguments(p, "robustness.tolerances.alpha=0.5", "accept an empty run file (every key at its default)",
+                       "; with a run directory, over its config.yaml")
     p.add_argument("--out", type=nonempty_path, default=None,
                    help="output folder (default: the run directory, or a new one under output.results_dir)")
     p.add_argument("--no-progress", action="store_true", default=argparse.SUPPRESS, help="no progress bar")
@@ -79,8 +73,8 @@ def _settings(args: argparse.Namespace) -> tuple[str, ...]:
 
 def run(args: argparse.Namespace) -> int:
     """Read the source, refuse bad inputs, study the designs, print the table and write the files."""
-    from whisker_opt import robustness as rb
-    from whisker_opt import wiring
+    import whisker_opt.robustness as rb
+    import whisker_opt.wiring as wiring
     from whisker_opt.cli.rundir import check_run_dir
     from whisker_opt.config.model import load_config
     from whisker_opt.workflows import CONFIG_YAML, new_run_dir

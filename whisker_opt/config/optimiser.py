@@ -159,6 +159,12 @@ class PenaltyConfig(StrictModel):
 
     gene: str = Field(description="gene the preference applies to (a gene of optimiser.genes)")
     prefer: Literal["low", "high"] = Field(description="preferred end of the gene's range")
+
+    @field_validator("gene")
+    @classmethod
+    def _a_gene(cls, v: str) -> str:
+        gene_key(v)  # one line naming the allowed keys; whether it is in the genome is checked by the optimiser
+        return v
     weight: float = Field(ge=0, le=100, description="penalty coefficient C_j", json_schema_extra={"unit": "-"})
 
 

@@ -121,9 +121,12 @@ class SceneEvaluator:
 
 
 def _is_mesh_error(exc: BaseException) -> bool:
-    name = type(exc).__name__
-    mod = type(exc).__module__ or ""
-    return "Template" in name or "Mesh" in name or mod.startswith("geometry") or "tetwild" in mod.lower()
+    """A design the geometry layer could not build or mesh (:class:`geometry.errors.GeometryError`), or a
+    mesh the solver refused (:class:`fem.mesh.MeshError`), as opposed to a fault of the solve."""
+    from fem.mesh import MeshError
+    from geometry.errors import GeometryError
+
+    return isinstance(exc, (GeometryError, MeshError))
 
 
 def _violation(genes: dict, design) -> float:

@@ -22,8 +22,8 @@ The gauge reading scatters by ±0.5 % between mesh families without a trend in t
 (one P2 layer through the wall reads within 0.7 % of three), so ``default``, the GA's, is the
 cheapest mesh within 1 % of the gauge reference; ``fine`` keeps three wall layers. f1, a
 difference of two close curves, carries larger errors at every preset (``README.md``, "Fidelity
-and how far to trust f1"). Figures: ``benchmarks/bench_scene.py``, ``benchmarks/time_vs_error.py``
-and ``benchmarks/README.md``.
+and how far to trust f1"). Figures: ``benchmarks/performance/bench_scene.py``, ``benchmarks/accuracy/time_vs_error.py``
+and ``benchmarks/results/bench_scene.md``, ``benchmarks/results/time_vs_error.md``.
 
 Three solved deflection increments suffice for the cubic-spline curve: against 20 increments
 its error over δ ∈ [0.01, 5] mm is 6.5e-6 (intact, Q = 0.2) and 1.0e-5 (trimmed, Q = 0) of
@@ -35,7 +35,7 @@ regenerate them with ``python3 -m whisker_opt.experiment.fidelity`` after changi
 f1 resolution
     Each preset carries ``f1_resolution``: the absolute f1 (mean |ε_i − ε_c|, in calibrated
     strain at the default ξ = 3.9, docs/physics.md §4) below which a preset's f1 is mesh error
-    rather than a difference between the two responses. Figures from ``benchmarks/README.md``
+    rather than a difference between the two responses. Figures from ``benchmarks/results/time_vs_error.md``
     (2026-11-23) and the README's "Fidelity and how far to trust f1"::
 
         preset    f1_resolution  derived from
@@ -66,9 +66,9 @@ f1 resolution
 
     The mesh ladder (``default`` = level 1, ``level2`` … ``level4``, :func:`ladder_sizing`; the GA's
     increments at every level, so only the mesh differs) was measured on the template path at twelve
-    designs (``benchmarks/f1_convergence.py ladder --method template``, ``benchmarks/README.md``, "f1 over
-    the mesh ladder"); the finest level is not converged either, so each figure is the largest distance
-    to the next finer levels measured::
+    designs (``python3 -m benchmarks.accuracy.f1_convergence ladder --method template``,
+    ``benchmarks/results/f1_convergence.md``, "f1 over the mesh ladder"); the finest level is not converged
+    either, so each figure is the largest distance to the next finer levels measured::
 
         preset    f1_resolution  derived from
         level2    6e-4           largest |f1(level2) − f1(level4)| over the four designs with a level 4:

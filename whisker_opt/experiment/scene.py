@@ -24,7 +24,7 @@
     section may slide axially and rotate under the edge: a frictionless edge whose local
     indentation is ignored, as the thesis neglected the contact's lateral slip. The
     band's width changes the reading little (measured in tests/test_scene.py and
-    benchmarks/bench_scene.py). The gauge (:mod:`whisker_opt.experiment.gauge`) is
+    benchmarks/performance/bench_scene.py). The gauge (:mod:`whisker_opt.experiment.gauge`) is
     zeroed at contact onset and read at each solved deflection, and so are the contact force F
     (the band's reaction in −y, work-conjugate to δ) and the base reaction
     (:func:`contact_reactions`).
@@ -136,7 +136,7 @@ class SceneResult:
         """Gauge reading at arbitrary deflections by a cubic spline through the solved points.
 
         The spline is 'not-a-knot' with >= 4 points, otherwise linear interpolation. Its
-        error against densely solved increments is measured in benchmarks/bench_scene.py.
+        error against densely solved increments is measured in benchmarks/performance/bench_scene.py.
         """
         if variant not in GAUGE_VARIANTS:
             raise ValueError(f"gauge variant {variant!r} is not one of {', '.join(map(repr, GAUGE_VARIANTS))}")
@@ -316,7 +316,7 @@ def pressurise(spec: SceneSpec, wm: WhiskerMesh, start: tuple[float, State] | No
     ``start = (Q0, state)``: a warm start, the pressure raised from Q0 to Q in one requested
     step from ``state``, a converged state at Q0 of this mesh or of one with the same nodes
     and elements (Newton removes the difference); the result equals the cold path's within
-    the solver tolerances (measured in benchmarks/compensation_map.py). Default: from the
+    the solver tolerances (measured in benchmarks/studies/compensation_map.py). Default: from the
     reference state at 0 in ``spec.n_pressure_steps`` steps.
     """
     prob1 = make_problem(wm, spec, None)
@@ -588,12 +588,9 @@ def peak_von_mises(mesh, state: State, spec: SceneSpec) -> float:
     and the viewer show), maximised over the nodes of the mesh.
     """
     from fem import post
+    from fem.material import von_mises_stress
 
     sigma = post.nodal_strain_stress(mesh.points, mesh.cells, state.u, state.p, scene_material(mesh, spec),
                                      spec.formulation)[1]  # (n_nodes, 3, 3)
-    return float(np.nanmax(post.von_mises_stress(sigma)))
+    return float(np.nanmax(von_mises_stress(sigma)))
 
-
-def with_design(spec: SceneSpec, **changes) -> SceneSpec:
-    """A copy of ``spec`` whose design has ``changes`` applied (e.g. ``trim=5``)."""
-    return replace(spec, design=replace(spec.design, **changes))

@@ -32,7 +32,7 @@ CONTACT_AT: tuple[str, ...] = ("pressurised", "reference")
 #: Two-term Yeoh laws of named silicones, ``{name: (C10, C20)}`` [MPa], W = C10 (Ī1 − 3) + C20 (Ī1 − 3)²
 #: (Yeoh 1993). Each pair passes exactly through the two uniaxial points of the manufacturer's technical
 #: bulletin (Smooth-On, ASTM D412): the 100 % modulus at λ = 2 and the tensile strength at the elongation
-#: at break; fitted by ``benchmarks/fit_rubber_tds.py`` (which prints these numbers), from
+#: at break; fitted by ``benchmarks/studies/fit_rubber_tds.py`` (which prints these numbers), from
 #: Dragon Skin 30: σ100 = 86 psi, 500 psi at 364 %; Dragon Skin 10 Medium: 22 psi, 475 psi at 1000 %;
 #: Ecoflex 00-30 (the Shore 00-30 grade): 10 psi, 200 psi at 900 %. Read-only.
 RUBBER_LAWS = MappingProxyType({
@@ -140,7 +140,7 @@ class SceneSpec:
         (a = 1 is the tip face). 'reference': x = a·L, the pusher stays where it stood
         before pressurisation (for Q > 0 and a = 1 that is a section short of the tip).
         The two differ in the pressure trend of off-tip readings; see
-        benchmarks/README.md (default design, a = 0.5: ε(1 mm) at 0.2 MPa +0.1 % of the
+        benchmarks/results/compensation.md (default design, a = 0.5: ε(1 mm) at 0.2 MPa +0.1 % of the
         vented value with 'pressurised', +10 % with 'reference').
     deflection : float
         Final deflection [mm].
@@ -160,7 +160,7 @@ class SceneSpec:
         :class:`fem.problem.Problem` formulation: 'mixed' (P2/P0 u–p, locking-free, the
         default) or 'displacement' (C3D10-like, needs D1 > 0; for cross-checks with
         CalculiX; it locks on coarse meshes: +12 % on ε(5 mm) of the default preset mesh
-        at K/μ = 1000, benchmarks/README.md).
+        at K/μ = 1000, benchmarks/results/time_vs_error.md).
     rubber : str
         Rubber law of the body (every element, or every element outside the cap when
         ``cap_rubber`` differs): 'neo_hookean' (C10 = ``c10``, the default) or a key of
@@ -176,7 +176,7 @@ class SceneSpec:
         'embedded' (default): each helix a line of trusses in its host elements
         (:mod:`geometry.fibres`). 'smeared': the winding as an anisotropic term of the wall
         with the same axial stiffness per length (:mod:`geometry.fibre_field`), which
-        converges under mesh refinement (benchmarks/README.md).
+        converges under mesh refinement (benchmarks/results/fibre_models.md).
     wall_law : str
         The chamber wall's law under pressure (:mod:`whisker_opt.wall.law`): 'embedded' (default),
         'sliding' or 'calibrated'.

@@ -12,8 +12,10 @@ Loop (one generation)::
                        numbers for out-of-bound genes) and after
             population = elites + children
     evaluate the individuals whose fitness is invalid (cache first, then the executor),
-    update the hall of fame, record statistics, call the callbacks (progress, checkpoint),
-    stop when a rule fires.
+    update the hall of fame, record statistics, check the stopping rules, then hand the
+    generation to the recorder (the runner's writes the checkpoint and the tables) and the
+    callbacks; stop when a rule fires. NSGA-II runs this same loop with its own selection and
+    survival (:class:`GeneticAlgorithm` lists the hooks).
 
 Progress
     An optional :class:`EvaluationProgress` hears of each generation's batch before it is
@@ -73,7 +75,8 @@ from whisker_opt.genes import GENE_NAMES, genes_dict
 from whisker_opt.experiment.measures import measure_values
 from whisker_opt.experiment.outcome import EvalOutcome
 from whisker_opt.optimise.penalty import PenaltyTerm, dynamic_penalty, fitness_values, penalise, penalty_terms
-from whisker_opt.output.storage import ROBUST_COLUMNS
+from whisker_opt.numfmt import short_float
+from whisker_opt.optimise.robust import ROBUST_COLUMNS
 
 logger = logging.getLogger(__name__)
 
@@ -147,6 +150,18 @@ class GAState:
 Callback = Callable[[GAState, dict], None]
 
 
+class Recorder:
+    """Observer of a run's generations (the run directory's files, a test's log); the base class does nothing.
+
+    :meth:`GeneticAlgorithm.run` calls :meth:`generation` once per completed generation, in order,
+    after the state holds it (statistics row, stopping rule) and before the plain callbacks. It must
+    not change the state: the algorithm writes nothing itself, what is kept of a run is the recorder's.
+    """
+
+    def generation(self, state: GAState, row: dict) -> None:
+        """Generation ``row["generation"]`` is complete; ``row`` is its statistics row (``state.logbook[-1]``)."""
+
+
 class EvaluationProgress:
     """Observer of the evaluations of a run (progress bars, logs); the base class does nothing.
 
@@ -209,8 +224,6 @@ def run_resolution(state: GAState) -> float | None:
 def in_strain(value: float | None, strain: str, xi: float | None) -> str:
     """A calibrated f1, F_p or resolution written in the strain ``strain`` first, the other beside it:
     ``"1.2e-4 uncalibrated (4.7e-4 calibrated)"``; the value alone when ξ is unknown."""
-    from whisker_opt.output.plots import short_float
-
     if value is None:
         return "-"
     if not xi:
@@ -249,7 +262,16 @@ def _invalidate(ind) -> None:
 
 
 class GeneticAlgorithm:
-    """The GA on the genes of ``optimiser.genes`` ([α, l, t, Q_i] and any added ones).
+    """The GA on the genes of ``optimiser.genes`` ([α, l, t, Q_i] and any added ones), and the generation loop its variants share.
+
+    One generation (:meth:`run_generation`): breed (:meth:`carry_over` + :meth:`select_parents`
+    varied by :meth:`vary`; generation 0 draws :meth:`initial_population`), evaluate (cache,
+    executor, records, progress: :meth:`evaluate`), keep the next population (:meth:`survive`),
+    update the hall of fame (:meth:`hall_of_fame_entries`) and what the variant keeps beside it
+    (:meth:`after_evaluation`), then the statistics row (:meth:`generation_stats`), the stopping
+    rules (:meth:`set_stop`) and the log line (:meth:`generation_summary`). A variant such as
+    :class:`whisker_opt.optimise.nsga2.NSGA2` overrides these hooks, never the loop. The loop
+    writes no file: :meth:`run` hands each generation to a :class:`Recorder`.
 
     Parameters
     ----------
@@ -258,6 +280,9 @@ class GeneticAlgorithm:
     seed : int
         Master seed (GA streams and per-design evaluator seeds derive from it).
     """
+
+    #: Columns the variant adds to the statistics row (``generations.csv``).
+    EXTRA_GENERATION_COLUMNS: tuple[str, ...] = ()
 
     def __init__(self, cfg: OptimiserConfig, seed: int) -> None:
         self.cfg = cfg
@@ -269,6 +294,7 @@ class GeneticAlgorithm:
         self.low = [float(lo) for lo, _ in bounds]
         self.up = [float(hi) for _, hi in bounds]
         self.terms: tuple[PenaltyTerm, ...] = penalty_terms(cfg)
+        self.individual_class = Individual
         ga = cfg.ga
         tb = base.Toolbox()
         tb.register("select", tools.selTournament, tournsize=ga.tournament)
@@ -329,13 +355,13 @@ class GeneticAlgorithm:
                 cols.append([lo + (hi - lo) * (s + random.random()) / n for s in strata])
             else:
                 cols.append([random.uniform(lo, hi) for _ in range(n)])
-        pop = [Individual(list(row)) for row in zip(*cols)]
+        pop = [self.individual_class(list(row)) for row in zip(*cols)]
         for ind in pop:
             self.clamp(ind)
         return pop
 
-    def elites(self, population: list) -> list:
-        """Clones of the ``n_elite`` best individuals with distinct genes."""
+    def carry_over(self, population: list) -> list:
+        """Individuals kept unchanged into the next population: clones of the ``n_elite`` best with distinct genes."""
         out, seen = [], set()
         for ind in tools.selBest(population, len(population)):
             if len(out) >= self.cfg.ga.n_elite:
@@ -347,12 +373,16 @@ class GeneticAlgorithm:
             out.append(self.toolbox.clone(ind))
         return out
 
-    def breed(self, population: list) -> list:
-        """Next population: elites + varied tournament winners (call inside :func:`_ga_rng`)."""
+    def select_parents(self, population: list, n: int) -> list:
+        """``n`` parents: tournaments of ``ga.tournament`` on the fitness (call inside :func:`_ga_rng`)."""
+        return self.toolbox.select(population, n)
+
+    def vary(self, parents: list) -> list:
+        """Children of ``parents``: pairwise SBX with probability cx_prob, then polynomial mutation with
+        probability mut_prob, genes clamped to their bounds (call inside :func:`_ga_rng`)."""
         ga = self.cfg.ga
         tb = self.toolbox
-        elites = self.elites(population)
-        offspring = [tb.clone(ind) for ind in tb.select(population, len(population) - len(elites))]
+        offspring = [tb.clone(ind) for ind in parents]
         for i in range(1, len(offspring), 2):
             if random.random() < ga.cx_prob:
                 a, b = offspring[i - 1], offspring[i]
@@ -369,21 +399,30 @@ class GeneticAlgorithm:
         for ind in offspring:
             if self.clamp(ind) and ind.fitness.valid:  # pragma: no cover - operators clip already
                 _invalidate(ind)
-        return elites + offspring
+        return offspring
+
+    def breed(self, population: list) -> list:
+        """The next generation's individuals: :meth:`carry_over` + the varied :meth:`select_parents`
+        (call inside :func:`_ga_rng`)."""
+        kept = self.carry_over(population)
+        return kept + self.vary(self.select_parents(population, len(population) - len(kept)))
+
+    def survive(self, population: list, bred: list, generation: int) -> list:
+        """The population after generation ``generation``: the bred individuals (call inside :func:`_ga_rng`)."""
+        return bred
+
+    def hall_of_fame_entries(self, bred: list) -> list:
+        """The individuals of a generation offered to the hall of fame (the GA's: all bred ones)."""
+        return bred
+
+    def after_evaluation(self, state: GAState, first: int) -> None:
+        """Keep what the variant needs of the records from index ``first`` on (nothing for the GA)."""
 
     # ------------------------------------------------------------------ evaluation
     def fitness_of(self, pen, genes: dict[str, float]) -> tuple[float, ...]:
         """DEAP fitness values of a penalised outcome: (infeasible, F_p) (:func:`fitness_values`); ``genes`` also
         holds the values of :attr:`measure_columns`."""
         return fitness_values(pen)
-
-    def write_outputs(self, run_dir, state: GAState) -> list:
-        """Algorithm-specific files written at the end of a run (none for the GA)."""
-        return []
-
-    def report_lines(self, run_dir, state: GAState) -> list[str]:
-        """Algorithm-specific lines of ``whisker-opt report`` (none for the GA)."""
-        return []
 
     def evaluate(self, state: GAState, individuals: list, executor, generation: int,
                  progress: EvaluationProgress | None = None) -> dict[str, int]:
@@ -545,16 +584,23 @@ class GeneticAlgorithm:
         state.stop_reason = self.stop_reason(state)
         state.extra["stop_detail"] = self.stop_detail(state)
 
+    def generation_summary(self, row: dict) -> str:
+        """What the log line of a generation says of its result: the best F_p and whether it is feasible."""
+        return f"best F_p={row['best_fp']:.6g} ({'feasible' if row['best_feasible'] else 'FAILED'})"
+
     # ------------------------------------------------------------------ loop
     def run_generation(self, state: GAState, executor, progress: EvaluationProgress | None = None) -> dict:
-        """Breed (or draw) and evaluate one generation; returns its statistics row."""
+        """Breed (or draw), evaluate and keep one generation (class docstring); returns its statistics row."""
         t0 = time.perf_counter()
         gen = state.generation + 1
         with _ga_rng(state):
-            pop = self.initial_population() if gen == 0 else self.breed(state.population)
-        counts = self.evaluate(state, pop, executor, gen, progress)
-        state.population = pop
-        state.hof.update(pop)
+            bred = self.initial_population() if gen == 0 else self.breed(state.population)
+        first = len(state.records)
+        counts = self.evaluate(state, bred, executor, gen, progress)
+        with _ga_rng(state):
+            state.population = self.survive(state.population, bred, gen)
+        state.hof.update(self.hall_of_fame_entries(bred))
+        self.after_evaluation(state, first)
         state.generation = gen
         wall = time.perf_counter() - t0
         state.elapsed_s += wall
@@ -563,18 +609,24 @@ class GeneticAlgorithm:
         state.logbook.append(row)
         self.set_stop(state)
         logger.info(
-            "generation %d: best F_p=%.6g (%s), %d evals, %d cache hits, %d failures%s",
-            gen, row["best_fp"], "feasible" if row["best_feasible"] else "FAILED", counts["evals"],
-            counts["cache_hits"], counts["n_failures"], f", stop: {state.stop_reason}" if state.stop_reason else "",
+            "generation %d: %s, %d evals, %d cache hits, %d failures%s",
+            gen, self.generation_summary(row), counts["evals"], counts["cache_hits"], counts["n_failures"],
+            f", stop: {state.stop_reason}" if state.stop_reason else "",
         )
         return row
 
     def run(self, state: GAState, executor, callbacks: Sequence[Callback] = (),
-            progress: EvaluationProgress | None = None) -> GAState:
-        """Run generations until a stopping rule fires; ``callbacks(state, row)`` after each,
-        ``progress`` (:class:`EvaluationProgress`) per evaluation."""
+            progress: EvaluationProgress | None = None, recorder: Recorder | None = None) -> GAState:
+        """Run generations until a stopping rule fires.
+
+        After each generation ``recorder.generation(state, row)`` (:class:`Recorder`), then
+        ``callback(state, row)`` for each of ``callbacks``; ``progress`` (:class:`EvaluationProgress`)
+        hears of each evaluation.
+        """
         while state.stop_reason is None:
             row = self.run_generation(state, executor, progress)
+            if recorder is not None:
+                recorder.generation(state, row)
             for cb in callbacks:
                 cb(state, row)
         return state

@@ -20,10 +20,15 @@ Loop (one generation; Deb et al. 2002)
                        mutation with probability mut_prob (per-gene indpb), genes clamped to their bounds
             population = ``tools.selNSGA2`` (fronts, then crowding distance) of parents ∪ children,
                        exact genome duplicates removed first while N distinct ones remain
-    Evaluation, cache, executors, progress, checkpoints and RNG handling are the GA's
-    (:class:`whisker_opt.optimise.ga.GeneticAlgorithm`); so is the hall of fame, which here
-    ranks every evaluated design by the penalised F_p of the same config: its best is the design
-    the single-objective GA's score would pick, written to ``best.json`` as usual.
+    The loop, evaluation, cache, executors, progress, checkpoints and RNG handling are the GA's
+    (:class:`whisker_opt.optimise.ga.GeneticAlgorithm`): this class overrides its selection
+    (:meth:`NSGA2.select_parents`, no carried-over elites), survival (:meth:`NSGA2.survive`), what
+    the hall of fame is offered and the archive kept beside it, the statistics, the stopping rules
+    and the log line. The hall of fame ranks every evaluated design by the penalised F_p of the same
+    config: its best is the design the single-objective GA's score would pick, written to
+    ``best.json`` as usual. The front's files (``pareto.csv``, ``pareto.png``, ``hypervolume.png``)
+    and its verification at a finer preset are the run recorder's
+    (:mod:`whisker_opt.optimise.recorder`); this module only says what the front is (:meth:`NSGA2.front_rows`).
 
 Archive and hypervolume
     The archive (``state.extra["archive"]``: eval ids) is the non-dominated subset of every
@@ -47,17 +52,15 @@ import logging
 import random
 import time
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence
 
 from deap import creator, tools
 
 from whisker_opt.config.optimiser import ExecutorConfig, OptimiserConfig
 from whisker_opt.experiment.measures import MEASURES
-from whisker_opt.optimise.ga import EvaluationProgress, GAState, GeneticAlgorithm, Individual, _ga_rng, stalled
+from whisker_opt.optimise.ga import GAState, GeneticAlgorithm, Individual, stalled
 from whisker_opt.optimise.pareto import hypervolume, non_dominated
 from whisker_opt.optimise.penalty import PenaltyTerm, dynamic_penalty
-from whisker_opt.output import pareto_plots
 
 logger = logging.getLogger(__name__)
 
@@ -162,7 +165,7 @@ class NSGA2(GeneticAlgorithm):
         self.objectives = objective_terms(cfg)
         self.measure_columns = tuple(o.name for o in self.objectives if not o.gene and o.name != "f1")
         self.n_obj = len(self.objectives)
-        self.mo_class = getattr(creator, f"WhiskerMOIndividual{self.n_obj}")
+        self.individual_class = getattr(creator, f"WhiskerMOIndividual{self.n_obj}")
         self.toolbox.register("select", tools.selNSGA2)
 
     # ------------------------------------------------------------------ objectives
@@ -190,13 +193,13 @@ class NSGA2(GeneticAlgorithm):
             return None
         return {"f1": f1_ref, **state.extra.get("measure_refs", {})}
 
-    # ------------------------------------------------------------------ breeding
-    def initial_population(self) -> list:
-        """The GA's initial draw (same random stream), as multi-objective individuals."""
-        return [self.mo_class(list(ind)) for ind in super().initial_population()]
+    # ------------------------------------------------------------------ selection and survival
+    def carry_over(self, population: list) -> list:
+        """None: survival keeps the best of parents and children."""
+        return []
 
-    def _crowded_tournament(self, population: list) -> list:
-        """N binary tournaments on (rank, −crowding distance); call inside :func:`_ga_rng`."""
+    def select_parents(self, population: list, n: int) -> list:
+        """``n`` binary tournaments on (rank, −crowding distance); call inside :func:`whisker_opt.optimise.ga._ga_rng`."""
         rank: dict[int, int] = {}
         crowd: dict[int, float] = {}
         for r, front in enumerate(tools.sortNondominated(population, len(population))):
@@ -204,42 +207,19 @@ class NSGA2(GeneticAlgorithm):
             for ind in front:
                 rank[id(ind)] = r
                 crowd[id(ind)] = ind.fitness.crowding_dist
-        n = len(population)
+        size = len(population)
         chosen = []
         for _ in range(n):
-            a, b = population[random.randrange(n)], population[random.randrange(n)]
+            a, b = population[random.randrange(size)], population[random.randrange(size)]
             ka, kb = (rank[id(a)], -crowd[id(a)]), (rank[id(b)], -crowd[id(b)])
             chosen.append(b if kb < ka else a)
         return chosen
 
-    def breed(self, population: list) -> list:
-        """N children of crowded-tournament parents (no elites: selection keeps the best)."""
-        ga = self.cfg.ga
-        tb = self.toolbox
-        offspring = [tb.clone(ind) for ind in self._crowded_tournament(population)]
-        for i in range(1, len(offspring), 2):
-            if random.random() < ga.cx_prob:
-                a, b = offspring[i - 1], offspring[i]
-                self.clamp(a)
-                self.clamp(b)
-                tb.mate(a, b)
-                del a.fitness.values, b.fitness.values
-                a.info = b.info = None
-        for ind in offspring:
-            if random.random() < ga.mut_prob:
-                self.clamp(ind)
-                tb.mutate(ind)
-                del ind.fitness.values
-                ind.info = None
-        for ind in offspring:
-            if self.clamp(ind) and ind.fitness.valid:  # pragma: no cover - operators clip already
-                del ind.fitness.values
-                ind.info = None
-        return offspring
-
-    def survivors(self, population: list, offspring: list) -> list:
-        """``selNSGA2`` of parents ∪ children, distinct genomes when N of them exist."""
-        pool = population + offspring
+    def survive(self, population: list, bred: list, generation: int) -> list:
+        """``selNSGA2`` of parents ∪ children, distinct genomes when N of them exist (generation 0: all drawn)."""
+        if generation == 0:
+            return bred
+        pool = population + bred
         seen, distinct = set(), []
         for ind in pool:
             key = tuple(ind)
@@ -248,6 +228,14 @@ class NSGA2(GeneticAlgorithm):
                 distinct.append(ind)
         n = self.cfg.ga.population
         return tools.selNSGA2(distinct if len(distinct) >= n else pool, n)
+
+    def hall_of_fame_entries(self, bred: list) -> list:
+        """Single-objective copies of the evaluated children (:meth:`penalised`)."""
+        return [self.penalised(ind) for ind in bred]
+
+    def after_evaluation(self, state: GAState, first: int) -> None:
+        """Fold the generation's records into the archive (:meth:`update_archive`)."""
+        self.update_archive(state, first)
 
     # ------------------------------------------------------------------ archive / hall of fame
     @staticmethod
@@ -323,34 +311,11 @@ class NSGA2(GeneticAlgorithm):
                     f"generations is <= stopping.stall_tol = {st.stall_tol:g} (generation {state.generation})")
         return super().stop_detail(state)
 
-    # ------------------------------------------------------------------ loop
-    def run_generation(self, state: GAState, executor, progress: EvaluationProgress | None = None) -> dict:
-        """Breed (or draw), evaluate, select survivors; returns the statistics row."""
-        t0 = time.perf_counter()
-        gen = state.generation + 1
-        with _ga_rng(state):
-            offspring = self.initial_population() if gen == 0 else self.breed(state.population)
-        first = len(state.records)
-        counts = self.evaluate(state, offspring, executor, gen, progress)
-        with _ga_rng(state):
-            state.population = offspring if gen == 0 else self.survivors(state.population, offspring)
-        state.hof.update([self.penalised(ind) for ind in offspring])
-        self.update_archive(state, first)
-        state.generation = gen
-        wall = time.perf_counter() - t0
-        state.elapsed_s += wall
-        row = self.generation_stats(state, gen, counts, wall)
-        row["elapsed_s"] = state.elapsed_s
-        state.logbook.append(row)
-        self.set_stop(state)
-        logger.info(
-            "generation %d: hypervolume %.6g, front of %d, best F_p=%.6g, %d evals, %d cache hits, %d failures%s",
-            gen, row["hypervolume"], row["front_size"], row["best_fp"], counts["evals"], counts["cache_hits"],
-            counts["n_failures"], f", stop: {state.stop_reason}" if state.stop_reason else "",
-        )
-        return row
+    def generation_summary(self, row: dict) -> str:
+        """The log line's result: the front's hypervolume and size, and the best F_p."""
+        return f"hypervolume {row['hypervolume']:.6g}, front of {row['front_size']}, best F_p={row['best_fp']:.6g}"
 
-    # ------------------------------------------------------------------ the front on disk
+    # ------------------------------------------------------------------ the front
     def front_rows(self, state: GAState) -> list[dict[str, Any]]:
         """The archive's designs (sorted by f1) and, when off it, the penalised optimum: genes, f1, F_p, flags."""
         recs = state.records
@@ -371,23 +336,12 @@ class NSGA2(GeneticAlgorithm):
                          "F_p": best.fitness.values[1], "on_front": False, "penalised_optimum": True})
         return rows
 
-    def write_outputs(self, run_dir, state: GAState) -> list[Path]:
-        """``pareto.csv`` (keeping verified values already in it), ``pareto.png`` and ``hypervolume.png``."""
-        if state.generation < 0:
-            return []
-        fidelity = (state.extra or {}).get("fidelity") or {}
-        rows = pareto_plots.merge_verified(self.front_rows(state), pareto_plots.read_front(run_dir), self.names)
-        self._verified_front(rows)
-        return pareto_plots.write_front_outputs(
-            run_dir, rows, self.names, [o.name for o in self.objectives], [o.label for o in self.objectives],
-            self._all_points(state), state.logbook, fidelity, state.stop_reason)
-
-    def _all_points(self, state: GAState) -> list[dict[str, float]]:
+    def all_points(self, state: GAState) -> list[dict[str, float]]:
         """f1 and genes of every distinct feasible design evaluated (cache hits once)."""
         return [{"f1": r["f1"], **{g: r[g] for g in (*self.names, *self.measure_columns)}} for r in state.records
                 if r["f1"] is not None and not r.get("cache_hit")]
 
-    def _verified_front(self, rows: list[dict[str, Any]]) -> None:
+    def mark_verified_front(self, rows: list[dict[str, Any]]) -> None:
         """``on_front_verified``: non-domination recomputed on the verified f1 among the verified rows."""
         ok = [r for r in rows if r.get("status_verified") == "ok"]
         keep = set(non_dominated([tuple(o.value({**r, "f1": float(r["f1_verified"])}) for o in self.objectives)
@@ -397,21 +351,22 @@ class NSGA2(GeneticAlgorithm):
         for r in rows:
             r.setdefault("on_front_verified", None)
 
-    def verify_front(self, run_dir, state: GAState, evaluator: Callable, preset: str,
-                     executor_cfg: ExecutorConfig | None = None) -> list[dict[str, Any]]:
-        """Re-evaluate the front (and the penalised optimum) at fidelity ``preset``; rewrite the outputs.
+    def verify_rows(self, rows: list[dict[str, Any]], state: GAState, evaluator: Callable, preset: str,
+                    executor_cfg: ExecutorConfig | None = None) -> list[dict[str, Any]]:
+        """Re-evaluate front rows (and the penalised optimum) at fidelity ``preset``, in place.
 
-        Rows already verified at ``preset`` in ``pareto.csv`` are kept; at most
-        ``pareto.verify_max`` designs are verified, spread evenly along the front (sorted by f1)
-        with both ends and the penalised optimum always included. F_p at ``preset`` uses the
-        run's penalty terms (F_p = f1 + Σ_j C_j κ_j, :func:`dynamic_penalty`).
+        Rows already verified at ``preset`` are kept; at most ``pareto.verify_max`` designs are
+        verified, spread evenly along the front (sorted by f1) with both ends and the penalised
+        optimum always included. F_p at ``preset`` uses the run's penalty terms
+        (F_p = f1 + Σ_j C_j κ_j, :func:`dynamic_penalty`); ``on_front_verified`` is recomputed
+        (:meth:`mark_verified_front`).
 
         Parameters
         ----------
-        run_dir : Path
-            The run directory (``pareto.csv`` is read from and written to it).
+        rows : list of dict
+            :meth:`front_rows`, merged with the verified values already kept.
         state : GAState
-            The run's state (archive, records, hall of fame).
+            The run's state (its cache keys give the evaluation seeds).
         evaluator : callable
             Picklable ``evaluate(genes) -> EvalOutcome`` at fidelity ``preset``.
         preset : str
@@ -422,12 +377,12 @@ class NSGA2(GeneticAlgorithm):
         Returns
         -------
         list of dict
-            The rows of ``pareto.csv``.
+            ``rows``, with ``verified_preset``, ``status_verified``, ``f1_verified``, ``F_p_verified``
+            and ``on_front_verified``.
         """
         from whisker_opt.optimise.backend import make_executor
         from whisker_opt.optimise.evalcache import evaluation_seed
 
-        rows = pareto_plots.merge_verified(self.front_rows(state), pareto_plots.read_front(run_dir), self.names)
         todo = [j for j, r in enumerate(rows) if r.get("verified_preset") != preset]
         cap = self.cfg.pareto.verify_max
         if len(todo) > cap:
@@ -446,51 +401,5 @@ class NSGA2(GeneticAlgorithm):
                                f1_verified=float(out.f1) if ok else None,
                                F_p_verified=dynamic_penalty(float(out.f1), gs, self.terms)[1] if ok else None)
             logger.info("front verified at preset %s in %.1f s", preset, time.perf_counter() - t0)
-        self._verified_front(rows)
-        fidelity = (state.extra or {}).get("fidelity") or {}
-        pareto_plots.write_front_outputs(
-            run_dir, rows, self.names, [o.name for o in self.objectives], [o.label for o in self.objectives],
-            self._all_points(state), state.logbook, fidelity, state.stop_reason)
+        self.mark_verified_front(rows)
         return rows
-
-    def report_lines(self, run_dir, state: GAState) -> list[str]:
-        """The front as ``whisker-opt report`` shows it (from ``pareto.csv`` when verified)."""
-        rows = pareto_plots.merge_verified(self.front_rows(state), pareto_plots.read_front(run_dir), self.names)
-        self._verified_front(rows)
-        hv = state.logbook[-1]["hypervolume"] if state.logbook else 0.0
-        return pareto_plots.front_table(rows, [o.label for o in self.objectives], self.names, hv)
-
-
-def verify_run_front(run_dir: Path, evaluator_at: Callable[[str], Callable],
-                     run_preset: str | None) -> list[dict[str, Any]] | None:
-    """Verify a finished multi-objective run's front at the preset after ``run_preset`` (pareto.csv, pareto.png).
-
-    Parameters
-    ----------
-    run_dir : Path
-        A run directory with a checkpoint.
-    evaluator_at : callable
-        ``evaluator_at(preset)`` -> the run's evaluator at that fidelity preset.
-    run_preset : str or None
-        The run's own preset.
-
-    Returns
-    -------
-    list of dict or None
-        The rows of ``pareto.csv``; None for a GA run, a run without checkpoint, ``pareto.verify: false``
-        or a run at the finest preset (logged).
-    """
-    from whisker_opt.optimise.checkpoint import has_checkpoint, load_checkpoint
-
-    if not has_checkpoint(run_dir):
-        return None
-    state, config = load_checkpoint(run_dir)
-    cfg = OptimiserConfig.model_validate(config)
-    if cfg.algorithm != "nsga2" or not cfg.pareto.verify or state.generation < 0:
-        return None
-    preset = finer_preset(run_preset)
-    if preset is None:
-        logger.warning("the run's preset %s has no finer preset: the front is not verified", run_preset)
-        return None
-    return NSGA2(cfg, state.seed).verify_front(run_dir, state, evaluator_at(preset), preset)
-

@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from whisker_opt.optimise.ga import GAState, best_design, in_strain
-from whisker_opt.output.plots import short_float
+from whisker_opt.numfmt import short_float
 
 logger = logging.getLogger(__name__)
 

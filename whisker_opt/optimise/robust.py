@@ -53,6 +53,9 @@ PointFunction = Callable[[np.ndarray], Sequence[float]]
 
 DISTRIBUTIONS: tuple[str, ...] = ("uniform", "normal")
 SAMPLINGS: tuple[str, ...] = ("lhs", "monte_carlo")
+#: What a robust evaluation reports beside its objective (``EvalOutcome.extra``, columns of ``evaluations.csv``
+#: after ``f1``, which then holds mean + k·std of f1 under the tolerances): the nominal f1 and the two moments.
+ROBUST_COLUMNS: tuple[str, ...] = ("f1_nominal", "f1_mean", "f1_std")
 
 
 def _check_half_widths(half_widths: Sequence[float]) -> np.ndarray:

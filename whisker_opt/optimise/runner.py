@@ -5,10 +5,11 @@ The CLI commands ``run``, ``resume`` and ``report`` are thin wrappers around
 any picklable callable ``evaluate(genes: dict[str, float]) -> EvalOutcome`` (genes
 ``alpha`` [deg], ``l`` [mm], ``t`` [mm], ``Q_i`` [MPa]); see :mod:`whisker_opt.experiment.outcome`.
 
-After every generation the runner writes, in this order, the checkpoint, then
-``evaluations.csv``, ``generations.csv`` and ``best.json`` (all atomic, see
-:mod:`whisker_opt.output.storage`); at the end the convergence plot and, when the best design's
-outcome carries its curves, ``best_curves.csv/png``.
+The algorithm writes nothing: the runner passes it a :class:`whisker_opt.optimise.recorder.RunRecorder`,
+which after every generation writes, in this order, the checkpoint, then ``evaluations.csv``,
+``generations.csv`` and ``best.json`` (all atomic, see :mod:`whisker_opt.output.storage`); at the
+end the convergence plot, when the best design's outcome carries its curves ``best_curves.csv/png``,
+and the multi-objective mode's front.
 
 Fidelity
     A run may be given its fidelity, ``{"preset": name, "f1_resolution": value}``
@@ -48,12 +49,12 @@ from whisker_opt.optimise.checkpoint import (
     has_older_checkpoint,
     load_checkpoint,
     remove_stale_temporaries,
-    save_checkpoint,
 )
 from whisker_opt.optimise.backend import make_executor
 from whisker_opt.optimise.best import describe_distance, run_best_designs
 from whisker_opt.optimise.ga import EvaluationProgress, GAState, GeneticAlgorithm, best_design
 from whisker_opt.optimise.nsga2 import make_algorithm
+from whisker_opt.optimise.recorder import RunRecorder, outputs_of, write_plots
 from whisker_opt.optimise.resolution import resolution_warning, run_fidelity, target_warning  # noqa: F401
 from whisker_opt.optimise.rundir import (  # noqa: F401 - write_run_metadata: also the workflows'
     ConfigChange,
@@ -66,7 +67,7 @@ from whisker_opt.optimise.rundir import (  # noqa: F401 - write_run_metadata: al
 from whisker_opt.output.lock import RunDirLock
 from whisker_opt.config.optimiser import ExecutorConfig, OptimiserConfig
 from whisker_opt.experiment.outcome import EvalOutcome
-from whisker_opt.output.plots import design_label, plot_convergence, plot_curves, short_float, write_best_curves
+from whisker_opt.numfmt import short_float
 from whisker_opt.output.progress import progress_bar
 
 logger = logging.getLogger(__name__)
@@ -129,126 +130,6 @@ def _summary(run_dir: Path, state: GAState) -> RunSummary:
         population=tuple(tuple(float(x) for x in ind) for ind in state.population),
         fitness=tuple(tuple(ind.fitness.values) for ind in state.population),
     )
-
-
-class _RunWriter:
-    """Per-generation callback that keeps the run directory in step with the GA state."""
-
-    def __init__(self, run_dir: Path, ga: GeneticAlgorithm, config: dict[str, Any]) -> None:
-        self.run_dir = Path(run_dir)
-        self.ga = ga
-        self.config = config
-        self.eval_cols = storage.evaluation_columns(ga.names, [t.column for t in ga.terms],
-                                                    robust=ga.cfg.robust is not None,
-                                                    measure_columns=ga.measure_columns)
-        self.gen_cols = storage.generation_columns(ga.names) + list(getattr(ga, "EXTRA_GENERATION_COLUMNS", ()))
-
-    def __call__(self, state: GAState, row: dict | None = None) -> None:
-        save_checkpoint(self.run_dir, state, self.config)
-        self.write_tables(state)
-
-    def write_tables(self, state: GAState) -> None:
-        storage.write_evaluations(self.run_dir, state.records, self.eval_cols)
-        storage.write_generations(self.run_dir, state.logbook, self.gen_cols)
-        storage.write_best(self.run_dir, _best_json(state, self.ga.cfg))
-
-    def finish(self, state: GAState) -> None:
-        self.write_tables(state)
-        write_plots(self.run_dir, state, self.ga.cfg)
-        self.ga.write_outputs(self.run_dir, state)  # the multi-objective mode's front
-
-
-def _best_json(state: GAState, cfg: OptimiserConfig) -> dict[str, Any]:
-    return {
-        **best_design(state),
-        "fidelity": run_fidelity(state),
-        "seed": state.seed,
-        "stop_reason": state.stop_reason,
-        "stop_detail": (state.extra or {}).get("stop_detail") if state.stop_reason else None,
-        "distinct_distance": cfg.distinct_distance,
-        "best_designs": run_best_designs(state, cfg),
-        "generations": state.generation,
-        "n_evaluations": state.n_evaluations,
-        "n_cache_hits": state.n_cache_hits,
-        "n_failures": state.n_failures,
-        "wall_time_s": state.elapsed_s,
-        "config_changes": list(state.extra.get("config_changes", [])),
-    }
-
-
-def _best_outcome(state: GAState) -> EvalOutcome | None:
-    if not state.hof:
-        return None
-    return state.cache.get(state.cache.key(state.hof[0]))
-
-
-def write_plots(run_dir: Path, state: GAState, cfg: OptimiserConfig) -> list[Path]:
-    """Convergence plot, and the best design's curves when its outcome holds them.
-
-    Titles name the run's fidelity (:func:`run_fidelity`) and, for the curves, the trim.
-    """
-    out: list[Path] = []
-    if not state.logbook:
-        return out
-    lb = state.logbook
-    fidelity = run_fidelity(state, run_dir)
-    stop = f"stopped by {state.stop_reason}" if state.stop_reason else "running"
-    if cfg.algorithm == "nsga2":  # what it optimises: the front's hypervolume and its smallest f1
-        from whisker_opt.optimise.nsga2 import objective_terms
-        from whisker_opt.output.pareto_plots import plot_mo_convergence
-
-        out.append(plot_mo_convergence(
-            Path(run_dir) / "convergence.png", lb, smallest_f1(state.records, [r["generation"] for r in lb]),
-            [o.label for o in objective_terms(cfg)],
-            f"NSGA-II convergence ({stop}, generation {state.generation}, {state.n_evaluations} evaluations)",
-            fidelity))
-    else:
-        out.append(plot_convergence(
-            Path(run_dir) / "convergence.png",
-            [r["generation"] for r in lb],
-            [r["best_fp"] for r in lb],
-            [r["mean_fp"] for r in lb],
-            [r["best_feasible"] for r in lb],
-            cfg.stopping.target_fp,
-            title=f"GA convergence ({stop}, generation {state.generation}, {state.n_evaluations} evaluations)",
-            fidelity=fidelity,
-            target_strain=cfg.stopping.target_strain,
-            best_f1=[r.get("best_f1") for r in lb],
-        ))
-    best_out = _best_outcome(state)
-    curves_csv = Path(run_dir) / storage.BEST_CURVES_CSV
-    if (best_out is None or "eps_i" not in best_out.extra) and curves_csv.is_file():
-        rows = storage.read_csv(curves_csv)  # the best design's curves as re-solved after the run
-        try:
-            col = {k: [float(r[k]) for r in rows] for k in rows[0]} if rows else {}
-        except (KeyError, ValueError):
-            col = {}
-        if {"delta_mm", "eps_i", "eps_c"} <= set(col):
-            title = f"best design: {design_label(best_design(state)['genes'], cfg.trim)}"
-            out.append(plot_curves(Path(run_dir) / "best_curves.png", col["delta_mm"], col["eps_i"], col["eps_c"],
-                                   title, col.get("eps_u"), fidelity))
-    if best_out is not None and all(k in best_out.extra for k in ("delta", "eps_i", "eps_c")):
-        title = f"best design: {design_label(best_design(state)['genes'], cfg.trim)}"
-        out.append(
-            write_best_curves(
-                run_dir, best_out.extra["delta"], best_out.extra["eps_i"], best_out.extra["eps_c"], title,
-                best_out.extra.get("eps_u"), fidelity,
-            )
-        )
-    return out
-
-
-def smallest_f1(records: Sequence[Mapping[str, Any]], generations: Sequence[int]) -> list[float]:
-    """The smallest f1 of the feasible evaluations up to each of ``generations`` (NaN before the first)."""
-    best, out, rows = math.inf, [], sorted((int(r["generation"]), float(r["f1"])) for r in records
-                                           if r.get("f1") is not None and r.get("status", "ok") == "ok")
-    k = 0
-    for g in generations:
-        while k < len(rows) and rows[k][0] <= g:
-            best = min(best, rows[k][1])
-            k += 1
-        out.append(best if math.isfinite(best) else math.nan)
-    return out
 
 
 class _Progress(EvaluationProgress):
@@ -332,7 +213,7 @@ def _drive(
     progress: bool,
     callbacks: Sequence[Callable[[GAState, dict], None]],
 ) -> RunSummary:
-    writer = _RunWriter(run_dir, ga, config)
+    recorder = RunRecorder(run_dir, ga, config)
     fidelity = run_fidelity(state, run_dir)
     if state.stop_reason is None:
         early = target_warning(ga.cfg.stopping, fidelity) if ga.cfg.algorithm == "ga" else None
@@ -341,10 +222,10 @@ def _drive(
         bar = _Progress(ga.cfg, state, progress)
         try:
             with make_executor(exec_cfg, evaluator) as ex:
-                ga.run(state, ex, callbacks=[writer, *callbacks], progress=bar)
+                ga.run(state, ex, callbacks=callbacks, progress=bar, recorder=recorder)
         finally:
             bar.close(finished=state.stop_reason is not None)
-    writer.finish(state)
+    recorder.finish(state)
     logger.info(
         "run %s finished: %s after generation %d, %d evaluations, %d cache hits, %d failures, best F_p=%.6g (%s)",
         run_dir, state.stop_reason, state.generation, state.n_evaluations, state.n_cache_hits,
@@ -560,7 +441,7 @@ def resume_optimisation(
         if config_change is not None or not state.extra.get("run_config_sha256"):
             record_config(state, run_config, config_change)
         if state.generation >= 0:
-            _RunWriter(run_dir, ga, config).write_tables(state)
+            RunRecorder(run_dir, ga, config).write_tables(state)
             logger.info("resuming %s after generation %d", run_dir, state.generation)
         return _drive(ga, state, run_dir, evaluator, executor or cfg.executor, config, progress, callbacks)
 
@@ -599,7 +480,8 @@ def report(run_dir: Path, max_rows: int = 60) -> str:
         return f"{run_dir}: no generation completed yet"
     write_plots(run_dir, state, cfg)
     ga = make_algorithm(cfg, seed)
-    ga.write_outputs(run_dir, state)
+    outputs = outputs_of(cfg)
+    outputs.write(run_dir, ga, state)
     b = best_design(state)
     statuses = Counter(r["status"] for r in state.records if r["status"] != "ok")
     rate = state.n_evaluations / state.elapsed_s if state.elapsed_s > 0 else math.nan
@@ -670,4 +552,4 @@ def report(run_dir: Path, max_rows: int = 60) -> str:
         )
     from whisker_opt.analysis.law_spread import report_lines as spread_lines
 
-    return "\n".join(lines + ga.report_lines(run_dir, state) + spread_lines(run_dir))
+    return "\n".join(lines + outputs.report_lines(run_dir, ga, state) + spread_lines(run_dir))

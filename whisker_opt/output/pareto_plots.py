@@ -26,7 +26,8 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
 from whisker_opt.output import storage
-from whisker_opt.output.plots import STRAIN_UNIT, _save, fidelity_label, short_float
+from whisker_opt.numfmt import short_float
+from whisker_opt.output.plots import STRAIN_UNIT, _save, fidelity_label
 
 #: File names in a run directory.
 PARETO_CSV = "pareto.csv"

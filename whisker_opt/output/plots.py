@@ -27,6 +27,7 @@ from matplotlib.ticker import MaxNLocator
 from whisker_opt.output import storage
 from whisker_opt.output.storage import atomic_write_bytes
 from whisker_opt.experiment import objective
+from whisker_opt.numfmt import short_float
 
 #: Unit of f1, F_p and the readings in labels.
 STRAIN_UNIT = "[-] (calibrated strain)"
@@ -38,17 +39,6 @@ def _save(fig: Figure, path: Path) -> Path:
     fig.savefig(buf, format=Path(path).suffix.lstrip(".") or "png", dpi=120, bbox_inches="tight")
     atomic_write_bytes(Path(path), buf.getvalue())
     return Path(path)
-
-
-def short_float(x: float | None, digits: int = 1) -> str:
-    """``x`` in short scientific notation: ``2e-3``, ``1.16e-3`` (``digits`` after the point at most)."""
-    if x is None or not math.isfinite(float(x)):
-        return "nan"
-    if x == 0:
-        return "0"
-    mant, exp = f"{float(x):.{digits}e}".split("e")
-    mant = mant.rstrip("0").rstrip(".") if "." in mant else mant
-    return f"{mant}e{int(exp)}"
 
 
 def fidelity_label(fidelity: Mapping[str, Any] | None) -> str:

@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from fem import post
+from fem.material import von_mises_stress
 
 logger = logging.getLogger(__name__)
 
@@ -243,7 +244,7 @@ def state_fields(mesh, state, spec=None) -> tuple[dict, dict]:
         pdata["log_strain"] = post.symmetric_components(le)
         pdata["log_strain_axial"] = le[:, 0, 0]
         pdata["cauchy_stress"] = post.symmetric_components(sigma)
-        pdata["von_mises"] = post.von_mises_stress(sigma)
+        pdata["von_mises"] = von_mises_stress(sigma)
     else:
         le = post.spread_to_nodes(post.eulerian_log_strain(F), used)
         pdata["log_strain"] = post.symmetric_components(le)
@@ -397,31 +398,6 @@ def write_scene_files(out: Path, name: str, res) -> SceneFiles:
             if fibre_paths else None)
     logger.debug("scene %s: %d state VTU(s), %d fibre VTU(s), %s", name, len(vtus), len(fibre_paths), pvd)
     return SceneFiles(vtus, fibre_paths, pvd, fpvd, deltas)
-
-
-def write_scene_vtus(out: Path, name: str, res) -> list[Path]:
-    """Write the kept states of a scene result (:func:`write_scene_files`); return the state VTUs.
-
-    One ``<out>/<name>_<state>.vtu`` per state of
-    :attr:`whisker_opt.experiment.scene.SceneResult.states`, in deflection order:
-    ``pressurised``, ``delta_<δ>`` for every solved deflection increment but the last, and
-    ``deflected`` (the last increment, written once); besides them the fibre VTUs and the
-    ``.pvd`` collections.
-
-    Parameters
-    ----------
-    out : Path
-    name : str
-        Scene name (file prefix).
-    res : whisker_opt.experiment.scene.SceneResult
-        Solved with ``keep_states=True``.
-
-    Returns
-    -------
-    list of Path
-        The state VTUs.
-    """
-    return write_scene_files(out, name, res).states
 
 
 def scene_entry(spec, res, gauge_variant: str = "line", **extra) -> dict:

@@ -245,18 +245,12 @@ def read_csv(path: Path) -> list[dict[str, str]]:
         return list(csv.DictReader(fh))
 
 
-#: Extra columns of ``evaluations.csv`` when the GA optimises the robust objective (``optimiser.robust``):
-#: ``f1`` then holds mean + k·std of f1 under the tolerances, these the nominal f1 and the two moments.
-ROBUST_COLUMNS = ("f1_nominal", "f1_mean", "f1_std")
-
-
-def evaluation_columns(gene_names: Sequence[str], kappa_columns: Sequence[str], robust: bool = False,
-                       measure_columns: Sequence[str] = ()) -> list[str]:
-    """Columns of ``evaluations.csv`` (with :data:`ROBUST_COLUMNS` after ``f1`` for a robust objective, then the
-    measures an optimiser reads besides f1, e.g. NSGA-II's ``sensitivity``)."""
+def evaluation_columns(gene_names: Sequence[str], kappa_columns: Sequence[str],
+                       robust_columns: Sequence[str] = (), measure_columns: Sequence[str] = ()) -> list[str]:
+    """Columns of ``evaluations.csv`` (``robust_columns`` after ``f1``: what a robust objective reports beside
+    it; then the measures an optimiser reads besides f1, e.g. NSGA-II's ``sensitivity``)."""
     return (
-        ["eval_id", "generation", *gene_names, "f1", *(ROBUST_COLUMNS if robust else ()), *measure_columns,
-         *kappa_columns, "F_p",
+        ["eval_id", "generation", *gene_names, "f1", *robust_columns, *measure_columns, *kappa_columns, "F_p",
          "f1_uncalibrated", "F_p_uncalibrated", "status", "reason", "time_s", "cache_hit"]
     )
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import logging
 from typing import Sequence
 
 import numpy as np
@@ -11,7 +10,6 @@ from whisker_opt.viewer.fields import STRAIN_FIELD
 from whisker_opt.viewer.guard import ViewerError
 from whisker_opt.viewer.state import StateView
 
-logger = logging.getLogger(__name__)
 
 CLIM_MODES = ("panel", "shared")
 """Colour-range modes: each panel its own range and bar, or one range for all panels."""

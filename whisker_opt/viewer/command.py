@@ -23,7 +23,8 @@ from whisker_opt.viewer.evaluations import evaluation_group, evaluation_row
 from whisker_opt.viewer.genome import genome_scenes
 from whisker_opt.viewer.guard import ViewerError, ViewerUnavailable, display_problem, is_headless, require_pyvista
 from whisker_opt.viewer.plots import write_plots
-from whisker_opt.viewer.render import CAVITY_MODES, CLIM_MODES, interactive_plotter, render
+from whisker_opt.viewer.colours import CLIM_MODES
+from whisker_opt.viewer.render import CAVITY_MODES, interactive_plotter, render
 from whisker_opt.viewer.rundir import discover
 from whisker_opt.viewer.state import load_views
 

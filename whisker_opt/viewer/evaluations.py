@@ -177,7 +177,7 @@ def evaluation_group(contents: RunContents, row: Mapping[str, Any], rerun: bool 
     if not cfg_path.is_file():
         raise FileNotFoundError(f"{cfg_path}: no such file; re-running the scenes of evaluation {eid} needs the "
                                 "run's config")
-    from whisker_opt import workflows
+    import whisker_opt.workflows as workflows
     from whisker_opt.config.model import ConfigError, load_config
 
     final = root / f"eval_{eid or '_'.join(f'{genes[k]:.6g}' for k in names)}"

@@ -16,7 +16,7 @@ from typing import Any, Mapping, Sequence
 
 from pydantic import ValidationError
 
-from whisker_opt import wiring
+import whisker_opt.wiring as wiring
 from whisker_opt.config.model import WhiskerConfig, format_validation_error
 from whisker_opt.viewer.sceneinfo import SceneInfo, scene_info_from_dict
 

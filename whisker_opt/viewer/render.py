@@ -30,7 +30,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from whisker_opt.viewer.colours import CLIM_MODES, _per_panel, panel_clims, panel_scopes  # noqa: F401  (CLIM_MODES: the command's choices)
+from whisker_opt.viewer.colours import _per_panel, panel_clims, panel_scopes
 from whisker_opt.viewer.fields import field_names, resolve_field
 from whisker_opt.viewer.guard import ViewerError, is_headless, require_pyvista
 from whisker_opt.viewer.labels import (
@@ -134,25 +134,8 @@ def add_state(
     """
     if cavity not in CAVITY_MODES:
         raise ViewerError(f"cavity={cavity!r}: must be one of {CAVITY_MODES}")
-    name, label, comp = field
     clip = cavity == "clip"
-    mesh_kw: dict[str, Any] = dict(smooth_shading=True, show_scalar_bar=name is not None and show_scalar_bar)
-    if name is not None:
-        title = bar_title or label
-        w_px = panel_pixels(plotter)[0]
-        half_title = 4.0 * max(len(ln) for ln in title.split("\n"))  # ~ half its width at 12 pt [px]
-        bar_kw: dict[str, Any] = dict(title=title, n_labels=5, fmt="%.3g", vertical=True,
-                                      position_x=min(0.88, 1.0 - 0.025 - (half_title + 6.0) / w_px),
-                                      position_y=0.2, width=0.05, height=0.56, title_font_size=12,
-                                      label_font_size=11)
-        if own_bar:
-            if _has_unique_bar():
-                bar_kw["unique_bar"] = True
-            else:  # older pyvista: a title of its own (trailing spaces do not show)
-                bar_kw["title"] = title + " " * (plotter.renderers.active_index + 1)
-        mesh_kw.update(scalars=name, component=comp, cmap=cmap, clim=clim, scalar_bar_args=bar_kw)
-    else:
-        mesh_kw.update(color="lightsteelblue")
+    mesh_kw = _mesh_style(plotter, field, clim, cmap, show_scalar_bar, bar_title, own_bar)
     outer = _clip(sv.outer, clip, sv.cut_z)
     opacity = 0.35 if cavity == "translucent" and sv.cavity is not None else 1.0
     if outer is not None and outer.n_points:
@@ -176,6 +159,51 @@ def add_state(
             plotter.add_mesh(ed, color="black", opacity=0.2, line_width=1, name=prefix + "edges")
     if show_outline and sv.outline is not None and sv.outline.n_points:
         plotter.add_mesh(sv.outline, color=OUTLINE_COLOUR, line_width=2, name=prefix + "outline")
+    _add_markers(plotter, sv, clip, prefix, show_fibres, show_gauge, show_contact)
+    if show_text:
+        dtxt, gtxt = text_lines(sv)
+        # wide enough to leave the gauge text beside it (~9 px a character at 11 pt)
+        _add_text(plotter, wrap(panel_heading(sv), max(24, int(0.56 * panel_pixels(plotter)[0] / 9))),
+                  "upper_left", 11, prefix + "title")
+        if dtxt:
+            _add_text(plotter, dtxt, "lower_left", 8, prefix + "design")
+        if gtxt:
+            _add_text(plotter, gtxt, "upper_right", 9, prefix + "gauge_text")
+    if mesh_kw["show_scalar_bar"]:
+        for bar in plotter.scalar_bars.values():
+            use_font(bar.GetTitleTextProperty())
+            use_font(bar.GetLabelTextProperty())
+
+
+def _mesh_style(plotter, field: tuple[str | None, str, int | None], clim, cmap: str, show_scalar_bar: bool,
+                bar_title: str | None, own_bar: bool) -> dict[str, Any]:
+    """The ``add_mesh`` keywords of the body's surfaces: the field, its colour range and scalar bar
+    (placed to leave room for its title), or a plain colour without a field (see :func:`add_state`)."""
+    name, label, comp = field
+    mesh_kw: dict[str, Any] = dict(smooth_shading=True, show_scalar_bar=name is not None and show_scalar_bar)
+    if name is not None:
+        title = bar_title or label
+        w_px = panel_pixels(plotter)[0]
+        half_title = 4.0 * max(len(ln) for ln in title.split("\n"))  # ~ half its width at 12 pt [px]
+        bar_kw: dict[str, Any] = dict(title=title, n_labels=5, fmt="%.3g", vertical=True,
+                                      position_x=min(0.88, 1.0 - 0.025 - (half_title + 6.0) / w_px),
+                                      position_y=0.2, width=0.05, height=0.56, title_font_size=12,
+                                      label_font_size=11)
+        if own_bar:
+            if _has_unique_bar():
+                bar_kw["unique_bar"] = True
+            else:  # older pyvista: a title of its own (trailing spaces do not show)
+                bar_kw["title"] = title + " " * (plotter.renderers.active_index + 1)
+        mesh_kw.update(scalars=name, component=comp, cmap=cmap, clim=clim, scalar_bar_args=bar_kw)
+    else:
+        mesh_kw.update(color="lightsteelblue")
+    return mesh_kw
+
+
+def _add_markers(plotter, sv: StateView, clip: bool, prefix: str, show_fibres: bool, show_gauge: bool,
+                 show_contact: bool) -> None:
+    """The fibres (tubes, cut with the body), the gauge patch (whole: it is a marker) and the contact
+    point with the push's direction."""
     if show_fibres:
         r_tube = 0.5 * float((sv.info.design or {}).get("fibre_diameter", 0.38) or 0.38)
         for k, line in enumerate(fibre_lines(sv)):
@@ -198,19 +226,6 @@ def add_state(
             plotter.add_mesh(pv.Sphere(radius=0.3 * size, center=cp), color=CONTACT_COLOUR, name=prefix + "contact")
             plotter.add_mesh(pv.Arrow(start=cp + np.array([0.0, 2.5 * size, 0.0]), direction=(0.0, -1.0, 0.0),
                                       scale=2.2 * size), color=CONTACT_COLOUR, name=prefix + "contact_arrow")
-    if show_text:
-        dtxt, gtxt = text_lines(sv)
-        # wide enough to leave the gauge text beside it (~9 px a character at 11 pt)
-        _add_text(plotter, wrap(panel_heading(sv), max(24, int(0.56 * panel_pixels(plotter)[0] / 9))),
-                  "upper_left", 11, prefix + "title")
-        if dtxt:
-            _add_text(plotter, dtxt, "lower_left", 8, prefix + "design")
-        if gtxt:
-            _add_text(plotter, gtxt, "upper_right", 9, prefix + "gauge_text")
-    if mesh_kw["show_scalar_bar"]:
-        for bar in plotter.scalar_bars.values():
-            use_font(bar.GetTitleTextProperty())
-            use_font(bar.GetLabelTextProperty())
 
 
 def _layout(views: Sequence[StateView], layout: str) -> tuple[int, int]:

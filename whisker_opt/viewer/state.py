@@ -344,6 +344,26 @@ def prepare_state(
         logger.warning("%s: %d of %d cells have non-positive VTK volume (inverted or misordered nodes)",
                        where, int((vol <= 0).sum()), len(vol))
     warped = grid.warp_by_vector(disp, factor=scale) if disp else grid.copy()
+    outer, cavity, edge_poly = _surfaces(grid, warped, subdivision, edges)
+    zb = grid.bounds
+    cut_z = 0.5 * (zb[4] + zb[5])
+    outline = None
+    if disp:
+        sec = grid.slice(normal=(0.0, 0.0, 1.0), origin=(0.0, 0.0, cut_z))
+        if sec.n_points:
+            outline = sec.extract_feature_edges(boundary_edges=True, feature_edges=False, manifold_edges=False,
+                                                non_manifold_edges=False)
+    title = scene_title(info) + (f" · {state_title(info, state)}" if state else "")
+    return StateView(title, grid, warped, outer, cavity, edge_poly, outline, disp, float(scale), info, state, path,
+                     cut_z, fidelity_text(grid, config), None if disp else mesh_text(grid, path))
+
+
+def _surfaces(grid, warped, subdivision: int, edges: bool) -> tuple:
+    """(outer surface, cavity surface or None, element edges or None) of a deformed grid.
+
+    Quadratic cells give curved six-node faces split into the outer and the cavity components;
+    linear tets give VTK's own surface (no cavity told apart).
+    """
     cells = quadratic_cells(grid)
     if len(cells):
         from fem.mesh import boundary_faces
@@ -358,17 +378,7 @@ def prepare_state(
     else:  # linear tets: VTK's own surface
         outer = warped.extract_surface(pass_pointid=False, pass_cellid=False, algorithm="dataset_surface")
         cavity, edge_poly = None, (outer.extract_all_edges() if edges else None)
-    zb = grid.bounds
-    cut_z = 0.5 * (zb[4] + zb[5])
-    outline = None
-    if disp:
-        sec = grid.slice(normal=(0.0, 0.0, 1.0), origin=(0.0, 0.0, cut_z))
-        if sec.n_points:
-            outline = sec.extract_feature_edges(boundary_edges=True, feature_edges=False, manifold_edges=False,
-                                                non_manifold_edges=False)
-    title = scene_title(info) + (f" · {state_title(info, state)}" if state else "")
-    return StateView(title, grid, warped, outer, cavity, edge_poly, outline, disp, float(scale), info, state, path,
-                     cut_z, fidelity_text(grid, config), None if disp else mesh_text(grid, path))
+    return outer, cavity, edge_poly
 
 
 def load_views(

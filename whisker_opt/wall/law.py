@@ -2,9 +2,9 @@
 
 The 3-D scene carries the fibre winding as embedded trusses (:mod:`geometry.fibres`). On the GA's mesh
 these give the chamber wall the bending stiffness of a perfectly bonded wall under pressure: the
-periodic wall cell with embedded lines (``benchmarks/fibre_cell.py``) reproduces the converged bonded
+periodic wall cell with embedded lines (``benchmarks/studies/fibre_cell.py``) reproduces the converged bonded
 cell (:mod:`whisker_opt.wall.cell`, the ``bonded`` entries of the stored table) within the tolerances
-measured in ``benchmarks/README.md`` ("The wall law in the whisker scene"). A *wall law* is a named
+measured in ``benchmarks/results/wall_law.md`` ("The wall law in the whisker scene"). A *wall law* is a named
 statement of what the wall does instead, applied as a correction of the wall's incremental stiffness
 about the pressurised state (the pressurisation itself, and so the extension Δl(Q), stays the
 embedded model's)::
@@ -57,10 +57,11 @@ class LawInfo:
 WALL_LAWS: dict[str, LawInfo] = {
     "embedded": LawInfo(
         "embedded", "the embedded fibre trusses as meshed (a perfectly bonded wall)",
-        "the periodic wall cell with embedded lines against the converged bonded cell (benchmarks/README.md)"),
+        "the periodic wall cell with embedded lines against the converged bonded cell "
+        "(benchmarks/results/wall_law.md)"),
     "sliding": LawInfo(
         "sliding", "fibres that slide along their channels: the stored table's EI_sliding/EI_bonded at the "
-        "wall's (r_i, t)", "whisker_opt/wall/data/wall_law.json, variant 'sliding' (benchmarks/wall_law.py)",
+        "wall's (r_i, t)", "whisker_opt/wall/data/wall_law.json, variant 'sliding' (benchmarks/studies/wall_law.py)",
         table_variant="sliding"),
     "calibrated": LawInfo(
         "calibrated", "c(Q) = 1 + s·Q with s = material.wall_slope",

@@ -1,0 +1,1 @@
+"""Accuracy: errors against closed forms, mesh-refinement references and other codes."""

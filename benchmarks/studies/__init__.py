@@ -1,0 +1,1 @@
+"""Studies: physics and model questions (wall laws, fibre models, model form, compensation, robustness, calibration)."""
