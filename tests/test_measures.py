@@ -17,7 +17,7 @@ from pydantic import ValidationError
 from whisker_opt.api import load_config
 from whisker_opt.config.model import format_validation_error
 from whisker_opt.config.optimiser import OptimiserConfig
-from whisker_opt.experiment.gauge import GAUGE_VARIANTS
+from whisker_opt.experiment.gauge_variants import GAUGE_VARIANTS
 from whisker_opt.experiment.measures import MEASURE_NAMES, MEASURES, measure, measure_values
 from whisker_opt.experiment.outcome import EvalOutcome
 from whisker_opt.genes import GENE_NAMES, gene_keys

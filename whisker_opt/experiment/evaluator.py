@@ -17,7 +17,7 @@ import numpy as np
 
 from whisker_opt.experiment.outcome import EvalOutcome
 from whisker_opt.experiment import objective
-from whisker_opt.experiment.gauge import GAUGE_VARIANTS
+from whisker_opt.experiment.gauge_variants import GAUGE_VARIANTS
 from whisker_opt.genes import design_from_genes, spec_from_genes
 
 logger = logging.getLogger(__name__)

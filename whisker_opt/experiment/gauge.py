@@ -31,16 +31,6 @@ from geometry.design import WhiskerDesign
 from geometry.locate import PointLocator
 from geometry.mesh import WhiskerMesh
 
-#: The gauge readings, by name, in the order a reader returns them (the one registry of the variants:
-#: :class:`GaugeReader`, the scene's result (:attr:`whisker_opt.experiment.scene.SceneResult.eps`), the
-#: evaluation's outcome and its measures (:mod:`whisker_opt.experiment.measures`) all follow it).
-GAUGE_VARIANTS: dict[str, str] = {
-    "line": "mean logarithmic strain along the gauge line, relative to contact onset, times ξ",
-    "centroid": "axial Eulerian log strain at the centroid of the element under the gauge centre, relative to "
-                "contact onset, times ξ (the thesis' readout)",
-}
-
-
 @dataclass(frozen=True)
 class GaugeGeometry:
     """Sampling points of the gauge in the reference configuration.

@@ -33,7 +33,7 @@ from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Callable, Mapping
 
-from whisker_opt.experiment.gauge import GAUGE_VARIANTS
+from whisker_opt.experiment.gauge_variants import GAUGE_VARIANTS
 from whisker_opt.experiment.outcome import EvalOutcome
 
 

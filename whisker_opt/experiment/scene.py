@@ -53,7 +53,8 @@ from geometry.design import WhiskerDesign
 from geometry.fibre_field import smeared_fibres
 from geometry.mesh import MeshSizing, WhiskerMesh, build_mesh
 from whisker_opt.experiment.contact import Contact, contact_band, place_contact_ring
-from whisker_opt.experiment.gauge import GAUGE_VARIANTS, GaugedMesh, GaugeReader
+from whisker_opt.experiment.gauge import GaugedMesh, GaugeReader
+from whisker_opt.experiment.gauge_variants import GAUGE_VARIANTS
 from whisker_opt.experiment.spec import SceneSpec, cap_elements, rubber_material
 from whisker_opt.wall.law import apply_law, chamber_elements
 
