@@ -36,7 +36,16 @@ HYPERVOLUME_PNG = "hypervolume.png"
 #: Columns filled once the front is verified at a finer preset.
 VERIFIED_COLUMNS = ("verified_preset", "f1_verified", "F_p_verified", "status_verified", "on_front_verified")
 #: Units of the genes on the plot axes.
-_UNITS = {"alpha": "deg", "l": "mm", "t": "mm", "Q_i": "MPa"}
+def _unit(name: str) -> str:
+    """The unit of an objective's axis: a measure's (:mod:`whisker_opt.experiment.measures`) or a gene's
+    (:func:`whisker_opt.genes.gene_keys`)."""
+    from whisker_opt.experiment.measures import MEASURES
+    from whisker_opt.genes import gene_keys
+
+    if name in MEASURES:
+        return MEASURES[name].unit
+    key = gene_keys().get(name)
+    return key.unit if key is not None else "-"
 
 
 def front_columns(gene_names: Sequence[str], measure_columns: Sequence[str] = ()) -> list[str]:
@@ -141,7 +150,7 @@ def front_figure(rows: list[dict[str, Any]], objectives: Sequence[str], labels: 
         res = (fidelity or {}).get("f1_resolution")
         if res is not None and math.isfinite(float(res)) and res > 0:
             ax.axhline(res, color="C3", lw=0.8, ls="-.", label=f"f1 resolution of {run_preset} (~{short_float(res)})")
-        ax.set_xlabel(f"{g} [{_UNITS.get(g, '-')}] — objective {glab}")
+        ax.set_xlabel(f"{g} [{_unit(g)}] — objective {glab}")
         ax.set_ylabel(f"f1 {STRAIN_UNIT}")
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=7, loc="best")
