@@ -307,6 +307,17 @@ class Assembler:
         if self.kernel == "numba":
             return R, self._tangent_numba(F, J, G, coef, pJ, pres_out, truss_out, field_out), min_j
 
+        return R, self._tangent_numpy(F, J, G, coef, pJ, pres_out, truss_out, field_out), min_j
+
+    def _tangent_numpy(self, F, J, G, coef, pJ, pres_out, truss_out, field_out) -> np.ndarray:
+        """Tangent data (nnz,) of the solid, summed in numpy (the reference the compiled kernel matches),
+        plus the load terms' tangents."""
+        topo = self.topo
+        mat = self.problem.material
+        n_el = topo.n_el
+        w = topo.wdet  # (n_el, n_qp)
+        dN = topo.dNdX  # (n_el, n_qp, 10, 3)
+        disp = self.problem.formulation == "displacement"
         # Tangent A_iJkL = ∂P_iJ/∂F_kL (material.stress_coefficients) plus the volumetric part
         # ∂(pJ G_Ji)/∂F_kL = pJ (G_Ji G_Lk − G_Jk G_Li) [+ (2/D1) J² G_Ji G_Lk, displacement form].
         # With g[a, i] = Σ_J dN_aJ G_Ji and f[a, i] = Σ_J dN_aJ F_iJ, each dyad X⊗Y contracts to
@@ -345,7 +356,7 @@ class Assembler:
 
         parts_val = [Ke.reshape(n_el, 30, 30).ravel(), Kup.ravel(), Kup.ravel(), self._kpp()]
         data = np.bincount(self.scatter_index(), np.concatenate(parts_val), minlength=self.pattern.nnz)
-        return R, self._add_load_tangents(data, pres_out, truss_out, field_out), min_j
+        return self._add_load_tangents(data, pres_out, truss_out, field_out)
 
     def _tangent_numba(self, F, J, G, coef, pJ, pres_out, truss_out, field_out) -> np.ndarray:
         """Tangent data (nnz,) with the compiled element kernel (same sums as the numpy path)."""

@@ -302,6 +302,50 @@ def run_ccx(
         "running CalculiX: %d nodes, %d elements, %d increments, %d thread(s) in %s",
         case.n_nodes, len(case.cells), case.n_increments, threads, wd,
     )
+    rc, wall = _execute(exe, job, wd, env, timeout, log_path)
+
+    n_inc, n_it, n_cut, t_end = _parse_sta(wd / f"{job}.sta")
+    problems, disp, reac = _read_results(case, log_path, dat_path, rc, t_end)
+    n = case.n_nodes
+
+    converged = not problems
+    if not converged:
+        spooles = wd / "spooles.out"
+        if spooles.exists() and spooles.read_text(errors="replace").strip():
+            problems.append(f"spooles.out: {spooles.read_text(errors='replace').strip()[:200]!r}")
+        msg = f"run_ccx: CalculiX did not converge or failed: {'; '.join(problems)}"
+        if case.direct:
+            msg += (
+                f". A DIRECT increment cannot be cut back: raise n_increments "
+                f"(now {case.n_increments}) or use CcxCase(direct=False)"
+            )
+        if raise_on_failure:
+            raise CcxError(msg, wd, _tail(log_path))
+        logger.warning("%s (workdir %s)", msg, wd)
+        disp = np.full((n, 3), np.nan)
+        reac = np.full((n, 3), np.nan) if case.print_reactions else None
+    else:
+        logger.info(
+            "CalculiX finished in %.2f s: %d increments, %d iterations, %d cut-backs",
+            wall, n_inc, n_it, n_cut,
+        )
+        if cleanup:
+            shutil.rmtree(wd, ignore_errors=True)
+    return CcxResult(
+        displacements=disp, reactions=reac, wall_time=wall, converged=converged,
+        n_increments=n_inc, n_iterations=n_it, n_cutbacks=n_cut,
+        workdir=wd, log_path=log_path, dat_path=dat_path,
+    )
+
+
+def _execute(exe: str, job: str, wd: Path, env: dict, timeout: float | None, log_path: Path) -> tuple[int, float]:
+    """Run ``ccx -i job`` in ``wd`` with its output in ``log_path``: (exit code, wall time [s]).
+
+    Raises
+    ------
+    CcxError
+        Killed by the timeout.
+    """
     t0 = time.perf_counter()
     with open(log_path, "w") as log:
         try:
@@ -316,9 +360,13 @@ def run_ccx(
                 f"run_ccx: ccx killed after timeout={timeout} s (ran {wall:.1f} s)", wd, _tail(log_path)
             ) from None
     wall = time.perf_counter() - t0
+    return rc, wall
 
+
+def _read_results(case: CcxCase, log_path: Path, dat_path: Path, rc: int, t_end: float) -> tuple:
+    """(problems, displacements, reactions) of a finished ``ccx`` run: what the exit code, the log and the
+    status file's end time say went wrong, and the last printed nodal blocks (NaN where missing)."""
     log_text = log_path.read_text(errors="replace")
-    n_inc, n_it, n_cut, t_end = _parse_sta(wd / f"{job}.sta")
     problems = []
     if rc != 0:
         problems.append(f"exit code {rc}")
@@ -350,32 +398,4 @@ def run_ccx(
                 problems.append(f"no reaction-force block in {dat_path.name}")
             else:
                 reac = blocks["RF"][1]
-
-    converged = not problems
-    if not converged:
-        spooles = wd / "spooles.out"
-        if spooles.exists() and spooles.read_text(errors="replace").strip():
-            problems.append(f"spooles.out: {spooles.read_text(errors='replace').strip()[:200]!r}")
-        msg = f"run_ccx: CalculiX did not converge or failed: {'; '.join(problems)}"
-        if case.direct:
-            msg += (
-                f". A DIRECT increment cannot be cut back: raise n_increments "
-                f"(now {case.n_increments}) or use CcxCase(direct=False)"
-            )
-        if raise_on_failure:
-            raise CcxError(msg, wd, _tail(log_path))
-        logger.warning("%s (workdir %s)", msg, wd)
-        disp = np.full((n, 3), np.nan)
-        reac = np.full((n, 3), np.nan) if case.print_reactions else None
-    else:
-        logger.info(
-            "CalculiX finished in %.2f s: %d increments, %d iterations, %d cut-backs",
-            wall, n_inc, n_it, n_cut,
-        )
-        if cleanup:
-            shutil.rmtree(wd, ignore_errors=True)
-    return CcxResult(
-        displacements=disp, reactions=reac, wall_time=wall, converged=converged,
-        n_increments=n_inc, n_iterations=n_it, n_cutbacks=n_cut,
-        workdir=wd, log_path=log_path, dat_path=dat_path,
-    )
+    return problems, disp, reac

@@ -136,6 +136,21 @@ def test_no_module_is_oversized():
     assert {n: s for n, s in sizes.items() if s > MAX_LINES} == {}
 
 
+#: Longest function, in lines (tests and their case tables excepted).
+MAX_FUNCTION_LINES = 100
+
+
+def test_no_function_is_oversized():
+    long = {}
+    for path in [*MODULES.values(), *sorted((ROOT / "benchmarks").rglob("*.py"))]:
+        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                n = node.end_lineno - node.lineno + 1
+                if n > MAX_FUNCTION_LINES:
+                    long[f"{path.relative_to(ROOT)}:{node.name}"] = n
+    assert long == {}
+
+
 def _sources(pkg: str = "whisker_opt") -> dict[str, str]:
     return {n: p.read_text() for n, p in MODULES.items() if n.split(".")[0] == pkg}
 
