@@ -402,7 +402,7 @@ class OptimiserConfig(StrictModel):
         "ga", description="ga: one penalised score F_p; nsga2: a Pareto front of the objectives (NSGA-II)")
     objectives: tuple[ObjectiveConfig, ...] = Field(
         _DEFAULT_OBJECTIVES,
-        description="objectives of nsga2 (2..5 items), all minimised; f1 and at least one gene, each once")
+        description="objectives of nsga2 (2..5 items), f1 and at least one other measure or gene, each once; measures prefer low unless {name, prefer: high}")
     pareto: ParetoConfig = ParetoConfig()
     ga: GAConfig = GAConfig()
     stopping: StoppingConfig = StoppingConfig()

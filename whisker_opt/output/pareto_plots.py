@@ -158,15 +158,10 @@ def front_figure(rows: list[dict[str, Any]], objectives: Sequence[str], labels: 
     return fig
 
 
-def hypervolume_figure(logbook: Sequence[Mapping[str, Any]], title: str) -> Figure:
-    """Hypervolume and front size per generation."""
-    g = [r["generation"] for r in logbook]
-    fig = Figure(figsize=(6.4, 4.2))
-    ax = fig.add_subplot(1, 1, 1)
-    ax.plot(g, [r["hypervolume"] for r in logbook], "o-", ms=3, color="C0", label="hypervolume of the archive")
-    ax.set_xlabel("generation (0 = initial population)")
-    ax.set_ylabel("hypervolume (normalised objectives, reference 1.1)")
-    ax.xaxis.set_major_locator(MaxNLocator(integer=True, min_n_ticks=1))
+def _hypervolume_and_front_size(ax, g, logbook: Sequence[Mapping[str, Any]], label: str, ylabel: str) -> None:
+    """The hypervolume per generation on ``ax`` and the front size on a twin axis, with one legend."""
+    ax.plot(g, [r.get("hypervolume", math.nan) for r in logbook], "o-", ms=3, color="C0", label=label)
+    ax.set_ylabel(ylabel)
     ax.grid(True, alpha=0.3)
     ax2 = ax.twinx()
     ax2.plot(g, [r.get("front_size", 0) for r in logbook], "s--", ms=2, color="C2", alpha=0.7, label="front size")
@@ -174,6 +169,17 @@ def hypervolume_figure(logbook: Sequence[Mapping[str, Any]], title: str) -> Figu
     h1, l1 = ax.get_legend_handles_labels()
     h2, l2 = ax2.get_legend_handles_labels()
     ax.legend(h1 + h2, l1 + l2, fontsize=7, loc="lower right")
+
+
+def hypervolume_figure(logbook: Sequence[Mapping[str, Any]], title: str) -> Figure:
+    """Hypervolume and front size per generation."""
+    g = [r["generation"] for r in logbook]
+    fig = Figure(figsize=(6.4, 4.2))
+    ax = fig.add_subplot(1, 1, 1)
+    _hypervolume_and_front_size(ax, g, logbook, "hypervolume of the archive",
+                                "hypervolume (normalised objectives, reference 1.1)")
+    ax.set_xlabel("generation (0 = initial population)")
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True, min_n_ticks=1))
     ax.set_title(title, fontsize=10)
     return fig
 
@@ -199,16 +205,8 @@ def mo_convergence_figure(logbook: Sequence[Mapping[str, Any]], smallest_f1: Seq
     g = np.asarray([r["generation"] for r in logbook], dtype=float)
     fig = Figure(figsize=(6.4, 6.4))
     ax, ax_f = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [1.3, 1]})
-    ax.plot(g, [r.get("hypervolume", math.nan) for r in logbook], "o-", ms=3, color="C0",
-            label="hypervolume of the front (archive)")
-    ax.set_ylabel("hypervolume\n(normalised objectives, reference 1.1)")
-    ax.grid(True, alpha=0.3)
-    ax2 = ax.twinx()
-    ax2.plot(g, [r.get("front_size", 0) for r in logbook], "s--", ms=2, color="C2", alpha=0.7, label="front size")
-    ax2.set_ylabel("designs on the front")
-    h1, l1 = ax.get_legend_handles_labels()
-    h2, l2 = ax2.get_legend_handles_labels()
-    ax.legend(h1 + h2, l1 + l2, fontsize=7, loc="lower right")
+    _hypervolume_and_front_size(ax, g, logbook, "hypervolume of the front (archive)",
+                                "hypervolume\n(normalised objectives, reference 1.1)")
     f = np.asarray(smallest_f1, dtype=float)
     ax_f.plot(g, f, "o-", ms=3, color="C1", label="smallest f1 found (end of the front)")
     if np.any(np.isfinite(f) & (f > 0)):
@@ -227,7 +225,7 @@ def mo_convergence_figure(logbook: Sequence[Mapping[str, Any]], smallest_f1: Seq
         ax_f.set_xlim(float(g.min()) - 0.5, float(g.max()) + 0.5)
     ax_f.grid(True, which="both", alpha=0.3)
     ax_f.legend(fontsize=7, loc="best")
-    ax.set_title(f"{title}\nobjectives, all minimised: {', '.join(labels)}\n{fidelity_label(fidelity)}", fontsize=10)
+    ax.set_title(f"{title}\nobjectives: {', '.join(labels)}\n{fidelity_label(fidelity)}", fontsize=10)
     fig.set_layout_engine("constrained")
     return fig
 
