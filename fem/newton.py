@@ -93,6 +93,19 @@ class SolveOptions:
         states are never returned; the next increment's Newton iterations remove what
         is left). The energy tolerance becomes its square. None: ``rtol`` everywhere.
         Requested fractions are always converged to ``rtol``/``etol``.
+    first_line_search : bool
+        Also search along the first iteration's step of a load-driven increment (one whose
+        prescribed displacements do not change, e.g. a pressure step): the linear predictor
+        of a large pressure step overshoots, and without the search Newton then wanders for
+        several iterations. A displacement-driven first step is always taken whole.
+    near_solution_energy : float
+        Full Newton only (``reuse_tangent`` = 0): once an iteration's step energy |Δx · R| is at
+        most this fraction of the increment's largest, the following iterations keep the last
+        factorisation (modified Newton near the solution, where the tangent changes little) while
+        each reduces ‖R_u‖ by at least ``near_solution_ratio``; otherwise the tangent is
+        re-assembled and re-factorised. 0: factorise every iteration.
+    near_solution_ratio : float
+        The residual reduction per iteration that keeps the factorisation near the solution.
     """
 
     rtol: float = 1e-8
@@ -109,13 +122,18 @@ class SolveOptions:
     reuse_tangent: float = 0.0
     extrapolate: bool = True
     intermediate_rtol: float | None = None
+    first_line_search: bool = True
+    near_solution_energy: float = 1e-2
+    near_solution_ratio: float = 0.1
 
     def __post_init__(self) -> None:
         checks = [("rtol", self.rtol, 0.0, 1.0), ("atol", self.atol, 0.0, 1e6), ("etol", self.etol, 0.0, 1.0),
                   ("vtol", self.vtol, 0.0, 1.0), ("max_iterations", self.max_iterations, 1, 1000),
                   ("initial_step", self.initial_step, 1e-9, 1.0), ("min_step", self.min_step, 1e-12, 1.0),
                   ("max_step", self.max_step, 1e-9, 1.0), ("max_cutbacks", self.max_cutbacks, 0, 1000),
-                  ("reuse_tangent", self.reuse_tangent, 0.0, 0.99)]
+                  ("reuse_tangent", self.reuse_tangent, 0.0, 0.99),
+                  ("near_solution_energy", self.near_solution_energy, 0.0, 1.0),
+                  ("near_solution_ratio", self.near_solution_ratio, 0.0, 0.99)]
         for name, v, lo, hi in checks:
             if not (lo <= v <= hi):
                 raise ValueError(f"SolveOptions.{name}={v!r} outside the allowed range [{lo}, {hi}]")
@@ -285,9 +303,11 @@ class NewtonSolver:
         e0 = None
         ratio = 0.0
         ru_prev = ru0
+        keep = modified  # keep the factorisation while it converges (modified Newton)
+        keep_ratio = opts.reuse_tangent if modified else opts.near_solution_ratio
         for it in range(1, opts.max_iterations + 1):
             inc.iterations = it
-            refactor = (not modified) or (not fact["valid"]) or ratio > opts.reuse_tangent
+            refactor = (not keep) or (not fact["valid"]) or ratio > keep_ratio
             if refactor and data is None:
                 try:
                     R, data, min_j = self._evaluate(x, load, True, timer)
@@ -298,7 +318,9 @@ class NewtonSolver:
             # reference energy: the largest seen in this increment (the first iteration of a
             # displacement-driven increment has no free residual, so its energy is 0)
             e0 = max(energy, 1e-300) if e0 is None else max(e0, energy)
-            x, R, data, min_j = self._line_search(x, dx, R, it, load, opts, timer)
+            # full Newton near the solution: the next iterations keep this factorisation
+            keep = keep or (it > 1 and energy <= opts.near_solution_energy * e0)
+            x, R, data, min_j = self._line_search(x, dx, R, it, load, opts, timer, keep, it == 1 and bool(np.any(du_c)))
             ru, rp, rc = _norms(R, con)
             ratio = ru / max(ru_prev, 1e-300)
             ru_prev = ru
@@ -353,19 +375,21 @@ class NewtonSolver:
         return dx
 
     def _line_search(self, x: np.ndarray, dx: np.ndarray, R: np.ndarray, it: int, load: LoadState,
-                     opts: SolveOptions, timer) -> tuple:
+                     opts: SolveOptions, timer, keep: bool, prescribed: bool) -> tuple:
         """The state along ``x + α Δx`` that the iteration moves to: (x, R, data, min det F).
 
         Line search (Crisfield 1991, §9.3): accept the full step unless the directional
         derivative s(α) = Δx·R(x + αΔx) fails to drop below 0.8|s(0)|; then take the secant
         zero of s (at most two secant steps); always halve α away from inverted elements
         (down to 1e-3). The residual-norm backtracking it replaces stalled with stiff fibres
-        (1e5 stiffness contrast). The first iteration, ``opts.line_search`` False or an ascent
-        direction (s(0) >= 0) take the first step without inverted elements. Raises
-        :class:`_IncrementFailed` when every trial inverts an element.
+        (1e5 stiffness contrast). A first iteration that applies a ``prescribed`` displacement
+        increment (or any first iteration without ``opts.first_line_search``), ``opts.line_search``
+        False or an ascent direction (s(0) >= 0) take the first step without inverted elements.
+        Trial states are evaluated without the tangent when the next iteration ``keep``s the
+        factorisation. Raises :class:`_IncrementFailed` when every trial inverts an element.
         """
         con = self.constraint
-        modified = opts.reuse_tangent > 0
+        whole = prescribed or (it == 1 and not opts.first_line_search)
         free = ~con.is_c
         s0 = float(np.dot(dx[free], R[free]))
         alpha = 1.0
@@ -375,14 +399,14 @@ class NewtonSolver:
             if it == 1 and alpha < 1.0:
                 x_try[con.dofs] = x[con.dofs] + dx[con.dofs]  # keep the prescribed values exact
             try:
-                R_try, data_try, mj = self._evaluate(x_try, load, not modified, timer)
+                R_try, data_try, mj = self._evaluate(x_try, load, not keep, timer)
             except InvertedElements:
                 alpha *= 0.5
                 if alpha < 1e-3:
                     break
                 continue
             best = (x_try, R_try, data_try, mj)
-            if not opts.line_search or it == 1 or s0 >= 0:
+            if not opts.line_search or whole or s0 >= 0:
                 break
             s1 = float(np.dot(dx[free], R_try[free]))
             if abs(s1) <= 0.8 * abs(s0) or trial >= 2:

@@ -45,7 +45,7 @@ def _stretch(prob: Problem, u: float, opts: SolveOptions):
 
 @pytest.mark.parametrize("d1", [0.0, 0.5])
 def test_energy_rule_ends_an_increment_whose_tolerance_is_below_the_round_off_floor(d1):
-    x, inc = _stretch(_block(d1), 0.3, SolveOptions(rtol=1e-16, atol=0.0))
+    x, inc = _stretch(_block(d1), 0.3, SolveOptions(rtol=1e-16, atol=0.0, near_solution_energy=0.0))
     assert inc.converged and inc.rule == "energy" and inc.iterations == 5
     # the floor: no residual below 1e-16, which rtol = 1e-16 would ask of a force scale above 1
     assert 1e-16 < inc.residuals[-1] < 1e-15 and inc.energies[-1] < 1e-20
@@ -53,7 +53,7 @@ def test_energy_rule_ends_an_increment_whose_tolerance_is_below_the_round_off_fl
 
 @pytest.mark.parametrize("d1, residuals", [(0.0, 1.2e-13), (0.5, 5.2e-16)])
 def test_residual_rule_saves_the_iteration_the_energy_ratio_needs(d1, residuals):
-    x, inc = _stretch(_block(d1), 0.3, SolveOptions())
+    x, inc = _stretch(_block(d1), 0.3, SolveOptions(near_solution_energy=0.0))  # factorised every iteration
     assert inc.converged and inc.rule == "residual" and inc.iterations == 4
     assert inc.residuals[-1] == pytest.approx(residuals, rel=0.5)
     assert inc.energies[-1] > SolveOptions().etol  # the energy criterion alone would need a fifth
@@ -106,3 +106,20 @@ def test_rules_exactly_as_documented(m, rule):
 def test_unknown_linear_solver_is_refused():
     with pytest.raises(ValueError, match="'auto', 'pardiso', 'superlu'"):
         SolveOptions(linear_solver="cg")
+
+
+@pytest.mark.parametrize("d1", [0.0, 0.5])
+def test_factorisation_kept_near_the_solution_reaches_full_newtons_answer(d1):
+    """Keeping the factorisation once the step energy is small (near_solution_energy) saves
+    factorisations and converges to the state of full Newton within the solver tolerance."""
+    full, inc_f = _stretch(_block(d1), 0.3, SolveOptions(near_solution_energy=0.0))
+    prob = _block(d1)  # its own linear solver, so only this solve's factorisations count
+    solver = NewtonSolver(prob, "auto")
+    n0 = solver.linear.stats["n_factorize"]
+    timer = SimpleNamespace(time_assembly=0.0, time_factorize=0.0, time_solve=0.0)
+    x0 = State.zero(prob).as_vector().astype(float)
+    kept, inc_k = solver.solve(x0, LoadState((), (0.0, 0.0, 0.0, 0.3)).check(prob),
+                               SolveOptions(near_solution_energy=0.1), timer)
+    assert inc_f.converged and inc_k.converged
+    assert solver.linear.stats["n_factorize"] - n0 < inc_k.iterations
+    assert np.abs(kept - full).max() <= 1e-8 * np.abs(full).max()
