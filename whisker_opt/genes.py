@@ -99,10 +99,14 @@ def gene_key(name: str) -> GeneKey:
     ValueError
         One line naming the gene and the allowed names.
     """
+    import difflib
+
     keys = gene_keys()
     if name not in keys:
-        raise ValueError(f"gene {name!r} is not a real number of the design or material section; allowed: "
-                         f"{', '.join(keys)}")
+        close = difflib.get_close_matches(str(name).lower(), [k.lower() for k in keys], n=1, cutoff=0.6)
+        hint = f"did you mean {next(k for k in keys if k.lower() == close[0])!r}? " if close else ""
+        raise ValueError(f"unknown key {name!r}: a gene is a real number of the design or material section; "
+                         f"{hint}allowed: {', '.join(keys)}")
     return keys[name]
 
 
