@@ -14,10 +14,11 @@ For a query point q:
 
 A point is "found" when that minimum barycentric coordinate is >= ``-tol``. Points not
 found, or found only within the tolerance (slightly negative barycentric coordinate),
-are retried with 4 and 16 times as many candidates, each with its own Newton start (stretched or
+are retried with 4 and 16 times as many candidates and 8 x as many Newton starts (stretched or
 curved elements, e.g. of the swept mesh, can have their centroids far from points near
-their faces, and a straight-tet guess may rank the true host low: a strongly curved host's
-straight tet can miss the point by more than the whole element).
+their faces, and a straight-tet guess may rank the true host low). A point still not found
+is tried last with a Newton start in each of those candidates: a strongly curved host's
+straight tet can miss the point by more than the whole element, ranking it below the rest.
 """
 
 from __future__ import annotations
@@ -99,14 +100,21 @@ class PointLocator:
             if len(miss) == 0 or k >= len(self.cells):
                 break
             k2 = min(len(self.cells), k * factor)
-            sub = self._locate(q[miss], k2, k2, tol)
-            better = (sub.inside & ~loc.inside[miss]) | (
-                (sub.inside == loc.inside[miss]) & (_min_bary(sub.local_coords) > lam[miss])
-            )
-            idx = miss[better]
-            for f in ("host_elements", "local_coords", "inside", "residual"):
-                getattr(loc, f)[idx] = getattr(sub, f)[better]
+            self._take_better(loc, miss, self._locate(q[miss], k2, min(k2, 8 * factor), tol))
+        lost = np.nonzero(~loc.inside)[0]
+        if len(lost):  # rare: every candidate started, however its straight tet ranks
+            k2 = min(len(self.cells), k * 16)
+            self._take_better(loc, lost, self._locate(q[lost], k2, k2, tol))
         return loc
+
+    @staticmethod
+    def _take_better(loc: Location, idx: np.ndarray, sub: Location) -> None:
+        """Replace the locations ``loc[idx]`` by those of ``sub`` that are inside where they were not, or more
+        inside (larger minimum barycentric coordinate) with the same verdict."""
+        lam = _min_bary(loc.local_coords[idx])
+        better = (sub.inside & ~loc.inside[idx]) | ((sub.inside == loc.inside[idx]) & (_min_bary(sub.local_coords) > lam))
+        for f in ("host_elements", "local_coords", "inside", "residual"):
+            getattr(loc, f)[idx[better]] = getattr(sub, f)[better]
 
     def _locate(self, q: np.ndarray, k: int, n_newton: int, tol: float) -> Location:
         """One pass of :meth:`locate` with ``k`` candidates."""
