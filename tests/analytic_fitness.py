@@ -138,3 +138,15 @@ class AnalyticFitness:
             k = 1e-3 * (1.0 + float(genes["Q_i"]))
             extra = {"delta": delta.tolist(), "eps_i": (k * delta).tolist(), "eps_c": ((k + f1 / 2.75) * delta).tolist()}
         return EvalOutcome.success(f1, timings={"model_s": time.perf_counter() - t0}, extra=extra)
+
+
+class Interrupt:
+    """A run callback that raises KeyboardInterrupt once generation ``at`` is recorded (a kill, for the
+    resume tests)."""
+
+    def __init__(self, at: int) -> None:
+        self.at = at
+
+    def __call__(self, state, row) -> None:
+        if state.generation == self.at:
+            raise KeyboardInterrupt

@@ -16,7 +16,7 @@ from whisker_opt.optimise.checkpoint import CHECKPOINT_NAME, RunDirectoryError, 
 from whisker_opt.config.optimiser import OptimiserConfig
 from whisker_opt.optimise.runner import resume_optimisation, run_optimisation
 from whisker_opt.output.storage import read_csv
-from tests.analytic_fitness import AnalyticFitness, FailureRegion
+from tests.analytic_fitness import AnalyticFitness, FailureRegion, Interrupt
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -44,21 +44,12 @@ def _same_tables(dir_a: Path, dir_b: Path) -> None:
             assert {k: v for k, v in x.items() if k not in skip} == {k: v for k, v in y.items() if k not in skip}
 
 
-class _Interrupt:
-    def __init__(self, at: int) -> None:
-        self.at = at
-
-    def __call__(self, state, row) -> None:
-        if state.generation == self.at:
-            raise KeyboardInterrupt
-
-
 def test_interrupted_and_resumed_run_equals_uninterrupted(tmp_path):
     cfg = OptimiserConfig.model_validate(CFG)
     ev = AnalyticFitness(failures=FAILS)
     ref = run_optimisation(cfg, tmp_path / "ref", ev, seed=5, progress=False)
     with pytest.raises(KeyboardInterrupt):
-        run_optimisation(cfg, tmp_path / "cut", ev, seed=5, progress=False, callbacks=[_Interrupt(3)])
+        run_optimisation(cfg, tmp_path / "cut", ev, seed=5, progress=False, callbacks=[Interrupt(3)])
     state, _ = load_checkpoint(tmp_path / "cut")
     assert state.generation == 3 and state.stop_reason is None
     with pytest.raises(FileExistsError):
@@ -75,7 +66,7 @@ def test_run_killed_before_its_first_checkpoint_restarts_identically(tmp_path):
     ev = AnalyticFitness()
     ref = run_optimisation(cfg, tmp_path / "ref", ev, seed=8, progress=False)
     with pytest.raises(KeyboardInterrupt):
-        run_optimisation(cfg, tmp_path / "cut", ev, seed=8, progress=False, callbacks=[_Interrupt(0)])
+        run_optimisation(cfg, tmp_path / "cut", ev, seed=8, progress=False, callbacks=[Interrupt(0)])
     (tmp_path / "cut" / CHECKPOINT_NAME).unlink()  # as if killed during generation 0
     (tmp_path / "cut" / f".{CHECKPOINT_NAME}.junk.tmp").write_bytes(b"torn")
     _same_run(ref, resume_optimisation(tmp_path / "cut", ev, progress=False))

@@ -19,7 +19,7 @@ from whisker_opt.optimise.nsga2 import HV_REFERENCE, NSGA2, finer_preset, make_a
 from whisker_opt.optimise.pareto import dominates, hypervolume, non_dominated
 from whisker_opt.optimise.runner import report, resume_optimisation, run_optimisation
 from whisker_opt.output.storage import read_csv
-from tests.analytic_fitness import AnalyticFitness, FailureRegion
+from tests.analytic_fitness import AnalyticFitness, FailureRegion, Interrupt
 
 REPO = Path(__file__).resolve().parents[1]
 X_STAR = (4.2, 11.0, 3.5, 0.15)
@@ -139,15 +139,6 @@ def test_stall_rule_on_the_hypervolume():
     assert ga.stop_reason(S) == "max_generations"
 
 
-class _Interrupt:
-    def __init__(self, at: int) -> None:
-        self.at = at
-
-    def __call__(self, state, row) -> None:
-        if state.generation == self.at:
-            raise KeyboardInterrupt
-
-
 def _tables(run_dir: Path) -> dict[str, list[dict]]:
     skip = {"time_s", "elapsed_s"}
     return {name: [{k: v for k, v in r.items() if k not in skip} for r in read_csv(run_dir / name)]
@@ -159,7 +150,7 @@ def test_interrupted_and_resumed_run_equals_uninterrupted(tmp_path):
     ev = AnalyticFitness(optimum=X_STAR, failures=(FailureRegion("alpha", 5.5),))
     ref = run_optimisation(cfg, tmp_path / "ref", ev, seed=5, progress=False)
     with pytest.raises(KeyboardInterrupt):
-        run_optimisation(cfg, tmp_path / "cut", ev, seed=5, progress=False, callbacks=[_Interrupt(3)])
+        run_optimisation(cfg, tmp_path / "cut", ev, seed=5, progress=False, callbacks=[Interrupt(3)])
     resumed = resume_optimisation(tmp_path / "cut", ev, progress=False)
     assert (resumed.population, resumed.fitness, resumed.best, resumed.n_evaluations) == (
         ref.population, ref.fitness, ref.best, ref.n_evaluations)

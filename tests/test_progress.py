@@ -105,8 +105,8 @@ def _evaluations(run_dir):
     return [{k: v for k, v in row.items() if k != "time_s"} for row in read_csv(run_dir / "evaluations.csv")]
 
 
-@pytest.mark.parametrize("kind", ["serial", "processes"])
-def test_run_progress_ticks_per_evaluation_and_results_do_not_depend_on_it(tmp_path, monkeypatch, kind):
+def _spy_on_progress_bars(monkeypatch) -> list:
+    """The run's progress bars, each appended to the returned list as it is made."""
     bars = []
 
     class Spy(runner._Progress):
@@ -115,6 +115,12 @@ def test_run_progress_ticks_per_evaluation_and_results_do_not_depend_on_it(tmp_p
             bars.append(self)
 
     monkeypatch.setattr(runner, "_Progress", Spy)
+    return bars
+
+
+@pytest.mark.parametrize("kind", ["serial", "processes"])
+def test_run_progress_ticks_per_evaluation_and_results_do_not_depend_on_it(tmp_path, monkeypatch, kind):
+    bars = _spy_on_progress_bars(monkeypatch)
     on = run_optimisation(_cfg(kind=kind), tmp_path / "on", EV, seed=5, progress=True)
     off = run_optimisation(_cfg(kind=kind), tmp_path / "off", EV, seed=5, progress=False)
     assert _evaluations(tmp_path / "on") == _evaluations(tmp_path / "off")
@@ -125,14 +131,7 @@ def test_run_progress_ticks_per_evaluation_and_results_do_not_depend_on_it(tmp_p
 
 
 def test_run_ended_early_by_a_rule_closes_at_100_percent(tmp_path, monkeypatch):
-    bars = []
-
-    class Spy(runner._Progress):
-        def __init__(self, *a, **k):
-            super().__init__(*a, **k)
-            bars.append(self)
-
-    monkeypatch.setattr(runner, "_Progress", Spy)
+    bars = _spy_on_progress_bars(monkeypatch)
     s = run_optimisation(_cfg(gens=40, target=1e-3), tmp_path / "r", AnalyticFitness(scale=1e-3), seed=1,
                          progress=True)
     assert s.stop_reason == "target_fp" and s.generations < 40
