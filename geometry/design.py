@@ -81,6 +81,24 @@ def user_parameters(cls) -> tuple:
     return tuple(f for f in dataclasses.fields(cls) if "unit" in f.metadata)
 
 
+def parameter_violations(obj) -> list[str]:
+    """One line per field of dataclass instance ``obj`` declared with :func:`parameter` whose value leaves
+    its declared range or choices, e.g. ``SceneSpec.deflection=0.0: must be > 0 and <= 30``."""
+    ops = {"gt": (lambda v, b: v > b, ">"), "ge": (lambda v, b: v >= b, ">="),
+           "lt": (lambda v, b: v < b, "<"), "le": (lambda v, b: v <= b, "<=")}
+    out = []
+    for f in user_parameters(type(obj)):
+        v, meta = getattr(obj, f.name), f.metadata
+        if meta["choices"] is not None:
+            if v not in meta["choices"]:
+                out.append(f"{type(obj).__name__}.{f.name}={v!r}: must be "
+                           f"{' or '.join(map(repr, meta['choices']))}")
+        elif meta["bounds"] and not all(ops[k][0](v, b) for k, b in meta["bounds"].items()):
+            rng = " and ".join(f"{ops[k][1]} {b:g}" for k, b in meta["bounds"].items())
+            out.append(f"{type(obj).__name__}.{f.name}={v!r}: must be {rng}")
+    return out
+
+
 @dataclass(frozen=True)
 class WhiskerDesign:
     """Frozen parameter set of one whisker (mm, degrees, MPa).

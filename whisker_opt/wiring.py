@@ -165,25 +165,28 @@ def scene_spec(cfg: WhiskerConfig, design, Q: float):
     return SceneSpec(
         design=design,
         Q=Q,
-        contact_ratio=cfg.scene.contact_ratio,
-        contact_at=cfg.scene.contact_at,
-        deflection=cfg.scene.deflection,
-        c10=cfg.material.C10,
-        d1=cfg.material.D1,
-        rubber=cfg.material.rubber,
-        cap_rubber=cfg.material.cap_rubber,
-        fibre_model=cfg.material.fibre_model,
-        wall_law=cfg.material.wall_law,
-        wall_slope=cfg.material.wall_slope,
-        base_support=cfg.scene.base_support,
-        calibration=cfg.scene.calibration,
-        band_width=cfg.scene.band_width,
+        **_spec_parameters(cfg),
         n_pressure_steps=preset.n_pressure_steps,
         n_deflection_steps=preset.n_deflection_steps,
         sizing=preset.sizing,
         mesh_method=cfg.fidelity.mesh_method,
         solve_options=replace(default_solve_options(), linear_solver=cfg.fidelity.linear_solver),
     )
+
+
+def _spec_parameters(cfg: WhiskerConfig) -> dict[str, Any]:
+    """The user parameters of a :class:`whisker_opt.experiment.spec.SceneSpec` from the run file: each
+    declared field (:func:`geometry.design.user_parameters`) from the ``scene`` or ``material`` section that
+    holds its key (the sections are generated from the same declarations)."""
+    from geometry.design import user_parameters
+    from whisker_opt.experiment.spec import SceneSpec
+
+    out = {}
+    for f in user_parameters(SceneSpec):
+        key = f.metadata["key"] or f.name
+        section = next(sec for sec in (cfg.scene, cfg.material) if key in type(sec).model_fields)
+        out[f.name] = getattr(section, key)
+    return out
 
 
 def warn_smeared_on_one_layer(cfg: WhiskerConfig) -> bool:
