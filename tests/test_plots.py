@@ -240,7 +240,7 @@ def test_multi_objective_runs_plot_what_they_optimise(tmp_path, monkeypatch):
     assert figures and (tmp_path / "run" / "convergence.png").is_file()
     text = _all_text(figures[-1])
     assert "NSGA-II convergence (stopped by max_generations, generation 3" in text
-    assert "objectives, all minimised: f1, Q_i (prefer low)" in text and "preset coarse, f1 resolution ~2e-3" in text
+    assert "objectives: f1, Q_i (prefer low)" in text and "preset coarse, f1 resolution ~2e-3" in text
     assert "hypervolume of the front" in text and "smallest f1 found" in text
     assert "F_p" not in text  # the penalised score is not what NSGA-II optimises
     hv, f1 = figures[-1].axes[0], figures[-1].axes[1]
