@@ -18,29 +18,11 @@ import threading
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from tests.subprocess_run import run_cli
+from tests.subprocess_run import run_cli, tiny_run_file
 
 logger = logging.getLogger(__name__)
 
-TINY = """\
-fidelity:
-  preset: coarse
-scene:
-  trim: 5.0
-optimiser:
-  trim: 5.0
-  ga:
-    population: 2
-    n_elite: 1
-    tournament: 2
-  stopping:
-    max_generations: 0
-  executor:
-    kind: serial
-seed: 3
-output:
-  results_dir: {results}
-"""
+TINY = tiny_run_file("trim: 5.0", 5.0, "{results}")
 
 #: intact solves; trimmed_uncompensated (20 mm long, at 0.35 MPa) fails near δ = 29 mm
 SOLVE_FAILS_LATE = """\

@@ -85,3 +85,17 @@ def run_cli(*args, cli: list[str] | None = None, **kw) -> Finished:
     """``whisker-opt args...`` with :func:`run_command` (same keywords); ``cli`` replaces the command that
     starts the CLI (default: this interpreter with ``-m whisker_opt.cli``)."""
     return run_command([*(cli or [sys.executable, "-m", CLI_MODULE]), *map(str, args)], **kw)
+
+
+def tiny_run_file(scene: str = "", trim: float = 5.0, results: str | None = None) -> str:
+    """The smallest run file a child runs: coarse preset, a GA of 2 designs and generation 0 only, serial,
+    seed 3; ``scene`` holds the lines of a ``scene:`` section (none when empty), ``trim`` is
+    ``optimiser.trim``, ``results`` the ``output.results_dir`` (left to its default when None)."""
+    text = "fidelity:\n  preset: coarse\n"
+    if scene:
+        text += "scene:\n" + "".join(f"  {line}\n" for line in scene.splitlines())
+    text += (f"optimiser:\n  trim: {trim}\n  ga:\n    population: 2\n    n_elite: 1\n    tournament: 2\n"
+             "  stopping:\n    max_generations: 0\n  executor:\n    kind: serial\nseed: 3\n")
+    if results is not None:
+        text += f"output:\n  results_dir: {results}\n"
+    return text

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import pytest
 
+from tests.subprocess_run import tiny_run_file
 from whisker_opt.cli import main as cli
 from whisker_opt.optimise.checkpoint import (
     CHECKPOINT_NAME,
@@ -26,26 +27,7 @@ from whisker_opt.optimise.checkpoint import (
     save_checkpoint,
 )
 
-TINY = """\
-fidelity:
-  preset: coarse
-scene:
-  Q_i: 0.1
-  trim: 5.0
-optimiser:
-  trim: 2.0
-  ga:
-    population: 2
-    n_elite: 1
-    tournament: 2
-  stopping:
-    max_generations: 0
-  executor:
-    kind: serial
-seed: 3
-output:
-  results_dir: {results}
-"""
+TINY = tiny_run_file("Q_i: 0.1\ntrim: 5.0", 2.0, "{results}")
 
 
 class Workspace:

@@ -26,6 +26,7 @@ import numpy as np
 import pytest
 
 from tests import kill_harness as kh
+from tests.subprocess_run import tiny_run_file
 from whisker_opt.output import storage
 
 REPO = kh.REPO
@@ -59,21 +60,7 @@ def test_killed_ga_run_resumes_to_the_uninterrupted_result(tmp_path, reference, 
 
 
 # ----------------------------------------------------------------------------- workflow layer
-TINY = """\
-fidelity:
-  preset: coarse
-optimiser:
-  trim: 5.0
-  ga:
-    population: 2
-    n_elite: 1
-    tournament: 2
-  stopping:
-    max_generations: 0
-  executor:
-    kind: serial
-seed: 3
-"""
+TINY = tiny_run_file(trim=5.0)
 
 
 def _cli(*args, umask: int = 0o022) -> subprocess.Popen:
