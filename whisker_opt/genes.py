@@ -12,6 +12,8 @@ module is the one place that maps genes onto design and material fields.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import cache
+from types import MappingProxyType
 from typing import Literal, Mapping
 
 #: The default decision vector, in this order (every genome starts with it).
@@ -78,9 +80,10 @@ def _real_keys(cls, section: str, names: tuple[str, ...] | None = None) -> dict[
     return out
 
 
-def gene_keys() -> dict[str, GeneKey]:
+@cache
+def gene_keys() -> Mapping[str, GeneKey]:
     """Every key a gene may take, by name: the four default genes, then the design's and the material's
-    real numbers."""
+    real numbers (read-only; built once per process from the declared fields)."""
     from geometry.design import WhiskerDesign
     from whisker_opt.experiment.spec import SceneSpec
 
@@ -88,7 +91,7 @@ def gene_keys() -> dict[str, GeneKey]:
     material = _real_keys(SceneSpec, "material", MATERIAL_GENE_FIELDS)
     q = GeneKey("Q_i", "load", "Q", "MPa", (("ge", 0.0), ("le", 1.0)))
     head = {g: design[g] for g in GEOMETRY_GENES}
-    return {**head, "Q_i": q, **design, **material}
+    return MappingProxyType({**head, "Q_i": q, **design, **material})
 
 
 def gene_key(name: str) -> GeneKey:
