@@ -148,7 +148,7 @@ def solve_path(problem: Problem, state0: State, load0: LoadState, load1: LoadSta
                         reports, inc)
         rep.time_total = time.perf_counter() - t_start
         reports.append(rep)
-        st = State.from_vector(x, problem.mesh.n_nodes)
+        st = State.from_vector(x, problem.mesh.n_nodes, newton.residual)
         states.append(st)
         if callback is not None:
             callback(target, st)

@@ -236,6 +236,8 @@ class NewtonSolver:
         self.linear = solver
         self.volume = float(self.assembler.topo.vol.sum())
         self._fact = {"valid": False, "data": None}  # factorisation state (modified Newton)
+        #: R at the state the last converged :meth:`solve` returned (its last evaluation), else None
+        self.residual: np.ndarray | None = None
 
     @property
     def linear_solver_name(self) -> str:
@@ -276,6 +278,7 @@ class NewtonSolver:
             ``converged``, the acceptance ``rule`` and, on failure, ``reason``.
         """
         inc = IncrementReport(0.0, 0.0, False)
+        self.residual = None
         try:
             x = self._iterate(x0, load, opts, timer, inc)
         except _IncrementFailed as exc:
@@ -330,6 +333,7 @@ class NewtonSolver:
             inc.min_j = min_j
             inc.rule = acceptance_rule(Iterate(it, ru, rp, energy, e0, ratio, f_ref), opts, self.volume)
             if inc.rule:
+                self.residual = R
                 return x
             if it >= 3 and inc.residuals[-1] > 1e3 * inc.residuals[0]:
                 raise _IncrementFailed(f"iteration {it}: residual diverging ({inc.residuals[-1]:.3g})")

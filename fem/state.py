@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -18,10 +18,16 @@ class State:
     p : ndarray (n_elements,)
         Element pressures [MPa] (the Lagrange multiplier of J = 1 when D1 = 0;
         p = 2(J̄ − 1)/D1 otherwise). Sign: p > 0 in tension.
+    residual : ndarray (3 n_nodes + n_elements,) or None
+        R = f_int − f_ext at this state under the load it was solved for
+        (:meth:`fem.assembly.Assembler.evaluate`), as the Newton solve that converged to it
+        last evaluated it; None when not known. At a prescribed DOF it is the support's
+        reaction. Not part of equality.
     """
 
     u: np.ndarray
     p: np.ndarray
+    residual: np.ndarray | None = field(default=None, compare=False, repr=False)
 
     @classmethod
     def zero(cls, problem) -> "State":
@@ -33,6 +39,7 @@ class State:
         return np.concatenate([self.u.ravel(), self.p])
 
     @classmethod
-    def from_vector(cls, x: np.ndarray, n_nodes: int) -> "State":
+    def from_vector(cls, x: np.ndarray, n_nodes: int, residual: np.ndarray | None = None) -> "State":
+        """The state of the DOF vector ``x`` (copied), with its ``residual`` when known."""
         n_u = 3 * n_nodes
-        return cls(x[:n_u].reshape(n_nodes, 3).copy(), x[n_u:].copy())
+        return cls(x[:n_u].reshape(n_nodes, 3).copy(), x[n_u:].copy(), residual)

@@ -74,3 +74,20 @@ def test_work_of_contact_force_equals_stored_energy_change():
     work = float(np.trapezoid(r.contact_force, r.delta))
     print(f"work {work:.9g} N mm, stored energy change {pi1 - pi0:.9g} N mm, ratio {work / (pi1 - pi0) - 1:.3e}")
     assert abs(work / (pi1 - pi0) - 1) < 1e-4
+
+
+def test_forces_from_the_solves_residual_equal_a_fresh_evaluation():
+    """The deflection's forces come from the residual each converged increment carries
+    (State.residual); a fresh evaluation of R at the same states (pressurised whisker, so the
+    follower pressure is in R) is the same vector to round-off and gives the same base reaction."""
+    r = run_scene(SceneSpec(WhiskerDesign(), sizing=COARSE, Q=0.2, deflection=1.0, n_deflection_steps=2),
+                  keep_states=True)
+    asm = Assembler(make_problem(r.mesh, r.spec, None))
+    base = np.asarray(r.mesh.node_sets["base"], dtype=np.int64)
+    for k, key in enumerate(("delta_0.50", "delta_1.00"), start=1):
+        st = r.states[key]
+        assert st.residual is not None
+        fresh = asm.evaluate(st.u, st.p, (0.2,), need_tangent=False)[0]
+        assert np.allclose(st.residual, fresh, rtol=0, atol=1e-12 * np.abs(fresh).max())
+        reaction = fresh[: 3 * r.mesh.mesh.n_nodes].reshape(-1, 3)[base].sum(axis=0)
+        assert np.allclose(reaction, r.base_reaction[k], rtol=1e-10, atol=0)

@@ -123,3 +123,23 @@ def test_factorisation_kept_near_the_solution_reaches_full_newtons_answer(d1):
     assert inc_f.converged and inc_k.converged
     assert solver.linear.stats["n_factorize"] - n0 < inc_k.iterations
     assert np.abs(kept - full).max() <= 1e-8 * np.abs(full).max()
+
+
+@pytest.mark.parametrize("d1", [0.0, 0.5])
+def test_path_states_carry_the_residual_of_their_own_evaluation(d1):
+    """The residual a converged state carries (State.residual, the Newton solve's last evaluation) is
+    R at that state under its load, as the assembler evaluates it afresh: the same numbers to round-off,
+    at the prescribed DOFs the supports' reactions (nonzero), at the free ones below the tolerance."""
+    from fem.assembly import Assembler
+    from fem.loadpath import solve_path
+
+    prob = _block(d1)
+    states, _ = solve_path(prob, State.zero(prob), LoadState((), (0.0, 0.0, 0.0, 0.0)),
+                           LoadState((), (0.0, 0.0, 0.0, 0.3)), fractions=(0.5, 1.0))
+    asm = Assembler(prob)
+    face = prob.dirichlet[3].nodes
+    for st in states:
+        fresh = asm.evaluate(st.u, st.p, (), need_tangent=False)[0]
+        assert st.residual is not None
+        assert np.array_equal(st.residual, fresh)
+        assert abs(st.residual[3 * face].sum()) > 1e-3  # the pull on the moved face

@@ -400,7 +400,7 @@ class Deflection:
 
 
 def contact_reactions(problem: Problem, state: State, pressures: tuple, band: np.ndarray,
-                      base: np.ndarray) -> np.ndarray:
+                      base: np.ndarray, residual: np.ndarray | None = None) -> np.ndarray:
     """Contact force and base reaction of ``state``: ``[F, R_x, R_y, R_z]`` [N].
 
     The residual R = f_int − f_ext (:meth:`fem.assembly.Assembler.evaluate`) vanishes at the free
@@ -418,6 +418,9 @@ def contact_reactions(problem: Problem, state: State, pressures: tuple, band: np
         The follower pressures' magnitudes at ``state``.
     band, base : ndarray of int
         Contact band and base node indices.
+    residual : ndarray, optional
+        R of ``state`` under ``problem`` and ``pressures`` when already known (the converged
+        Newton solve's last evaluation, :attr:`fem.state.State.residual`); evaluated otherwise.
 
     Returns
     -------
@@ -425,7 +428,9 @@ def contact_reactions(problem: Problem, state: State, pressures: tuple, band: np
     """
     from fem.assembly import Assembler
 
-    R = Assembler(problem).evaluate(state.u, state.p, pressures, need_tangent=False)[0]
+    R = residual
+    if R is None:
+        R = Assembler(problem).evaluate(state.u, state.p, pressures, need_tangent=False)[0]
     Ru = R[: 3 * problem.mesh.n_nodes].reshape(-1, 3)  # (n_nodes, 3)
     return np.concatenate([[-Ru[band, 1].sum()], Ru[base].sum(axis=0)])
 
@@ -463,7 +468,7 @@ def deflect_and_read(spec: SceneSpec, gm: GaugedMesh, pre: Pressurised, contact:
     def _read(fraction: float, st: State) -> None:
         tr = time.perf_counter()
         readings.append(reader.read(st.u))
-        forces.append(contact_reactions(prob2, st, pq, band, base))
+        forces.append(contact_reactions(prob2, st, pq, band, base, st.residual))  # R of prob2's solve
         t_read[0] += time.perf_counter() - tr
 
     states, reports = solve_path(prob2, pre.state, load0, load1, fractions=fractions, options=spec.solve_options,
