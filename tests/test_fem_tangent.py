@@ -184,6 +184,14 @@ def test_fibre_tangent_map_equals_dense_blocks(mesh):
     mapped = tk.tangent_map(pos, pat.nnz) @ kmat.ravel()  # (nnz,)
     assert np.abs(dense).max() > 1.0
     np.testing.assert_allclose(mapped, dense, rtol=0, atol=1e-12 * np.abs(dense).max())
+    # the merged weights: per segment and node the same total, held by one occurrence
+    wm = tk.merged_weights()
+    for nodes, w, m in zip(tk.nodes, tk.w, wm):
+        for n in np.unique(nodes):
+            at = nodes == n
+            assert np.isclose(m[at].sum(), w[at].sum(), rtol=0, atol=1e-15)
+            assert np.count_nonzero(m[at]) <= 1
+    assert not np.any(wm[0, 10:]) and np.any(wm[0, :10])  # both points in element 0: its 10 nodes once each
 
 @pytest.mark.parametrize("material", [NeoHookean(0.5, 0.0), Yeoh((0.5, 0.1, 0.03), 0.4)], ids=["neohooke", "yeoh"])
 def test_residual_is_energy_gradient(mesh, material):
