@@ -74,18 +74,26 @@ class PointLocator:
         return np.einsum("nkij,nkj->nki", self.Tinv[elems], q[:, None, :] - self.x0[elems])  # (n, k, 3)
 
     def newton(self, q: np.ndarray, elems: np.ndarray, xi: np.ndarray, iters: int = 12) -> tuple[np.ndarray, np.ndarray]:
-        """Newton inverse of the isoparametric map for points q (n,3) in elems (n,), start xi (n,3)."""
+        """Newton inverse of the isoparametric map for points q (n,3) in elems (n,), start xi (n,3).
+
+        Each point iterates until its own step is below 1e-14 (or ``iters`` iterations): the
+        points that converged drop out, so a few far-outside starts do not keep the rest going.
+        Returns xi (n, 3) and the residual ``|X(xi) - q|`` (n,).
+        """
         Xe = self.points[self.cells[elems]]  # (n, 10, 3)
         xi = xi.copy()
+        act = np.arange(len(q))  # points still iterating: a point stops once its own step is below 1e-14
         for _ in range(iters):
-            N = element.shape_functions(xi)  # (n, 10)
-            dN = element.shape_gradients(xi)  # (n, 10, 3)
-            r = np.einsum("na,nai->ni", N, Xe) - q  # (n, 3)
-            J = np.einsum("nai,naj->nij", Xe, dN)  # (n, 3, 3)
+            xa, Xa = xi[act], Xe[act]  # (m, 3), (m, 10, 3)
+            N = element.shape_functions(xa)  # (m, 10)
+            dN = element.shape_gradients(xa)  # (m, 10, 3)
+            r = np.einsum("na,nai->ni", N, Xa) - q[act]  # (m, 3)
+            J = np.einsum("nai,naj->nij", Xa, dN)  # (m, 3, 3)
             J[np.abs(np.linalg.det(J)) < 1e-30] = np.eye(3)  # guard far-outside guesses
-            step = np.linalg.solve(J, r[..., None])[..., 0]  # (n, 3)
-            xi -= step
-            if np.max(np.abs(step), initial=0.0) < 1e-14:
+            step = np.linalg.solve(J, r[..., None])[..., 0]  # (m, 3)
+            xi[act] = xa - step
+            act = act[np.max(np.abs(step), axis=1) >= 1e-14]
+            if len(act) == 0:
                 break
         res = np.linalg.norm(np.einsum("na,nai->ni", element.shape_functions(xi), Xe) - q, axis=1)
         return xi, res
