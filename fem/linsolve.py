@@ -22,12 +22,13 @@ follows the protocol plus one entry in :data:`SOLVERS`; ``solve`` must raise
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import logging
 import time
 import warnings
 from types import MappingProxyType
-from typing import Callable, Mapping, Protocol, runtime_checkable
+from typing import Callable, Iterator, Mapping, Protocol, runtime_checkable
 
 import numpy as np
 import scipy.sparse as sp
@@ -320,6 +321,33 @@ def _mkl_rt_name() -> str | None:
     if name:  # pragma: no cover
         os.environ["PYPARDISO_MKL_RT"] = name
     return name  # pragma: no cover
+
+
+@contextlib.contextmanager
+def mkl_threads(n: int | None) -> Iterator[None]:
+    """MKL's thread count (PARDISO's factorisations and solves) for the calling thread, restored after.
+
+    ``MKL_Set_Num_Threads_Local``: a solve in a process whose MKL uses several threads (a serial
+    GA run on all cores) and one in a worker started with one thread differ in round-off (about
+    1e-12 of a reading); pinning both to the same count makes them bit-identical. No effect when
+    ``n`` is None or MKL cannot be loaded.
+    """
+    import ctypes
+
+    try:
+        name = _mkl_rt_name() if n is not None else None
+        fn = ctypes.CDLL(name).MKL_Set_Num_Threads_Local if name else None
+    except (ImportError, OSError, AttributeError):  # no MKL: nothing to pin
+        fn = None
+    if fn is None:
+        yield
+        return
+    fn.restype, fn.argtypes = ctypes.c_int, [ctypes.c_int]
+    previous = fn(int(n))  # 0: the thread followed MKL's global setting
+    try:
+        yield
+    finally:
+        fn(previous)
 
 
 class SuperLUSolver:

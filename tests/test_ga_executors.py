@@ -156,3 +156,27 @@ def test_unreachable_scheduler_is_one_line_and_quick():
     assert "\n" not in str(err.value) and time.monotonic() - t0 < 30
     with pytest.raises(MachineFailure):
         preflight(ExecutorConfig(kind="dask", scheduler_address=f"tcp://127.0.0.1:{port}"))
+
+
+def test_finite_element_evaluations_are_bit_identical_on_every_executor():
+    """The whisker's own evaluator (coarse preset) gives the same numbers, to the last bit, in one process
+    (all three designs in a row), in a pool of two processes (one worker solves two of them) and on dask
+    workers: an evaluation's Newton solves start from nothing a worker kept from the design before."""
+    import whisker_opt.wiring as wiring
+    from whisker_opt.api import load_config
+
+    ev = wiring.evaluator(load_config({"fidelity": {"preset": "coarse"}, "optimiser": {"trim": 5.0}}))
+    genes = [{"alpha": 2.862, "l": 15.0, "t": 3.0, "Q_i": 0.2}, {"alpha": 4.0515, "l": 11.069, "t": 2.6521, "Q_i": 0.19986},
+             {"alpha": 3.5, "l": 12.0, "t": 4.0, "Q_i": 0.1}]
+    seeds = [1, 2, 3]
+
+    def numbers(out):
+        return [(o.status, o.f1, o.extra["eps_i_max"], o.extra["eps_c_max"], o.extra["delta_l"]) for o in out]
+
+    with SerialExecutor(ev) as ex:
+        ref = numbers(ex.map(genes, seeds))
+    assert [r[0] for r in ref] == ["ok"] * 3 and len({r[1] for r in ref}) == 3
+    with ProcessExecutor(ev, n_workers=2) as ex:
+        assert numbers(ex.map(genes, seeds)) == ref
+    with DaskExecutor(ev, n_workers=2, processes=True) as ex:
+        assert numbers(ex.map(genes, seeds)) == ref

@@ -22,7 +22,7 @@ def preflight(cfg: ExecutorConfig) -> None:
 def make_executor(cfg: ExecutorConfig, evaluator: Evaluator) -> _BaseExecutor:
     """The executor described by ``cfg`` (use it as a context manager)."""
     if cfg.kind == "serial":
-        return SerialExecutor(evaluator, cfg.timeout_s)
+        return SerialExecutor(evaluator, cfg.timeout_s, cfg.threads_per_worker)
     if cfg.kind == "processes":
         return ProcessExecutor(evaluator, cfg.n_workers, cfg.timeout_s, cfg.start_method, cfg.threads_per_worker)
     if cfg.kind == "dask":

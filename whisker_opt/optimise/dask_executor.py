@@ -69,8 +69,9 @@ class _SchedulerLossFilter(logging.Filter):
         return not str(record.msg).startswith("Failed to reconnect to scheduler")
 
 
-def _dask_task(evaluator: Evaluator, genes: dict[str, float], seed: int, timeout_s: float | None) -> EvalOutcome:
-    return guarded_call(evaluator, genes, seed, timeout_s, "thread")
+def _dask_task(evaluator: Evaluator, genes: dict[str, float], seed: int, timeout_s: float | None,
+               threads: int | None = None) -> EvalOutcome:
+    return guarded_call(evaluator, genes, seed, timeout_s, "thread", threads)
 
 
 class DaskExecutor(_BaseExecutor):
@@ -121,6 +122,7 @@ class DaskExecutor(_BaseExecutor):
         _check_picklable(evaluator)
         self.evaluator = evaluator
         self.timeout_s = timeout_s
+        self.threads = int(threads_per_worker)  # MKL threads of each evaluating thread (fem.linsolve.mkl_threads)
         self.max_retries = int(max_retries)
         self.heartbeat_s = float(heartbeat_s)
         self._cluster = None
@@ -184,7 +186,8 @@ class DaskExecutor(_BaseExecutor):
         return getattr(self._client, "status", "running") == "running"
 
     def _submit(self, genes: dict[str, float], seed: int):
-        return self._client.submit(_dask_task, self.evaluator, dict(genes), int(seed), self.timeout_s, pure=False)
+        return self._client.submit(_dask_task, self.evaluator, dict(genes), int(seed), self.timeout_s, self.threads,
+                                   pure=False)
 
     def _n_workers(self) -> int:
         try:

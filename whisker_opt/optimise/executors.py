@@ -134,6 +134,7 @@ def guarded_call(
     seed: int,
     timeout_s: float | None = None,
     timeout_mode: str = "none",
+    threads: int | None = None,
 ) -> EvalOutcome:
     """Evaluate one design; never raises for a problem inside the evaluator.
 
@@ -149,6 +150,10 @@ def guarded_call(
         Wall-clock limit [s].
     timeout_mode : {"none", "alarm", "thread"}
         How the limit is enforced here ("none": enforced by the caller, or no limit).
+    threads : int or None
+        MKL threads of the evaluating thread (:func:`fem.linsolve.mkl_threads`), so that an
+        evaluation in this process rounds as one in a worker started with that many threads;
+        None: as the process is set up.
 
     Returns
     -------
@@ -160,7 +165,10 @@ def guarded_call(
     t0 = time.perf_counter()
 
     def _call() -> Any:
-        return evaluator(dict(genes))
+        from fem.linsolve import mkl_threads
+
+        with mkl_threads(threads):
+            return evaluator(dict(genes))
 
     try:
         if timeout_s is not None and timeout_mode == "alarm":
@@ -243,20 +251,24 @@ class SerialExecutor(_BaseExecutor):
     evaluator : callable
     timeout_s : float or None
         Enforced with SIGALRM when called from the main thread, else with a helper thread.
+    threads : int
+        MKL threads of each evaluation (as a worker process of the other executors has), so a
+        serial run rounds as a parallel one (:func:`fem.linsolve.mkl_threads`).
     """
 
     kind = "serial"
 
-    def __init__(self, evaluator: Evaluator, timeout_s: float | None = None) -> None:
+    def __init__(self, evaluator: Evaluator, timeout_s: float | None = None, threads: int = 1) -> None:
         self.evaluator = evaluator
         self.timeout_s = timeout_s
+        self.threads = threads
 
     def map(self, genes_list: Sequence[dict[str, float]], seeds: Sequence[int],
             on_result: OnResult | None = None) -> list[EvalOutcome]:
         """Evaluate each design in order; see the module docstring."""
         main = threading.current_thread() is threading.main_thread() and hasattr(signal, "setitimer")
         mode = "alarm" if main else "thread"
-        return [_notify(on_result, i, guarded_call(self.evaluator, g, s, self.timeout_s, mode))
+        return [_notify(on_result, i, guarded_call(self.evaluator, g, s, self.timeout_s, mode, self.threads))
                 for i, (g, s) in enumerate(zip(genes_list, seeds))]
 
 
