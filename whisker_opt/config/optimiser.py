@@ -298,7 +298,8 @@ class ExecutorConfig(StrictModel):
     )
     dask_processes: bool = Field(True, description="LocalCluster workers are processes (True) or threads (False)")
     threads_per_worker: int = Field(
-        1, ge=1, le=256, description="BLAS/OpenMP threads per worker (OMP/MKL/OPENBLAS_NUM_THREADS)",
+        1, ge=1, le=256, description="BLAS/OpenMP threads per worker (OMP/MKL/OPENBLAS_NUM_THREADS); the serial executor "
+        "evaluates with MKL pinned to as many, so every executor rounds alike",
         json_schema_extra={"unit": "-"},
     )
     timeout_s: float | None = Field(
