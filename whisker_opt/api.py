@@ -188,8 +188,9 @@ def evaluate(cfg: WhiskerConfig, genes: Mapping[str, float] | Sequence[float]) -
     cfg : WhiskerConfig
         From :func:`load_config`; its ``design`` supplies every parameter that is not a gene.
     genes : mapping or sequence of float
-        ``{"alpha": deg, "l": mm, "t": mm, "Q_i": MPa}``, or the four values in
-        :data:`whisker_opt.genes.GENE_NAMES` order.
+        The config's genome (:func:`whisker_opt.genes.run_genome`): ``{"alpha": deg, "l": mm, "t": mm,
+        "Q_i": MPa}`` and each gene ``optimiser.genes`` adds, by its key (e.g. ``"fibre_pitch": mm``), or
+        the values in that order.
 
     Returns
     -------
@@ -202,7 +203,7 @@ def evaluate(cfg: WhiskerConfig, genes: Mapping[str, float] | Sequence[float]) -
     whisker_opt.config.model.ConfigError
         ``cfg`` is not a loaded config (pass a mapping or path through :func:`load_config`).
     ValueError
-        ``genes`` is not a mapping or sequence, lacks a gene or holds an unknown one.
+        ``genes`` is not a mapping or sequence, lacks a gene of the config's genome or holds another one.
 
     Examples
     --------
@@ -211,22 +212,24 @@ def evaluate(cfg: WhiskerConfig, genes: Mapping[str, float] | Sequence[float]) -
     >>> res.ok, res.f1, res.timings["total"]                               # doctest: +SKIP
     (True, 0.00255..., 1.8...)
     """
-    from whisker_opt.genes import GENE_NAMES, genes_dict
+    from whisker_opt.genes import genes_dict, run_genome
     from whisker_opt.workflows import evaluate as _evaluate
 
     cfg = _checked_config(cfg, "evaluate")
+    names = run_genome(cfg)
     if isinstance(genes, (str, bytes)) or not hasattr(genes, "__iter__"):
-        raise ValueError(f"evaluate: genes={genes!r}: expected a mapping {GENE_NAMES} -> value or "
-                         f"{len(GENE_NAMES)} values in that order")
+        raise ValueError(f"evaluate: genes={genes!r}: expected a mapping {names} -> value or "
+                         f"{len(names)} values in that order")
     if not isinstance(genes, Mapping):
         values = list(genes)
-        if len(values) != len(GENE_NAMES):
-            raise ValueError(f"evaluate: expected {len(GENE_NAMES)} genes {GENE_NAMES}, got {len(values)}")
-        genes = genes_dict(values)
-    missing = [g for g in GENE_NAMES if g not in genes]
-    unknown = [g for g in genes if g not in GENE_NAMES]
+        if len(values) != len(names):
+            raise ValueError(f"evaluate: expected {len(names)} genes {names}, got {len(values)}")
+        genes = genes_dict(values, names)
+    missing = [g for g in names if g not in genes]
+    unknown = [g for g in genes if g not in names]
     if missing or unknown:
-        raise ValueError(f"evaluate: genes must be exactly {GENE_NAMES} (missing {missing}, unknown {unknown})")
+        raise ValueError(f"evaluate: genes must be exactly {names}, the genome of optimiser.genes (missing {missing}, "
+                         f"unknown {unknown})")
     return _evaluate(cfg, genes)
 
 

@@ -174,3 +174,47 @@ def spec_from_genes(base_spec, genes: Mapping[str, float], trim: float, Q: float
 def genes_dict(values, names: tuple[str, ...] = GENE_NAMES) -> dict[str, float]:
     """``{name: float}`` of a genome given in ``names`` order (default :data:`GENE_NAMES`)."""
     return {n: float(x) for n, x in zip(names, values)}
+
+
+def run_genome(cfg) -> tuple[str, ...]:
+    """The genome a run declares: :data:`GENE_NAMES`, then the added genes of ``optimiser.genes`` in the
+    order written.
+
+    Parameters
+    ----------
+    cfg : whisker_opt.config.model.WhiskerConfig or whisker_opt.config.optimiser.OptimiserConfig
+        A run file (:data:`GENE_NAMES` when it has no ``optimiser`` section) or its ``optimiser`` section.
+    """
+    opt = getattr(cfg, "optimiser", cfg)
+    genes = getattr(opt, "genes", None)
+    return tuple(genes.names()) if genes is not None else GENE_NAMES
+
+
+def genome_of(genes: Mapping[str, float], names: tuple[str, ...], what: str = "genes") -> dict[str, float]:
+    """``{name: float}`` of the genes ``names`` of a design, in that order (other entries dropped).
+
+    Raises
+    ------
+    ValueError
+        One line naming ``what``, the missing genes and the genome.
+    """
+    missing = [n for n in names if n not in genes]
+    if missing:
+        raise ValueError(f"{what}: missing gene(s) {', '.join(missing)} of the genome ({', '.join(names)})")
+    return {n: float(genes[n]) for n in names}
+
+
+def config_genome(cfg) -> dict[str, float]:
+    """The values a run file gives its own genome (:func:`run_genome`): each gene's key of the ``design`` or
+    ``material`` section, and Q_i from ``scene.Q_i``.
+
+    Parameters
+    ----------
+    cfg : whisker_opt.config.model.WhiskerConfig
+    """
+    keys = gene_keys()
+    out = {}
+    for name in run_genome(cfg):
+        key = keys[name]
+        out[name] = float(cfg.scene.Q_i if key.section == "load" else getattr(getattr(cfg, key.section), name))
+    return out

@@ -160,23 +160,34 @@ class DesignPoints:
 
 # ----------------------------------------------------------------------------- which designs
 def config_designs(cfg: WhiskerConfig, genomes: Sequence[Sequence[float]] = (), source: str = "config") -> list:
-    """The design of a config (genes α, l, t of ``design``, Q_i of ``scene.Q_i``), or the given genomes.
+    """The design of a config, or the given genomes, each over the config's genome
+    (:func:`whisker_opt.genes.run_genome`: α, l, t, Q_i and the genes ``optimiser.genes`` adds).
+
+    The config's own design takes each gene's value from its key (α, l, t and an added design gene from
+    ``design``, an added material gene from ``material``) and Q_i from ``scene.Q_i``; a given genome lists
+    the genes' values in the genome's order.
 
     Raises
     ------
     ConfigError
         ``scene.Q_i`` is not positive (the recovery rate needs the trimmed whisker at Q_i) when the
         config's own design is studied.
+    RobustnessError
+        A given genome's length is not the genome's.
     """
-    from whisker_opt.genes import GENE_NAMES, genes_dict
+    from whisker_opt.genes import config_genome, genes_dict, run_genome
 
+    names = run_genome(cfg)
+    for i, g in enumerate(genomes, start=1):
+        if len(g) != len(names):
+            raise RobustnessError(f"robustness: genome {i}: {len(g)} values given, the genome of {source} has "
+                                  f"{len(names)} ({', '.join(names)}, in that order)")
     if genomes:
-        return [StudyDesign(f"genes {i}", genes_dict(g)) for i, g in enumerate(genomes, start=1)]
+        return [StudyDesign(f"genes {i}", genes_dict(g, names)) for i, g in enumerate(genomes, start=1)]
     if cfg.scene.Q_i <= 0:
         raise ConfigError(f"{source}: scene.Q_i: must be > 0 for a robustness study (got {cfg.scene.Q_i:g}; the "
                           "recovery rate needs the trimmed whisker left at Q_i)")
-    d = cfg.design
-    return [StudyDesign("config", {n: float(cfg.scene.Q_i if n == "Q_i" else getattr(d, n)) for n in GENE_NAMES})]
+    return [StudyDesign("config", config_genome(cfg))]
 
 
 def run_designs(run_dir: Path, top: int) -> list:

@@ -23,14 +23,22 @@ import logging
 import time
 from typing import Any, Mapping, Sequence
 
-from whisker_opt.genes import GENE_NAMES
+from whisker_opt.genes import GENE_NAMES, genome_of, run_genome
 
 logger = logging.getLogger(__name__)
 
 #: Recovery rate [%] a design's vent must reach under every wall law for its compensation to "survive".
 SURVIVES_RECOVERY = 50.0
 
-COLUMNS = ("design", "law", *GENE_NAMES, "f1", "recovery_rate", "status", "reason", "time_s")
+
+def columns(gene_names: Sequence[str] = GENE_NAMES) -> tuple[str, ...]:
+    """The columns of the spread's rows and CSV: the design, the law, the genome ``gene_names`` (each gene by
+    its key, :func:`whisker_opt.genes.run_genome` of the run), then f1, the recovery rate and the status."""
+    return ("design", "law", *gene_names, "f1", "recovery_rate", "status", "reason", "time_s")
+
+
+#: The columns of a run of the default genome.
+COLUMNS = columns()
 
 
 def available_laws(cfg) -> tuple[str, ...]:
@@ -51,7 +59,8 @@ def law_spread(cfg, designs: Sequence[Mapping[str, float]], laws: Sequence[str] 
     cfg : whisker_opt.config.model.WhiskerConfig
         The run's config (its preset, trim, scene settings and own law).
     designs : sequence of mapping
-        Genes ``alpha``, ``l``, ``t``, ``Q_i``.
+        The genes of the run's genome (:func:`whisker_opt.genes.run_genome` of ``cfg``: ``alpha``, ``l``,
+        ``t``, ``Q_i`` and any added gene); each design is solved with every one of them.
     laws : sequence of str, optional
         Default :func:`available_laws`.
     on_scene : callable, optional
@@ -60,21 +69,26 @@ def law_spread(cfg, designs: Sequence[Mapping[str, float]], laws: Sequence[str] 
     Returns
     -------
     list of dict
-        One row per (design, law), columns :data:`COLUMNS` (``design`` is the 1-based index).
+        One row per (design, law), :func:`columns` of the genome (``design`` is the 1-based index).
+
+    Raises
+    ------
+    ValueError
+        A design lacks a gene of the genome (one line naming it).
     """
     import numpy as np
 
     import whisker_opt.wiring as wiring
     from whisker_opt.analysis.compensation import curve_measures
-    from whisker_opt.genes import GENE_NAMES
     from whisker_opt.experiment import objective
     from whisker_opt.experiment.scene import SceneRunner
 
     laws = tuple(laws or available_laws(cfg))
     runner = SceneRunner(memo_size=16)
+    names = run_genome(cfg)
+    designs = [genome_of(genes, names, f"wall-law spread: design {k}") for k, genes in enumerate(designs, start=1)]
     rows = []
     for k, genes in enumerate(designs, start=1):
-        genes = {g: float(genes[g]) for g in GENE_NAMES}
         for law in laws:
             t0 = time.perf_counter()
             row: dict[str, Any] = {"design": k, "law": law, **genes, "f1": float("nan"),
@@ -130,13 +144,14 @@ def format_spread(rows: Sequence[Mapping[str, Any]], preset: str) -> str:
     return "\n".join(lines)
 
 
-def write_spread(rows: Sequence[Mapping[str, Any]], path) -> None:
-    """Write the rows to ``path`` as CSV, atomically (:func:`whisker_opt.output.storage.write_csv`)."""
+def write_spread(rows: Sequence[Mapping[str, Any]], path, gene_names: Sequence[str] = GENE_NAMES) -> None:
+    """Write the rows to ``path`` as CSV, :func:`columns` of the genome ``gene_names``, atomically
+    (:func:`whisker_opt.output.storage.write_csv`)."""
     from pathlib import Path
 
     from whisker_opt.output.storage import write_csv
 
-    write_csv(Path(path), COLUMNS, rows)
+    write_csv(Path(path), columns(gene_names), rows)
 
 
 def report_lines(run_dir) -> list[str]:

@@ -22,9 +22,9 @@ from __future__ import annotations
 
 import logging
 from pathlib import Path
-from typing import Any
+from typing import Any, Sequence
 
-from whisker_opt.genes import GENE_NAMES
+from whisker_opt.genes import GENE_NAMES, genome_of, run_genome
 from whisker_opt.output import storage
 from whisker_opt.numfmt import short_float
 
@@ -34,8 +34,15 @@ class VerifyError(ValueError):
     """Unusable arguments for :func:`verify_run` (a user error: the message names the field)."""
 
 
-COLUMNS = ("rank_run", "rank_verify", *GENE_NAMES, "f1_run", "f1_verify", "f1_change",
-           "F_p_run", "F_p_verify", "status", "reason", "time_s")
+def columns(gene_names: Sequence[str] = GENE_NAMES) -> tuple[str, ...]:
+    """The columns of ``verify_<preset>.csv``: the ranks, the genome ``gene_names`` (each gene by its key,
+    :func:`whisker_opt.genes.run_genome` of the run), then f1 and F_p of the run and of the verification."""
+    return ("rank_run", "rank_verify", *gene_names, "f1_run", "f1_verify", "f1_change",
+            "F_p_run", "F_p_verify", "status", "reason", "time_s")
+
+
+#: The columns of a run of the default genome.
+COLUMNS = columns()
 
 
 def check_args(preset: str, top: int) -> None:
@@ -65,10 +72,11 @@ def verify_run(run_dir: Path, preset: str = "fine", top: int = 3, progress: bool
     Returns
     -------
     list of dict
-        One row per design (columns :data:`COLUMNS`), in the run's order; also written to
+        One row per design (:func:`columns` of the run's genome), in the run's order; also written to
         ``run_dir / f"verify_{preset}.csv"``. Each row also holds ``run_preset`` (the run's
-        own preset) and ``f1_resolution`` / ``run_f1_resolution`` (of the verification and
-        the run's preset, in the run's calibrated strain), which :func:`format_rows` reports.
+        own preset), ``f1_resolution`` / ``run_f1_resolution`` (of the verification and
+        the run's preset, in the run's calibrated strain) and ``gene_names`` (the genome), which
+        :func:`format_rows` reports.
 
     Raises
     ------
@@ -95,8 +103,9 @@ def verify_run(run_dir: Path, preset: str = "fine", top: int = 3, progress: bool
     if preset == run_preset:
         logger.warning("verify: preset %s is the run's own preset: the re-evaluation reproduces the run's f1 and "
                        "verifies nothing; choose a finer preset", preset)
+    names = run_genome(cfg)
     resolution = {"run_preset": run_preset, "f1_resolution": f1_resolution(preset, cfg.scene.calibration),
-                  "run_f1_resolution": f1_resolution(run_preset, cfg.scene.calibration)}
+                  "run_f1_resolution": f1_resolution(run_preset, cfg.scene.calibration), "gene_names": names}
     evaluate = wiring.evaluator(wiring.with_preset(cfg, preset))
     terms = penalty_terms(opt)
     rows = []
@@ -105,7 +114,7 @@ def verify_run(run_dir: Path, preset: str = "fine", top: int = 3, progress: bool
                      "scene" if per_scene else "design", progress)
     with steps:
         for rank, best in enumerate(chosen, start=1):
-            genes = dict(best["genes"])
+            genes = genome_of(best["genes"], names, f"verify: design {rank}")
             f1_run = float(best["f1"])
             logger.info("verify: design %d/%d %s at preset %s", rank, len(chosen), genes, preset)
             if per_scene:
@@ -133,23 +142,25 @@ def verify_run(run_dir: Path, preset: str = "fine", top: int = 3, progress: bool
         r["rank_verify"] = i
     for r in rows:
         r.setdefault("rank_verify", "")
-    storage.write_csv(run_dir / f"verify_{preset}.csv", COLUMNS, rows)
+    storage.write_csv(run_dir / f"verify_{preset}.csv", columns(names), rows)
     return rows
 
 
 def format_rows(rows: list[dict[str, Any]], preset: str) -> str:
     """Text table of :func:`verify_run`'s rows and whether the run's order survived."""
-    lines = [f"{'rank':>4} {'alpha':>7} {'l':>7} {'t':>6} {'Q_i':>7} {'f1 run':>11} {f'f1 {preset}':>11} "
-             f"{'change':>8} {f'F_p {preset}':>11} {'rank':>5}"]
+    first = rows[0] if rows else {}
+    added = [g for g in first.get("gene_names", GENE_NAMES) if g not in GENE_NAMES]
+    lines = [f"{'rank':>4} {'alpha':>7} {'l':>7} {'t':>6} {'Q_i':>7}" + "".join(f" {g:>{max(7, len(g))}}" for g in added)
+             + f" {'f1 run':>11} {f'f1 {preset}':>11} {'change':>8} {f'F_p {preset}':>11} {'rank':>5}"]
     for r in rows:
-        lines.append(f"{r['rank_run']:>4} {r['alpha']:>7.3f} {r['l']:>7.3f} {r['t']:>6.3f} {r['Q_i']:>7.4f} "
-                     f"{r['f1_run']:>11.5g} {r['f1_verify']:>11.5g} {r['f1_change']:>+8.1%} "
+        lines.append(f"{r['rank_run']:>4} {r['alpha']:>7.3f} {r['l']:>7.3f} {r['t']:>6.3f} {r['Q_i']:>7.4f}"
+                     + "".join(f" {r[g]:>{max(7, len(g))}.4g}" for g in added)
+                     + f" {r['f1_run']:>11.5g} {r['f1_verify']:>11.5g} {r['f1_change']:>+8.1%} "
                      f"{r['F_p_verify']:>11.5g} {str(r['rank_verify']):>5}"
                      + ("" if r["status"] == "ok" else f"  {r['status']}: {r['reason']}"))
     order = [r["rank_verify"] for r in rows if r["status"] == "ok"]
     same = order == sorted(order)
     lines.append(f"the run's order {'holds' if same else 'changes'} at preset {preset}")
-    first = rows[0] if rows else {}
     if first.get("f1_resolution") is not None:
         lines.append(f"f1 resolution ~{short_float(first['f1_resolution'])} at preset {preset}"
                      + (f", ~{short_float(first['run_f1_resolution'])} at the run's preset {first['run_preset']}"
@@ -211,5 +222,5 @@ def law_spread_run(run_dir: Path, top: int = 3, progress: bool = True) -> tuple[
     steps = Progress(len(chosen) * len(laws) * len(SCENE_NAMES), "wall-law spread", "scene", progress)
     with steps:
         rows = law_spread(cfg, [dict(b["genes"]) for b in chosen], laws, on_scene=steps.step)
-    write_spread(rows, run_dir / "law_spread.csv")
+    write_spread(rows, run_dir / "law_spread.csv", run_genome(cfg))
     return rows, cfg.fidelity.preset

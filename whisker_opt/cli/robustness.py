@@ -31,28 +31,34 @@ from whisker_opt.output.lock import RunDirLock
 HELP = "propagate fabrication tolerances to f1 and the recovery rate of a run's best designs or a config's design"
 
 
-def genome(text: str) -> tuple[float, float, float, float]:
-    """An argparse type: ``ALPHA,L,T,Q_I`` (deg, mm, mm, MPa), four finite numbers."""
+#: Most values of a ``--genes`` genome: the four and the added genes (any real key of two sections).
+MAX_GENES = 100
+
+
+def genome(text: str) -> tuple[float, ...]:
+    """An argparse type: ``ALPHA,L,T,Q_I[,ADDED,...]`` (deg, mm, mm, MPa, then each gene ``optimiser.genes``
+    adds, in its order), at least four finite numbers (the study checks the count against the config's genome)."""
     parts = [p.strip() for p in str(text).split(",")]
-    if len(parts) != 4:
-        raise argparse.ArgumentTypeError(f"{text!r}: expected ALPHA,L,T,Q_I (4 numbers separated by commas), got "
-                                         f"{len(parts)} item(s)")
-    return tuple(parse_finite(p) for p in parts)  # type: ignore[return-value]
+    if not 4 <= len(parts) <= MAX_GENES:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected ALPHA,L,T,Q_I and any added genes (4 to {MAX_GENES} "
+                                         f"numbers separated by commas), got {len(parts)} item(s)")
+    return tuple(parse_finite(p) for p in parts)
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """The command's arguments."""
     p.add_argument("source", type=nonempty_path, metavar="RUN_DIR|CONFIG",
                    help="a run directory (its best feasible designs, robustness.top of them) or a YAML run file "
-                        "(its design: design.alpha, design.l, design.t, scene.Q_i)")
+                        "(its design: design.alpha, design.l, design.t, scene.Q_i and the keys of any added gene)")
     p.add_argument("--method", choices=["expansion", "sample", "both"], default=None,
                    help="estimator (default robustness.method): first-order expansion, seeded sample, or both")
     p.add_argument("--samples", type=int_in(2, 100_000, name="samples"), default=None, metavar="N",
                    help="points of the sample (robustness.sample.n), 2..100000")
     p.add_argument("--top", type=int_in(1, 1000, name="top"), default=None,
                    help="best feasible designs of a run studied (robustness.top), 1..1000")
-    p.add_argument("--genes", type=genome, action="append", default=[], metavar="ALPHA,L,T,Q_I",
-                   help="with a CONFIG: study this genome instead of the config's design (repeatable)")
+    p.add_argument("--genes", type=genome, action="append", default=[], metavar="ALPHA,L,T,Q_I[,...]",
+                   help="with a CONFIG: study this genome instead of the config's design (repeatable); the values "
+                        "of the genes optimiser.genes adds follow Q_I in their order")
     settings_arguments(p, "robustness.tolerances.alpha=0.5", "accept an empty run file (every key at its default)",
                        "; with a run directory, over its config.yaml")
     p.add_argument("--out", type=nonempty_path, default=None,
