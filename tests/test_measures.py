@@ -184,3 +184,71 @@ def test_an_nsga2_over_f1_and_sensitivity_runs_end_to_end(tmp_path):
     front = _rows(out / "pareto.csv")
     assert front and "sensitivity" in front[0]
     assert (out / "pareto.png").is_file()
+
+
+ADDED_GENE_RUN = """\
+fidelity:
+  preset: coarse
+optimiser:
+  trim: 5.0
+  genes:
+    fibre_pitch: [2.0, 2.5]
+  law_spread_top: 1
+  ga:
+    population: 4
+    n_elite: 1
+    tournament: 2
+  stopping:
+    max_generations: 1
+  executor:
+    kind: serial
+seed: 3
+"""
+
+
+@pytest.fixture(scope="module")
+def added_gene_run(tmp_path_factory):
+    """A tiny GA over the four genes and ``fibre_pitch`` in [2, 2.5] (the config's pitch is 3), verified at its
+    own preset and with the wall-law spread of its best design."""
+    from whisker_opt.cli import main as cli
+
+    d = tmp_path_factory.mktemp("added_gene")
+    (d / "run.yaml").write_text(ADDED_GENE_RUN)
+    out = d / "run"
+    assert cli.main(["run", str(d / "run.yaml"), "--out", str(out), "--no-progress", "--verify", "coarse",
+                     "--verify-top", "1"]) == 0
+    return out
+
+
+@pytest.mark.slow
+def test_verify_and_the_law_spread_re_evaluate_the_optimum_in_every_gene(added_gene_run):
+    out = added_gene_run
+    best = json.loads((out / "best.json").read_text())
+    genome = ["alpha", "l", "t", "Q_i", "fibre_pitch"]
+    assert list(best["genes"]) == genome and 2.0 <= best["genes"]["fibre_pitch"] <= 2.5
+    verified = _rows(out / "verify_coarse.csv")
+    assert list(verified[0])[2:7] == genome
+    assert {g: float(verified[0][g]) for g in genome} == best["genes"]
+    assert float(verified[0]["f1_verify"]) == pytest.approx(best["f1"], rel=1e-9)  # the run's preset
+    spread = _rows(out / "law_spread.csv")
+    assert [r["law"] for r in spread] == ["embedded", "sliding"] and all(r["status"] == "ok" for r in spread)
+    assert list(spread[0])[2:7] == genome
+    for r in spread:
+        assert {g: float(r[g]) for g in genome} == best["genes"]
+    assert float(spread[0]["f1"]) == pytest.approx(best["f1"], rel=1e-9)  # its own law: the run's evaluation
+
+
+@pytest.mark.slow
+def test_api_evaluate_takes_an_added_gene_as_the_ga_did(added_gene_run):
+    import whisker_opt as wo
+
+    best = json.loads((added_gene_run / "best.json").read_text())
+    cfg = wo.load_config(added_gene_run / "config.yaml")
+    out = wo.evaluate(cfg, best["genes"])
+    assert out.ok and out.f1 == pytest.approx(best["f1"], rel=1e-9)
+    in_order = wo.evaluate(cfg, list(best["genes"].values()))  # the values in the genome's order
+    assert in_order.f1 == pytest.approx(out.f1, rel=1e-9)
+    with pytest.raises(ValueError, match=r"missing \['fibre_pitch'\]"):
+        wo.evaluate(cfg, {g: best["genes"][g] for g in GENE_NAMES})
+    with pytest.raises(ValueError, match="expected 5 genes"):
+        wo.evaluate(cfg, [best["genes"][g] for g in GENE_NAMES])

@@ -393,15 +393,21 @@ def sensitivity_rows(results: Sequence[DesignRobustness], cfg: WhiskerConfig) ->
 
 
 def format_table(results: Sequence[DesignRobustness]) -> str:
-    """The printed summary: per design and method, f1 and the recovery rate (nominal, mean, std, worst)."""
-    head = (f"{'design':<8} {'alpha':>7} {'l':>7} {'t':>6} {'Q_i':>7} {'method':<9} {'f1 nom':>9} {'f1 mean':>9} "
+    """The printed summary: per design and method, its genes (an added gene by its key, after Q_i), f1 and the
+    recovery rate (nominal, mean, std, worst)."""
+    from whisker_opt.genes import GENE_NAMES
+
+    added = [g for g in (results[0].design.genes if results else {}) if g not in GENE_NAMES]
+    head = (f"{'design':<8} {'alpha':>7} {'l':>7} {'t':>6} {'Q_i':>7}" + "".join(f" {g:>{max(7, len(g))}}" for g in added)
+            + f" {'method':<9} {'f1 nom':>9} {'f1 mean':>9} "
             f"{'f1 std':>9} {'f1 worst':>9} {'rec nom':>8} {'rec mean':>8} {'rec std':>8} {'rec worst':>9} "
             f"{'solves':>6} {'time s':>7}")
     lines = [head]
     for row in summary_rows(results):
         lines.append(
-            f"{row['design']:<8} {row['alpha']:>7.4f} {row['l']:>7.4f} {row['t']:>6.4f} {row['Q_i']:>7.5f} "
-            f"{row['method']:<9} {row['f1_nominal']:>9.3g} {row['f1_mean']:>9.3g} {row['f1_std']:>9.3g} "
+            f"{row['design']:<8} {row['alpha']:>7.4f} {row['l']:>7.4f} {row['t']:>6.4f} {row['Q_i']:>7.5f}"
+            + "".join(f" {row[g]:>{max(7, len(g))}.4g}" for g in added)
+            + f" {row['method']:<9} {row['f1_nominal']:>9.3g} {row['f1_mean']:>9.3g} {row['f1_std']:>9.3g} "
             f"{row['f1_worst']:>9.3g} {row['recovery_rate_nominal']:>8.2f} {row['recovery_rate_mean']:>8.2f} "
             f"{row['recovery_rate_std']:>8.2f} {row['recovery_rate_worst']:>9.2f} {row['solves']:>6d} "
             f"{row['time_s']:>7.0f}")

@@ -54,7 +54,10 @@ def fidelity_label(fidelity: Mapping[str, Any] | None) -> str:
 
 
 def design_label(genes: Mapping[str, float], trim: float | None = None) -> str:
-    """The genome with units, and the trim: ``α = 2.960°, l = 10.09 mm, …, trim Δ = 5 mm``."""
+    """The genome with units, and the trim: ``α = 2.960°, l = 10.09 mm, …, fibre_pitch = 2.2 mm, trim Δ = 5 mm``
+    (an added gene of :func:`whisker_opt.genes.gene_keys` by its key, after Q_i)."""
+    from whisker_opt.genes import GENE_NAMES, gene_keys
+
     g = {k: float(v) for k, v in genes.items()}
     parts = []
     if "alpha" in g:
@@ -64,6 +67,9 @@ def design_label(genes: Mapping[str, float], trim: float | None = None) -> str:
             parts.append(f"{name} = {g[name]:.2f} mm")
     if "Q_i" in g:
         parts.append(f"Q_i = {g['Q_i']:.4f} MPa")
+    keys = gene_keys()
+    parts += [f"{k} = {v:.4g}" + (f" {keys[k].unit}" if keys[k].unit not in ("", "-") else "")
+              for k, v in g.items() if k in keys and k not in GENE_NAMES]
     if trim is not None:
         parts.append(f"trim Δ = {float(trim):g} mm")
     return ", ".join(parts)
