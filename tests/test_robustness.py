@@ -293,6 +293,32 @@ def test_without_the_robust_option_the_evaluator_is_the_plain_one():
     assert wiring.evaluator(robust_cfg, robust=False) == wiring.evaluator(cfg)
 
 
+def test_the_studied_designs_follow_the_configs_genome(tmp_path, capsys):
+    """An added gene of ``optimiser.genes`` is a gene of every studied design: the config's own value of its key,
+    or the value after Q_i of a ``--genes`` genome; a genome of another length is refused in one line."""
+    from whisker_opt import robustness as study
+    from whisker_opt import wiring
+    from whisker_opt.cli import main as cli
+    from whisker_opt.config.model import load_config
+
+    text = "design: {fibre_pitch: 2.5}\nscene: {Q_i: 0.2}\noptimiser: {trim: 5.0, genes: {fibre_pitch: [2, 4]}}\n"
+    path = tmp_path / "g.yaml"
+    path.write_text(text)
+    cfg = load_config(path)
+    (own,) = study.config_designs(cfg)
+    assert own.genes == {"alpha": 2.862, "l": 15.0, "t": 3.0, "Q_i": 0.2, "fibre_pitch": 2.5}
+    (given,) = study.config_designs(cfg, [(3.0, 12.0, 2.5, 0.1, 2.2)])
+    assert given.genes == {"alpha": 3.0, "l": 12.0, "t": 2.5, "Q_i": 0.1, "fibre_pitch": 2.2}
+    assert {s.design.fibre_pitch for s in wiring.design_scene_specs(cfg, given.genes).values()} == {2.2}
+    with pytest.raises(study.RobustnessError, match=r"genome 1: 4 values given, .* has 5 \(alpha, l, t, Q_i, "
+                                                    r"fibre_pitch, in that order\)"):
+        study.config_designs(cfg, [(3.0, 12.0, 2.5, 0.1)])
+    rc = cli.main(["robustness", str(path), "--genes", "3,12,2.5,0.1", "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "4 values given" in err[0], err
+    assert not (tmp_path / "o").exists()
+
+
 # ----------------------------------------------------------------------------- end to end
 def test_robustness_command_end_to_end_at_coarse(tmp_path, capsys):
     """The calibration tolerance alone: one FE design (3 scenes) and closed forms, since every
