@@ -13,7 +13,7 @@ and prints a table: deviated designs solved, wall time, and mean, std and worst 
 Each deviated design is three FE scenes on one core.
 
     OMP_NUM_THREADS=1 python3 -m benchmarks.studies.robustness [--preset coarse] [--samples 32] [--mc]
-        [--genes 4.0515,11.069,2.6521,0.19986]
+        [--genes 4.0515,11.069,2.6521,0.19986]   (then the values of any gene optimiser.genes adds)
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ import argparse
 import time
 
 from whisker_opt.config.model import load_config
+from whisker_opt.genes import genes_dict, run_genome
 from whisker_opt.robustness import StudyDesign, study_design
 
 REFERENCE = (4.0515, 11.069, 2.6521, 0.19986)
@@ -37,7 +38,7 @@ def main() -> None:
     args = ap.parse_args()
 
     cfg = load_config(args.config, settings=(f"fidelity.preset={args.preset}", f"robustness.sample.n={args.samples}"))
-    genes = dict(zip(("alpha", "l", "t", "Q_i"), (float(v) for v in args.genes.split(","))))
+    genes = genes_dict([float(v) for v in args.genes.split(",")], run_genome(cfg))  # in the config's genome order
     design = StudyDesign("bench", genes)
     rows = []
     t0 = time.perf_counter()
