@@ -1,6 +1,7 @@
 """Named measures and the open genome: each measure against an independent computation from the scenes,
-bad names and bounds refused in one line, extra genes reaching the design and the material, and a GA and an
-NSGA-II with an added gene / a measure objective end to end on the coarse preset."""
+bad names and bounds refused in one line, extra genes reaching the design and the material, a GA and an
+NSGA-II with an added gene / a measure objective end to end on the coarse preset, and the optimum of a GA with an
+added gene re-evaluated in every gene by verify, the wall-law spread and ``api.evaluate``."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 from pydantic import ValidationError
 
 from whisker_opt.api import load_config
@@ -186,24 +188,10 @@ def test_an_nsga2_over_f1_and_sensitivity_runs_end_to_end(tmp_path):
     assert (out / "pareto.png").is_file()
 
 
-ADDED_GENE_RUN = """\
-fidelity:
-  preset: coarse
-optimiser:
-  trim: 5.0
-  genes:
-    fibre_pitch: [2.0, 2.5]
-  law_spread_top: 1
-  ga:
-    population: 4
-    n_elite: 1
-    tournament: 2
-  stopping:
-    max_generations: 1
-  executor:
-    kind: serial
-seed: 3
-"""
+#: A tiny GA of the genome and fibre_pitch (the config's pitch, 3 mm, outside its bounds), with the spread of its best.
+ADDED_GENE_RUN = {"fidelity": {"preset": "coarse"}, "seed": 3, "optimiser": {
+    "trim": 5.0, "genes": {"fibre_pitch": [2.0, 2.5]}, "law_spread_top": 1, "executor": {"kind": "serial"},
+    "ga": {"population": 4, "n_elite": 1, "tournament": 2}, "stopping": {"max_generations": 1}}}
 
 
 @pytest.fixture(scope="module")
@@ -213,7 +201,7 @@ def added_gene_run(tmp_path_factory):
     from whisker_opt.cli import main as cli
 
     d = tmp_path_factory.mktemp("added_gene")
-    (d / "run.yaml").write_text(ADDED_GENE_RUN)
+    (d / "run.yaml").write_text(yaml.safe_dump(ADDED_GENE_RUN))
     out = d / "run"
     assert cli.main(["run", str(d / "run.yaml"), "--out", str(out), "--no-progress", "--verify", "coarse",
                      "--verify-top", "1"]) == 0
