@@ -209,8 +209,8 @@ def encode_text(strings: str | Sequence[str]) -> np.ndarray:
 
 
 def decode_text(array) -> list[str]:
-    """The strings of a text field-data entry: a string array as pyvista reads it, or the bytes of
-    :func:`encode_text` (how older files stored text).
+    """The strings of a text field-data entry: the bytes of :func:`encode_text` (how text is written), or
+    a string array as pyvista reads it from an older file.
 
     Parameters
     ----------
@@ -252,8 +252,8 @@ def field_values(field_data: Mapping) -> dict:
 
 
 def field_array(value) -> np.ndarray:
-    """A field-data value as the array written: text -> :func:`encode_text`; bools and
-    integers -> int64; other numbers -> float64.
+    """A field-data value as the array written: text -> :func:`encode_text` (uint8, the only uint8
+    entries); bools and integers -> int64; other numbers -> float64.
 
     Parameters
     ----------
