@@ -7,12 +7,13 @@ Every file is written atomically (:func:`atomic_write`) with the mode of an ordi
 The VTU files are written by meshio and stay readable by meshio, VTK, ParaView and pyvista.
 Two VTK features that meshio does not write are added to its output:
 
-* field data (``<FieldData>``, the data set's metadata): numbers as ``Float64``/``Int64``
-  arrays; text as VTK string arrays (``<Array type="String">``, the UTF-8 bytes of each string
-  followed by a NUL byte), which ParaView, VTK and pyvista show as text. meshio (5.3) cannot
-  read string arrays and refuses such a file: read the VTUs with pyvista or VTK.
-  :func:`decode_text` gives the strings of a text entry as pyvista returns it, or of the
-  ``UInt8`` byte arrays older files hold;
+* field data (``<FieldData>``, the data set's metadata): numbers as ``Int64``/``Float64``
+  arrays, text as a ``UInt8`` array of the UTF-8 bytes of each string followed by a NUL byte
+  (:func:`encode_text`). A ``UInt8`` entry is text and nothing else is: :func:`field_values`
+  (or :func:`decode_text` on one entry) turns the entries back into numbers and strings. meshio
+  (5.3) reads numeric arrays only and stops the interpreter on a VTK string array
+  (``<Array type="String">``), so none is written; VTK, pyvista and ParaView read the bytes as
+  numbers. :func:`decode_text` also reads the string arrays of older files, as pyvista returns them;
 * component names (the ``ComponentName<i>`` attributes of a data array), which ParaView
   shows in its component menus, e.g. ``XX`` … ``XZ`` of a symmetric tensor.
 """
@@ -32,7 +33,7 @@ from fem.mesh import TetMesh
 def write_vtu(path: str | Path, mesh: TetMesh, point_data: dict | None = None, cell_data: dict | None = None,
               deformed: np.ndarray | None = None, field_data: Mapping | None = None,
               component_names: Mapping[str, Sequence[str]] | None = None) -> Path:
-    """Write ``mesh`` as a VTU file readable by ParaView and pyvista (atomically).
+    """Write ``mesh`` as a VTU file readable by meshio, ParaView and pyvista (atomically).
 
     The file is written to a hidden temporary file in the same folder (``.<name>.<random>.tmp``),
     flushed to disk and renamed over ``path``, so a kill at any instant leaves either no file
@@ -208,8 +209,8 @@ def encode_text(strings: str | Sequence[str]) -> np.ndarray:
 
 
 def decode_text(array) -> list[str]:
-    """The strings of a text field-data entry: a string array as pyvista reads it, or the bytes of
-    :func:`encode_text` (how older files stored text).
+    """The strings of a text field-data entry: the bytes of :func:`encode_text` (how text is written), or
+    a string array as pyvista reads it from an older file.
 
     Parameters
     ----------
@@ -229,9 +230,30 @@ def decode_text(array) -> list[str]:
     return [p.decode("utf-8") for p in parts]
 
 
+def field_values(field_data: Mapping) -> dict:
+    """The field data of a file as written: each text entry (``UInt8``) as its list of strings
+    (:func:`decode_text`), every other entry as a 1-D array.
+
+    Parameters
+    ----------
+    field_data : mapping of name -> array-like
+        As meshio (``mesh.field_data``) or pyvista (``grid.field_data``) reads it.
+
+    Returns
+    -------
+    dict of name -> list of str or ndarray
+    """
+    out = {}
+    for name, value in field_data.items():
+        arr = np.asarray(value)
+        out[str(name)] = decode_text(arr) if arr.dtype == np.uint8 or arr.dtype.kind in "US" or \
+            arr.dtype == object else arr.ravel()
+    return out
+
+
 def field_array(value) -> np.ndarray:
-    """A field-data value as the array written: text -> :func:`encode_text`; bools and
-    integers -> int64; other numbers -> float64.
+    """A field-data value as the array written: text -> :func:`encode_text` (uint8, the only uint8
+    entries); bools and integers -> int64; other numbers -> float64.
 
     Parameters
     ----------
@@ -250,18 +272,6 @@ def field_array(value) -> np.ndarray:
     return arr.astype(np.float64).ravel()
 
 
-def _is_text(value) -> bool:
-    return isinstance(value, str) or (isinstance(value, (list, tuple)) and bool(value)
-                                      and all(isinstance(v, str) for v in value))
-
-
-def _string_array(parent: ET.Element, name: str, strings) -> None:
-    """A VTK string array: the UTF-8 bytes of each string and a NUL, as VTK's XML writer stores one."""
-    strings = [strings] if isinstance(strings, str) else list(strings)
-    da = ET.SubElement(parent, "Array", type="String", Name=name, NumberOfTuples=str(len(strings)), format="ascii")
-    da.text = " ".join(str(b) for b in encode_text(strings).tolist())
-
-
 def _data_array(parent: ET.Element, name: str, arr: np.ndarray) -> None:
     vtk_type = {"u": "UInt8", "i": "Int64", "f": "Float64"}[arr.dtype.kind]
     da = ET.SubElement(parent, "DataArray", type=vtk_type, Name=name, NumberOfTuples=str(len(arr)), format="ascii")
@@ -277,10 +287,7 @@ def _add_vtk_extras(file: str | Path, field_data: Mapping, component_names: Mapp
     if field_data:
         fd = ET.Element("FieldData")
         for name, value in field_data.items():
-            if _is_text(value):
-                _string_array(fd, str(name), value)
-            else:
-                _data_array(fd, str(name), field_array(value))
+            _data_array(fd, str(name), field_array(value))
         grid.insert(0, fd)
     for section in ("PointData", "CellData"):
         for da in grid.iter(section):

@@ -183,6 +183,10 @@ def test_compensate_map_command(tmp_path, monkeypatch, capsys):
     s_o = beam.sensitivity(WhiskerDesign(), 0.7, 0.2)  # ξ cancels: both sides carry it
     assert beam.sensitivity(WhiskerDesign().trimmed(2.0), 0.7, m.Q[2, 0]) == pytest.approx(s_o, rel=1e-3)
     assert (out / "compensation_map.png").stat().st_size > 1000
+    from whisker_opt.config.model import load_config
+
+    recorded = load_config(out / "config.yaml")  # the --out folder records the resolved config it ran
+    assert recorded.fidelity.preset == "coarse" and recorded.scene.Q_i == 0.2 and recorded.material.wall_law == "embedded"
 
 
 @pytest.mark.parametrize("args, words", [

@@ -335,6 +335,10 @@ def test_robustness_command_end_to_end_at_coarse(tmp_path, capsys):
     assert "expansion" in printed and "recovery rate" in printed
     rows = list(csv.DictReader((out / "robustness.csv").open()))
     assert len(rows) == 1 and rows[0]["method"] == "expansion" and rows[0]["solves"] == "1"
+    from whisker_opt.config.model import load_config
+
+    recorded = load_config(out / "config.yaml")  # the --out folder records the resolved config it ran
+    assert recorded.robustness.tolerances.calibration == 0.3 and recorded.fidelity.preset == "coarse"
     r = {k: float(v) for k, v in rows[0].items() if k not in ("design", "method", "f1_run")}
     xi = 3.9
     assert r["f1_std"] == pytest.approx(r["f1_nominal"] * 0.3 / math.sqrt(3.0) / xi, rel=1e-9)

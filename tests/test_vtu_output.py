@@ -3,8 +3,8 @@
 Two real scenes of the default design on the coarse preset's mesh: ``intact`` at
 Q = 0.1 MPa deflected by 1 mm in two increments, and ``vented`` at Q = 0, whose
 ``pressurised`` state is the unloaded reference state. Every file is opened with pyvista
-(VTK's own reader, as ParaView reads it); text field data are VTK string arrays, which
-meshio (5.3) cannot read.
+(VTK's own reader, as ParaView reads it); text field data are UTF-8 bytes (``UInt8``), which meshio
+reads too (tests/test_result_files_open.py opens the files of each command with both).
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from fem import post
-from fem.io import decode_text, read_pvd, write_pvd, write_vtu
+from fem.io import decode_text, field_values, read_pvd, write_pvd, write_vtu
 from fem.material import NeoHookean
 from fem.meshgen import box_mesh
 from fem.query import displacement_at
@@ -200,8 +200,11 @@ def test_field_data(solved):
         spec = solved.specs[scene]
         for delta, file, _ in read_pvd(solved.out / f"{scene}.pvd"):
             for fd in (pv.read(solved.out / file).field_data,):
-                # text is a string array, shown as text in ParaView (not as numbers)
-                assert fd["scene"].dtype.kind == "U" and list(fd["scene"]) == [scene]
+                # text is UTF-8 bytes (no VTK string array, which meshio cannot read); numbers are not bytes
+                assert fd["scene"].dtype == np.uint8 and decode_text(fd["scene"]) == [scene]
+                assert {k for k, v in fd.items() if v.dtype == np.uint8} == {
+                    "scene", "state", "contact_at", "formulation", "wall_law", "fidelity_preset", "units"}
+                assert decode_text(fd["wall_law"]) == ["embedded"] and fd["wall_slope_per_MPa"][0] == 0.0
                 assert fd["Q_MPa"][0] == spec.Q and fd["trim_mm"][0] == 0.0
                 assert fd["delta_mm"][0] == pytest.approx(delta) and fd["TimeValue"][0] == pytest.approx(delta)
                 assert fd["C10_MPa"][0] == spec.c10 and fd["D1_per_MPa"][0] == spec.d1
@@ -215,7 +218,7 @@ def test_field_data(solved):
     m = pv.read(solved.out / "intact_deflected.vtu")
     units = dict(u.split("=", 1) for u in decode_text(m.field_data["units"]))
     assert {*m.point_data, *m.cell_data} <= set(units)
-    assert {k for k, v in m.field_data.items() if v.dtype.kind != "U"} <= set(units)
+    assert {k for k, v in field_values(m.field_data).items() if not isinstance(v, list)} <= set(units)
     assert units["contact_force_N"] == "N" and units["J"] == "-" and units["principal_stretches"] == "-"
     assert units["displacement"] == "mm" and units["cauchy_stress"] == "MPa" and units["von_mises"] == "MPa"
     assert units["mixed_pressure"] == "MPa" and units["log_strain"] == "-" and units["Q_MPa"] == "MPa"
@@ -335,4 +338,4 @@ def test_one_collection_holds_every_scene(solved):
     reader.set_active_time_value(1.0)
     blocks = reader.read()
     assert blocks.n_blocks == 4
-    assert sorted(list(b.field_data["scene"])[0] for b in blocks) == ["intact", "intact", "vented", "vented"]
+    assert sorted(decode_text(b.field_data["scene"])[0] for b in blocks) == ["intact", "intact", "vented", "vented"]

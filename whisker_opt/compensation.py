@@ -24,7 +24,7 @@ import numpy as np
 import whisker_opt.wiring as wiring
 from whisker_opt.analysis.compensation_map import CompensationMap, MapRangeError
 from whisker_opt.config.model import ConfigError, WhiskerConfig
-from whisker_opt.workflows import fidelity_of
+from whisker_opt.workflows import fidelity_of, record_config
 
 logger = logging.getLogger(__name__)
 
@@ -154,6 +154,7 @@ def compensate(cfg: WhiskerConfig, out: Path, step: float = 1.0, delta_ref: floa
     if not np.any(np.abs(deltas - dref) <= 1e-9):
         deltas = np.sort(np.append(deltas, dref))
     out = Path(out)
+    record_config(out, cfg)
     fidelity = fidelity_of(cfg)
     t0 = time.perf_counter()
     rows = _TableProgress(scene_response(cfg, runner), _table_trims(float(opt.trim), float(step)), progress)
@@ -403,6 +404,7 @@ def compensate_map(cfg: WhiskerConfig, out: Path | None, step: float = 1.0, a_va
     if out is not None:
         from whisker_opt.output.journal import StudyJournal
 
+        record_config(out, cfg)
         journal = StudyJournal(Path(out), MAP_JOURNAL, "compensation_map", {
             "config": cfg.model_dump(mode="json"), "trims": trims, "a": a.tolist(), "deltas": deltas.tolist(),
             "warm": bool(warm)})

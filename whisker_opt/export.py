@@ -10,6 +10,8 @@ For every scene ``simulate`` would solve (:func:`whisker_opt.workflows.simulatio
 ``<design>.step``, ``<design>.stl``
     The CAD solid of each distinct design (``intact``, and ``trimmed`` for a pair's trimmed
     whisker; ``whisker`` for one scene) (:mod:`geometry.cad`; STL chordal tolerance 0.01 mm).
+``config.yaml``
+    The resolved config (:func:`whisker_opt.workflows.record_config`): the model the decks hold.
 ``export.json``
     What was written, with each scene's Q, δ, contact and mesh size; written last.
 
@@ -95,7 +97,7 @@ def export(cfg: WhiskerConfig, out: Path, source: str = "config", n_increments: 
     from whisker_opt.config.model import ConfigError
     from whisker_opt.output import storage
     from whisker_opt.output.scene_deck import DeckOptions, write_scene_deck
-    from whisker_opt.workflows import simulation_specs
+    from whisker_opt.workflows import record_config, simulation_specs
 
     if cfg.material.rubber != "neo_hookean" or cfg.material.cap_rubber not in ("same", "neo_hookean"):
         raise ConfigError(f"{source}: material.rubber: {cfg.material.rubber!r} (cap_rubber "
@@ -106,7 +108,7 @@ def export(cfg: WhiskerConfig, out: Path, source: str = "config", n_increments: 
 
     warn_unread_keys(cfg, "export")
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    record_config(out, cfg)
     decks, solids, entries = {}, {}, {}
     for name, spec in specs.items():
         wm = build_mesh(spec.design, spec.sizing, method=spec.mesh_method)

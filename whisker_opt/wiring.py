@@ -295,10 +295,29 @@ def unread_keys(cfg: WhiskerConfig, command: str, reads: tuple[str, ...] | None 
     return out
 
 
+#: Commands that solve nothing under the config's wall law: mesh and export solve no scene, calibrate fits
+#: ``material.wall_slope`` (a start at 0 is no mistake there).
+WALL_LAW_UNSOLVED = ("mesh", "export", "calibrate")
+
+
+def idle_wall_law(cfg: WhiskerConfig) -> str | None:
+    """The line saying that ``material.wall_law: calibrated`` with ``material.wall_slope`` 0 is the
+    'embedded' law (c(Q) = 1, :mod:`whisker_opt.wall.law`); None for any other law or slope."""
+    m = cfg.material
+    if m.wall_law != "calibrated" or m.wall_slope != 0.0:
+        return None
+    return ("material.wall_law = calibrated with material.wall_slope = 0 is the 'embedded' law (c(Q) = 1 + 0·Q = 1): "
+            "set material.wall_slope (e.g. fitted by whisker-opt calibrate) or choose wall_law embedded")
+
+
 def warn_unread_keys(cfg: WhiskerConfig, command: str, reads: tuple[str, ...] | None = None,
                      trim: float | None = None) -> list[str]:
-    """Log :func:`unread_keys` as warnings, one line each; returns them."""
+    """Log :func:`unread_keys` as warnings, one line each, and for a command that solves scenes the
+    wall law that changes nothing (:func:`idle_wall_law`); returns the lines of :func:`unread_keys`."""
     lines = unread_keys(cfg, command, reads, trim)
+    idle = idle_wall_law(cfg) if command not in WALL_LAW_UNSOLVED else None
+    if idle is not None:
+        logger.warning("%s", idle)
     for line in lines:
         logger.warning("%s", line)
     return lines

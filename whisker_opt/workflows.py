@@ -49,14 +49,33 @@ def new_run_dir(cfg: WhiskerConfig, config_path: Path | str, kind: str) -> Path:
         k += 1
         run_dir = Path(cfg.output.results_dir) / f"{name}-{kind}-{stamp}-{k}"
     run_dir.mkdir(parents=True)
-    storage.atomic_write_text(run_dir / CONFIG_YAML, dump_config(cfg))
+    record_config(run_dir, cfg)
     return run_dir
+
+
+def record_config(folder: Path | str, cfg: WhiskerConfig) -> Path:
+    """Write ``folder/config.yaml``: the resolved config a command ran (defaults filled in, so the wall law
+    and the fidelity preset too), the one record of the model that made the folder's files.
+
+    Raises
+    ------
+    FileExistsError
+        ``folder`` holds a GA run (``optimiser.json``) of another config, whose ``config.yaml`` resume reads.
+    """
+    folder = Path(folder)
+    path = folder / CONFIG_YAML
+    if (folder / storage.OPTIMISER_JSON).exists() and path.exists() and not _same_config(path, cfg):
+        raise FileExistsError(f"{folder} holds a GA run of another config ({path}): choose another --out")
+    folder.mkdir(parents=True, exist_ok=True)
+    storage.atomic_write_text(path, dump_config(cfg))
+    return path
 
 
 # ----------------------------------------------------------------------------- mesh
 def mesh(cfg: WhiskerConfig, out: Path, trim: float | None = None, method: str | None = None,
          step: bool = False, progress: bool = True) -> tuple[Any, dict]:
-    """Build and mesh the config's design; write ``mesh.npz``, ``mesh.vtu`` and ``mesh_report.json``.
+    """Build and mesh the config's design; write ``config.yaml`` (:func:`record_config`), ``mesh.npz``,
+    ``mesh.vtu`` and ``mesh_report.json``.
 
     ``mesh.vtu`` carries, as field data, the element count, the wall layers (the sizing's and the
     median count of elements a radial line crosses through the wall), the mesh method, the trim,
@@ -93,7 +112,7 @@ def mesh(cfg: WhiskerConfig, out: Path, trim: float | None = None, method: str |
     design = wiring.design_from_config(cfg, trim=trim)
     method = method or cfg.fidelity.mesh_method
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    record_config(out, cfg)
     steps = Progress(2 if step else 1, "mesh", "step", progress)
     with steps:
         t0 = time.perf_counter()
@@ -167,8 +186,8 @@ def simulation_specs(cfg: WhiskerConfig, source: str = "config") -> dict:
 
 
 def simulate(cfg: WhiskerConfig, out: Path, source: str = "config") -> Simulation:
-    """Solve the config's scenes (:func:`simulation_specs`); write VTUs, ``curve.csv``, ``scenes.json``,
-    ``force.png`` (contact force against δ) and, for a pair, ``curves.png``.
+    """Solve the config's scenes (:func:`simulation_specs`); write ``config.yaml`` (:func:`record_config`),
+    VTUs, ``curve.csv``, ``scenes.json``, ``force.png`` (contact force against δ) and, for a pair, ``curves.png``.
 
     For a pair, f1 (:func:`whisker_opt.experiment.objective.f1`) compares ``intact`` with ``trimmed``
     over δ = Δδ … δ_max, and ``f1_uncompensated`` ``intact`` with ``trimmed_uncompensated``.
@@ -181,6 +200,7 @@ def simulate(cfg: WhiskerConfig, out: Path, source: str = "config") -> Simulatio
     wiring.warn_unread_keys(cfg, "simulate")
     wiring.warn_smeared_on_one_layer(cfg)
     out = Path(out)
+    record_config(out, cfg)
     delta = np.round(np.arange(0.0, sc.deflection + 0.5 * sc.delta_step, sc.delta_step), 10)
     results, summary = solve_scenes(out, specs, sc.gauge_variant)
     cols: dict[str, np.ndarray] = {"delta_mm": delta}
@@ -564,7 +584,7 @@ def run(cfg: WhiskerConfig, run_dir: Path, progress: bool = True, overwrite: boo
         if (run_dir / CONFIG_YAML).exists():  # a run of this config killed before its first checkpoint
             remove_run_temporaries(run_dir)
         else:
-            storage.atomic_write_text(run_dir / CONFIG_YAML, dump_config(cfg))
+            record_config(run_dir, cfg)
         fidelity = fidelity_of(cfg)
         with run_log(run_dir):
             logger.info("run of %s at preset %s (f1 resolution %.3g)", run_dir, fidelity["preset"],

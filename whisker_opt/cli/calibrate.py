@@ -45,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
     Returns 0, or :data:`NOT_CALIBRATED` when the fit did not converge (its outputs say so).
     """
     from whisker_opt.calibration.job import calibrate, prepare
-    from whisker_opt.workflows import new_run_dir
+    from whisker_opt.workflows import new_run_dir, record_config
 
     cfg = load_config(args.config, allow_empty=args.defaults, settings=tuple(args.settings))
     prepared = prepare(cfg, args.config)  # every input checked before a folder is made
@@ -54,7 +54,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         ensure_writable_dir(cfg.output.results_dir, f"{args.config}: output.results_dir")
     out = args.out or new_run_dir(cfg, args.config, "calibrate")
-    Path(out).mkdir(parents=True, exist_ok=True)
+    record_config(out, cfg)
     try:
         with RunDirLock(out, "calibrate"):
             result = calibrate(prepared, out, progress=not getattr(args, "no_progress", False))

@@ -172,6 +172,7 @@ def _simulate_run(args: argparse.Namespace) -> int:
             f"F(deflection)={res.contact_force[-1]:.5g} N  k=F(d1)/d1={res.contact_stiffness:.5g} N/mm  "
             f"{sim.summary[name]['wall_s']:.2f} s"
         )
+    print(f"wall law: {next(iter(sim.specs.values())).law.describe()} (material.wall_law)")
     if sim.f1 is not None:
         print(f"f1 = mean |eps_i - eps_c| = {sim.f1:.6g}")
     if sim.f1_uncompensated is not None:

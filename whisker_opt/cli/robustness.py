@@ -83,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
     import whisker_opt.wiring as wiring
     from whisker_opt.cli.rundir import check_run_dir
     from whisker_opt.config.model import load_config
-    from whisker_opt.workflows import CONFIG_YAML, new_run_dir
+    from whisker_opt.workflows import CONFIG_YAML, new_run_dir, record_config
 
     source = Path(args.source)
     settings = _settings(args)
@@ -106,6 +106,8 @@ def run(args: argparse.Namespace) -> int:
         wiring.design_scene_specs(cfg, d.genes)
     if args.out is not None:
         out = ensure_writable_dir(args.out, "--out")
+        if not (source.is_dir() and Path(out).resolve() == source.resolve()):  # RUN_DIR keeps its own config.yaml
+            record_config(out, cfg)
     elif source.is_dir():
         out = ensure_writable_dir(source, "RUN_DIR (robustness.* are written there)")
     else:

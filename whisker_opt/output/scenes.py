@@ -295,10 +295,11 @@ def scene_metadata(name: str, state: str, delta: float, spec=None) -> dict:
     ``scene``, ``state`` (text); ``TimeValue`` and ``delta_mm``: δ of the state [mm]
     (ParaView takes ``TimeValue`` as the time of a lone file); with a spec also ``Q_MPa``,
     ``trim_mm``, ``contact_ratio``, ``contact_at``, ``C10_MPa``, ``D1_per_MPa``,
-    ``calibration_xi``, ``formulation``, ``fidelity_preset`` (the mesh sizing's name when it
-    is a preset's) and ``design_<name>`` for every design parameter. Text is written as VTK
-    string arrays, which ParaView shows as text (:mod:`fem.io`). :func:`write_scene_files` adds
-    the state's forces (:func:`state_forces`).
+    ``calibration_xi``, ``formulation``, ``wall_law`` and ``wall_slope_per_MPa`` (the chamber wall's
+    law, :mod:`whisker_opt.wall.law`), ``fidelity_preset`` (the mesh sizing's name when it is a
+    preset's) and ``design_<name>`` for every design parameter. Text is written as UTF-8 bytes
+    (``UInt8``), which meshio reads as well as VTK; :func:`fem.io.field_values` decodes it.
+    :func:`write_scene_files` adds the state's forces (:func:`state_forces`).
     """
     meta: dict = {"scene": name, "state": state, "TimeValue": float(delta), "delta_mm": float(delta)}
     if spec is None:
@@ -307,7 +308,8 @@ def scene_metadata(name: str, state: str, delta: float, spec=None) -> dict:
 
     meta.update({"Q_MPa": float(spec.Q), "trim_mm": float(spec.design.trim), "contact_ratio": float(spec.contact_ratio),
                  "contact_at": spec.contact_at, "C10_MPa": float(spec.c10), "D1_per_MPa": float(spec.d1),
-                 "calibration_xi": float(spec.calibration), "formulation": spec.formulation})
+                 "calibration_xi": float(spec.calibration), "formulation": spec.formulation,
+                 "wall_law": spec.wall_law, "wall_slope_per_MPa": float(spec.wall_slope)})
     preset = getattr(spec.sizing, "name", None)
     if preset in PRESET_NAMES:
         meta["fidelity_preset"] = preset
@@ -342,7 +344,7 @@ def units_text(arrays, meta: dict, spec=None, table: dict | None = None) -> list
     """The ``units`` field data: ``"<array>=<unit>"`` for every point, cell and numeric field array."""
     table = {**STATE_UNITS, **(table or {}), "TimeValue": "mm", "delta_mm": "mm", "Q_MPa": "MPa", "trim_mm": "mm",
              "contact_ratio": "-", "C10_MPa": "MPa", "D1_per_MPa": "1/MPa", "calibration_xi": "-",
-             "contact_force_N": "N", "base_reaction_N": "N"}
+             "contact_force_N": "N", "base_reaction_N": "N", "wall_slope_per_MPa": "1/MPa"}
     if spec is not None:
         table.update(design_units(spec.design))
     names = [*arrays, *(k for k, v in meta.items() if not isinstance(v, str))]
@@ -421,6 +423,8 @@ def scene_entry(spec, res, gauge_variant: str = "line", **extra) -> dict:
         "contact_ratio": spec.contact_ratio,
         "contact_at": spec.contact_at,
         "contact_x": res.contact_x,
+        "wall_law": spec.wall_law,
+        "wall_slope_per_MPa": spec.wall_slope,
         "radial_growth_mm": res.radial_growth,
         "solved_delta_mm": res.delta.tolist(),
         "eps_line": res.eps_line.tolist(),

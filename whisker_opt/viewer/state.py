@@ -199,12 +199,17 @@ _PRESSURISED = ("pressurised", "pressurized", "inflated")
 
 
 def _field_value(grid, name: str):
-    """The first value of a field-data array of the grid, or None."""
+    """The first value of a field-data entry of the grid (the first string of a text entry,
+    :func:`fem.io.field_values`), or None."""
+    from fem.io import field_values
+
     fd = getattr(grid, "field_data", None)
     if fd is None or name not in fd:
         return None
-    arr = np.asarray(fd[name]).ravel()
-    return arr[0].item() if arr.size else None
+    value = field_values({name: fd[name]})[name]
+    if isinstance(value, list):
+        return value[0] if value else None
+    return value[0].item() if value.size else None
 
 
 def fidelity_text(grid, config: Mapping[str, Any] | None = None) -> str | None:

@@ -112,6 +112,15 @@ class WallLaw:
             raise ValueError(f"material.wall_slope={self.slope!r} is read only by material.wall_law 'calibrated' "
                              f"(the law is {self.name!r}); set it to 0 or choose 'calibrated'")
 
+    def describe(self) -> str:
+        """The law in words: ``embedded (the embedded fibre trusses as meshed, ...)``, or for
+        ``calibrated`` its c(Q) with the slope, e.g. ``calibrated: c(Q) = 1 + 0.5·Q (material.wall_slope
+        = 0.5 1/MPa)``."""
+        if self.name == "calibrated":
+            same = ", the same as 'embedded'" if self.slope == 0.0 else ""
+            return f"calibrated: c(Q) = 1 + {self.slope:g}·Q (material.wall_slope = {self.slope:g} 1/MPa{same})"
+        return f"{self.name} ({WALL_LAWS[self.name].meaning})"
+
     @property
     def identity(self) -> bool:
         """True when the law changes nothing (c ≡ 1)."""
