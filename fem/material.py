@@ -448,17 +448,26 @@ class ScaledMaterial(IsochoricI1Material):
         return len(self.factor)
 
     def at_nodes(self, cells: np.ndarray, used: np.ndarray | None = None) -> "ScaledMaterial":
-        """The law with one row per node: a node takes the smallest factor among its elements."""
+        """The law with one row per node: a node takes the mean factor of the elements holding it,
+        s_n = (1 / |E_n|) Σ_{e ∈ E_n} s_e.
+
+        The stress is linear in s, so a node's stress is the mean of its elements' laws at the
+        node's F, as a frozen stress at the nodes is the mean over the same elements
+        (:func:`fem.post.frozen_stress_at_nodes`): on the edge of a region with s = c and the
+        frozen stress −(c − 1) S̄_p the two stay paired: s_n with −(s_n − 1) S̄_p.
+        """
         cells = np.asarray(cells, dtype=np.int64)
         if len(cells) != self.n_elements:
             raise ValueError(f"ScaledMaterial.at_nodes: {len(cells)} cells, expected {self.n_elements}")
         n_nodes = (int(cells.max()) + 1 if cells.size else 0) if used is None else len(used)
-        node_s = np.full(n_nodes, np.inf)  # (n_nodes,)
-        np.minimum.at(node_s, cells.ravel(), np.repeat(self.factor, cells.shape[1]))
-        held = np.isfinite(node_s)
+        total = np.bincount(cells.ravel(), np.repeat(self.factor, cells.shape[1]), minlength=n_nodes)  # (n_nodes,)
+        cnt = np.bincount(cells.ravel(), minlength=n_nodes)  # (n_nodes,)
+        held = cnt > 0
         used = held if used is None else np.asarray(used, dtype=bool)
+        if not held[used].all():
+            raise ValueError("ScaledMaterial.at_nodes: a used node is held by no element")
         base = self.base.at_nodes(cells, used)
-        return ScaledMaterial(base, node_s[used])
+        return ScaledMaterial(base, total[used] / cnt[used])
 
     def f_derivatives(self, i1bar):
         i1bar = np.asarray(i1bar, dtype=float)

@@ -8,7 +8,9 @@ A displacement that is linear in X (a homogeneous deformation) is reproduced exa
 the P2 interpolation, so every node then carries that deformation's F, curved elements
 included. The point queries of :mod:`fem.query` evaluate the same quantities at chosen
 points inside elements instead. The element pressure of the mixed formulation (constant
-per element) goes to the nodes by the same unweighted mean (:func:`element_to_nodes`).
+per element) goes to the nodes by the same unweighted mean (:func:`element_to_nodes`), and so does a
+frozen stress held at the quadrature points (:func:`frozen_stress_at_nodes`); the stress of a state
+solved with a problem is that problem's own (:func:`problem_strain_stress`).
 Symmetric tensors are stored with 6 components in VTK's order XX, YY, ZZ, XY, YZ, XZ
 (:func:`symmetric_components`).
 
@@ -20,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from fem import element
+from fem.quadrature import tet_rule
 
 
 def nodal_deformation_gradient(points: np.ndarray, cells: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -189,7 +192,7 @@ def element_to_nodes(cells: np.ndarray, values: np.ndarray, n_nodes: int, fill: 
 
 
 def nodal_strain_stress(points: np.ndarray, cells: np.ndarray, u: np.ndarray, p: np.ndarray | None, material,
-                        formulation: str = "mixed") -> tuple[np.ndarray, np.ndarray]:
+                        formulation: str = "mixed", frozen: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Nodal Eulerian log strain and Cauchy stress of a solved u–p state.
 
     F at the nodes from :func:`nodal_deformation_gradient`; ``ln V`` from
@@ -198,11 +201,14 @@ def nodal_strain_stress(points: np.ndarray, cells: np.ndarray, u: np.ndarray, p:
     (:meth:`~fem.material.IsochoricI1Material.at_nodes`: with one law per element group a node
     takes the law of the lowest group among its elements)::
 
-        σ = J⁻¹ (P_iso + p J F⁻ᵀ) Fᵀ
+        σ = J⁻¹ (P_iso + p J F⁻ᵀ) Fᵀ  [+ J⁻¹ F T Fᵀ]
 
     with the nodal pressure p: the mean of the element pressures around the node
     (:func:`element_to_nodes`) for the 'mixed' formulation, ``2 (J − 1) / D1`` of the nodal
-    F for 'displacement'.
+    F for 'displacement'; the bracket is the push-forward of a frozen second Piola–Kirchhoff
+    stress T at the nodes (``frozen``, :func:`frozen_stress_at_nodes`), whose first Piola stress
+    is F T (:mod:`fem.frozen_stress`). The stress of a solved problem, frozen stresses included,
+    is :func:`problem_strain_stress`.
 
     Parameters
     ----------
@@ -217,6 +223,8 @@ def nodal_strain_stress(points: np.ndarray, cells: np.ndarray, u: np.ndarray, p:
         :class:`fem.material.ElementwiseMaterial`); its ``d1`` [1/MPa] serves the
         'displacement' formulation.
     formulation : {'mixed', 'displacement'}
+    frozen : ndarray, shape (n_nodes, 3, 3), optional
+        A frozen second Piola–Kirchhoff stress T at the nodes [MPa], added to the law's stress.
 
     Returns
     -------
@@ -237,4 +245,107 @@ def nodal_strain_stress(points: np.ndarray, cells: np.ndarray, u: np.ndarray, p:
     else:
         raise ValueError(f"nodal_strain_stress: formulation={formulation!r}, allowed 'mixed', 'displacement'")
     sigma = material.at_nodes(cells, used).cauchy_stress(F, pn)  # (k, 3, 3)
+    if frozen is not None:
+        FTF = np.einsum("kiJ,kJL,kjL->kij", F, np.asarray(frozen, dtype=float)[used], F)  # (k, 3, 3)  F T Fᵀ
+        sigma_t = FTF / np.linalg.det(F)[:, None, None]  # (k, 3, 3)
+        sigma = sigma + 0.5 * (sigma_t + np.swapaxes(sigma_t, -1, -2))
     return spread_to_nodes(eulerian_log_strain(F), used), spread_to_nodes(sigma, used)
+
+
+def quadrature_to_nodes(qp: np.ndarray) -> np.ndarray:
+    """Matrix that takes values at a tet rule's points to the 10 TET10 nodes: the linear field
+    through them, least squares over the points.
+
+    With the linear basis φ(ξ) = (1, ξ₁, ξ₂, ξ₃), Φ_q = φ(ξ_q) at the points and Φ_n = φ(ξ_n) at
+    the nodes, the values v_q go to ``v_n = Φ_n Φ⁺ v_q`` (Φ⁺ the pseudo-inverse): exact for a field
+    linear in ξ (so in X, the map of a straight-sided element being affine), and an interpolation for
+    the 4-point rule of degree 2. Needs at least 4 points not in one plane (every rule of degree ≥ 2).
+
+    Parameters
+    ----------
+    qp : ndarray, shape (n_qp, 3)
+        Local coordinates of the rule's points.
+
+    Returns
+    -------
+    ndarray, shape (10, n_qp)
+    """
+    qp = np.asarray(qp, dtype=float)
+    if len(qp) < 4:
+        raise ValueError(f"quadrature_to_nodes: {len(qp)} points, a linear field needs at least 4")
+    phi_q = np.hstack([np.ones((len(qp), 1)), qp])  # (n_qp, 4)
+    phi_n = np.hstack([np.ones((len(element.NODES), 1)), element.NODES])  # (10, 4)
+    return phi_n @ np.linalg.pinv(phi_q)  # (10, n_qp)
+
+
+def frozen_stress_at_nodes(cells: np.ndarray, frozen_stresses, qp: np.ndarray, n_nodes: int) -> np.ndarray:
+    """Frozen second Piola–Kirchhoff stresses (:class:`fem.problem.FrozenStress`) at the nodes.
+
+    Each carrying element takes its quadrature-point values T_q to its own nodes
+    (:func:`quadrature_to_nodes`); a node takes the mean over *all* the elements holding it, those
+    that carry no frozen stress counting with T = 0::
+
+        T_n = (1 / |E_n|) Σ_{e ∈ E_n} Σ_q M_{n_e q} T_{e q}
+
+    the same unweighted mean as :func:`nodal_deformation_gradient`, and as the factor of
+    :meth:`fem.material.ScaledMaterial.at_nodes`, so that a node on the edge of a region with
+    the law c W̄ + ½ T:(C − I) takes the mean of its elements' laws.
+
+    Parameters
+    ----------
+    cells : ndarray, shape (n_el, 10)
+    frozen_stresses : sequence of fem.problem.FrozenStress
+        Their stresses at the points ``qp``.
+    qp : ndarray, shape (n_qp, 3)
+        The problem's tet rule.
+    n_nodes : int
+
+    Returns
+    -------
+    ndarray, shape (n_nodes, 3, 3)
+        [MPa]; 0 at nodes of no carrying element.
+    """
+    cells = np.asarray(cells, dtype=np.int64)
+    M = quadrature_to_nodes(qp)  # (10, n_qp)
+    total = np.zeros((n_nodes, 9))
+    for fs in frozen_stresses:
+        Tn = np.einsum("nq,eqij->enij", M, fs.stress)  # (n_sel, 10, 3, 3)
+        np.add.at(total, cells[fs.elements].ravel(), Tn.reshape(-1, 9))
+    cnt = np.bincount(cells.ravel(), minlength=n_nodes).astype(float)  # (n_nodes,)
+    return (total / np.maximum(cnt, 1.0)[:, None]).reshape(-1, 3, 3)
+
+
+def problem_strain_stress(problem, u: np.ndarray, p: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """Nodal log strain and Cauchy stress of a state solved with ``problem``: the stress of its own
+    constitutive law, the one its residual integrates.
+
+    The problem's material (:meth:`~fem.material.IsochoricI1Material.at_nodes`, e.g. a
+    :class:`~fem.material.ScaledMaterial`'s scaled moduli) with its mixed pressure and its frozen
+    stresses at the nodes (each one's own :attr:`~fem.problem.FrozenStress.nodal`, else
+    :func:`frozen_stress_at_nodes`) in :func:`nodal_strain_stress`::
+
+        σ = J⁻¹ (P_iso + p J F⁻ᵀ) Fᵀ + J⁻¹ F T Fᵀ
+
+    Without frozen stresses this is :func:`nodal_strain_stress` of the material alone, to the bit.
+    Trusses, smeared fibres and loads are not stresses of the solid and are left out.
+
+    Parameters
+    ----------
+    problem : fem.problem.Problem
+    u : ndarray, shape (n_nodes, 3)
+    p : ndarray, shape (n_el,) or None
+        Element pressures (None for the 'displacement' formulation).
+
+    Returns
+    -------
+    log_strain, sigma : ndarray, shape (n_nodes, 3, 3)
+        As :func:`nodal_strain_stress`.
+    """
+    mesh = problem.mesh
+    frozen = None
+    if problem.frozen_stresses:
+        given = [fs.nodal for fs in problem.frozen_stresses if fs.nodal is not None]
+        rest = [fs for fs in problem.frozen_stresses if fs.nodal is None]
+        frozen = sum(given, frozen_stress_at_nodes(mesh.cells, rest, tet_rule(problem.quadrature_degree).points,
+                                                   mesh.n_nodes))  # (n_nodes, 3, 3)
+    return nodal_strain_stress(mesh.points, mesh.cells, u, p, problem.material, problem.formulation, frozen)

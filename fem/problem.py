@@ -198,11 +198,18 @@ class FrozenStress:
         Elements that carry it (each at most once).
     stress : ndarray (n_sel, n_qp, 3, 3)
         Symmetric stress T at each quadrature point of the problem's tet rule [MPa].
+    name : str
+    nodal : ndarray (n_nodes, 3, 3), optional
+        The same field at every node of the mesh [MPa] (0 away from ``elements``), for the stress of
+        a solved state (:func:`fem.post.problem_strain_stress`), e.g. the law that gave ``stress``
+        evaluated at the nodal deformation; default: ``stress`` extrapolated to the nodes
+        (:func:`fem.post.frozen_stress_at_nodes`). The solve does not read it.
     """
 
     elements: np.ndarray
     stress: np.ndarray
     name: str = "frozen stress"
+    nodal: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         el = np.ascontiguousarray(self.elements, dtype=np.int64).ravel()
@@ -216,6 +223,11 @@ class FrozenStress:
             raise ProblemError(f"FrozenStress({self.name}).stress must be finite and symmetric")
         object.__setattr__(self, "elements", el)
         object.__setattr__(self, "stress", T)
+        if self.nodal is not None:
+            Tn = np.ascontiguousarray(self.nodal, dtype=np.float64)
+            if Tn.ndim != 3 or Tn.shape[1:] != (3, 3) or not np.all(np.isfinite(Tn)):
+                raise ProblemError(f"FrozenStress({self.name}).nodal: shape {Tn.shape}, expected finite (n_nodes, 3, 3)")
+            object.__setattr__(self, "nodal", Tn)
 
 
 @dataclass(frozen=True)
@@ -279,6 +291,8 @@ class Problem:
         for fs in self.frozen_stresses:
             if fs.elements.size and (fs.elements.min() < 0 or fs.elements.max() >= self.mesh.n_elements):
                 raise ProblemError(f"FrozenStress({fs.name}).elements outside [0, {self.mesh.n_elements - 1}]")
+            if fs.nodal is not None and len(fs.nodal) != n:
+                raise ProblemError(f"FrozenStress({fs.name}).nodal: {len(fs.nodal)} nodes, the mesh has {n}")
         if self.dirichlet:
             all_dofs = np.concatenate([d.dofs().ravel() for d in self.dirichlet])
             if len(np.unique(all_dofs)) != len(all_dofs):

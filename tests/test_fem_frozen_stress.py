@@ -107,3 +107,8 @@ def test_frozen_stress_refuses_bad_shapes(mesh):
         Assembler(Problem(mesh, NeoHookean(c10=0.5, d1=0.01), frozen_stresses=(FrozenStress(np.array([0]), np.zeros((1, 5, 3, 3))),)))
     with pytest.raises(ValueError, match="factor"):
         ScaledMaterial(NeoHookean(c10=0.5, d1=0.01), np.array([1.0, 0.0]))
+    with pytest.raises(ProblemError, match="nodal: shape"):
+        FrozenStress(np.array([0]), np.zeros((1, 4, 3, 3)), nodal=np.zeros((mesh.n_nodes, 3)))
+    with pytest.raises(ProblemError, match=f"nodal: {mesh.n_nodes + 1} nodes"):
+        Problem(mesh, NeoHookean(c10=0.5, d1=0.01),
+                frozen_stresses=(FrozenStress(np.array([0]), np.zeros((1, 4, 3, 3)), nodal=np.zeros((mesh.n_nodes + 1, 3, 3))),))

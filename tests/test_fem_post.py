@@ -244,3 +244,79 @@ def test_cauchy_stress_of_a_yeoh_law_and_of_two_laws_by_element():
     in0[m.cells[0]] = True
     np.testing.assert_allclose(sig2[in0], np.broadcast_to(expected(soft), sig2[in0].shape), atol=1e-12)
     np.testing.assert_allclose(sig2[~in0], np.broadcast_to(expected(yeoh), sig2[~in0].shape), atol=1e-12)
+
+
+def _neo_hookean_pk2(c10: float, F: np.ndarray) -> np.ndarray:
+    """Isochoric second Piola–Kirchhoff stress of the neo-Hookean law, S̄ = 2 C10 J^(-2/3) (I − (I1/3) C⁻¹)."""
+    C = F.T @ F
+    return 2 * c10 * np.linalg.det(F) ** (-2 / 3) * (np.eye(3) - np.trace(C) / 3 * np.linalg.inv(C))
+
+
+def test_problem_stress_is_the_scaled_law_with_its_frozen_stress():
+    """fem.post.problem_strain_stress of a homogeneous deformation: σ = J⁻¹ F (s S̄ + T) Fᵀ + p I at every
+    node, s and T the means over the node's elements (elements without them counting with s = 1,
+    T = 0); a frozen stress given at the nodes is taken as given; without frozen stresses the stress
+    is nodal_strain_stress of the material to the bit."""
+    from fem.material import ScaledMaterial
+    from fem.problem import FrozenStress, Problem
+
+    m, c10, p, c = MESHES["distorted"], 0.21, -0.03, 1.6
+    F = np.array([[1.3, 0.1, 0.0], [0.05, 0.9, 0.02], [0.0, -0.03, 0.86]])
+    J = np.linalg.det(F)
+    T = np.array([[0.02, -0.01, 0.005], [-0.01, -0.04, 0.0], [0.005, 0.0, 0.03]])
+    u, pe = m.points @ (F - np.eye(3)).T, np.full(m.n_elements, p)
+
+    def expected(s, t):
+        return F @ (s * _neo_hookean_pk2(c10, F) + t) @ F.T / J + p * np.eye(3)
+
+    law = NeoHookean(c10)
+    plain = Problem(m, law)
+    np.testing.assert_array_equal(post.problem_strain_stress(plain, u, pe)[1],
+                                  post.nodal_strain_stress(m.points, m.cells, u, pe, law)[1])
+    every = np.arange(m.n_elements)
+    scaled = Problem(m, ScaledMaterial(law, np.full(m.n_elements, c)),
+                     frozen_stresses=(FrozenStress(every, np.broadcast_to(T, (m.n_elements, 4, 3, 3))),))
+    sigma = post.problem_strain_stress(scaled, u, pe)[1]
+    np.testing.assert_allclose(sigma, np.broadcast_to(expected(c, T), sigma.shape), atol=1e-12)
+    # the law on element 0 alone: a node of element 0 shared with k others takes s = (c + k)/(k + 1)
+    one = np.array([0])
+    factor = np.ones(m.n_elements)
+    factor[0] = c
+    part = Problem(m, ScaledMaterial(law, factor), frozen_stresses=(FrozenStress(one, np.broadcast_to(T, (1, 4, 3, 3))),))
+    sigma = post.problem_strain_stress(part, u, pe)[1]
+    held = np.bincount(m.cells.ravel(), minlength=m.n_nodes)  # (n_nodes,) elements per node
+    for node in range(m.n_nodes):
+        w = 1.0 / held[node] if node in m.cells[0] else 0.0
+        np.testing.assert_allclose(sigma[node], expected(1 + w * (c - 1), w * T), atol=1e-12)
+    assert np.abs(sigma[m.cells[0]] - expected(1.0, 0 * T)).max() > 1e-3  # element 0's nodes do feel the law
+    # a frozen stress given at the nodes is the one used
+    nodal = np.zeros((m.n_nodes, 3, 3))
+    nodal[m.cells[0]] = T
+    given = Problem(m, law, frozen_stresses=(FrozenStress(one, np.zeros((1, 4, 3, 3)), nodal=nodal),))
+    sigma = post.problem_strain_stress(given, u, pe)[1]
+    np.testing.assert_allclose(sigma[m.cells[0]], np.broadcast_to(expected(1.0, T), (10, 3, 3)), atol=1e-12)
+
+
+@pytest.mark.parametrize("degree", [2, 3])
+def test_frozen_stress_at_nodes_is_exact_for_a_linear_field(degree):
+    """A frozen stress linear in X, T(X) = A + X_k B_k, known at the points of a tet rule, goes to the
+    nodes of straight-sided elements exactly (the linear fit through the points); a rule of fewer
+    than 4 points is refused."""
+    from fem.problem import FrozenStress
+    from fem.quadrature import tet_rule
+
+    m = MESHES["box"]
+    rng = np.random.default_rng(5)
+    A, B = rng.standard_normal((3, 3)), rng.standard_normal((3, 3, 3))
+    A, B = A + A.T, B + np.swapaxes(B, -1, -2)
+
+    def field(X):
+        return A + np.einsum("...k,kij->...ij", X, B)  # (..., 3, 3)
+
+    qp = tet_rule(degree).points
+    Xq = np.einsum("qa,eai->eqi", element.shape_functions(qp), m.points[m.cells])  # (n_el, n_qp, 3)
+    fs = FrozenStress(np.arange(m.n_elements), field(Xq))
+    np.testing.assert_allclose(post.frozen_stress_at_nodes(m.cells, [fs], qp, m.n_nodes), field(m.points),
+                               atol=1e-12)
+    with pytest.raises(ValueError, match="at least 4"):
+        post.quadrature_to_nodes(tet_rule(1).points)

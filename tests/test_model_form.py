@@ -45,12 +45,12 @@ def _yeoh_nominal(lam, c10, c20):
     return 2.0 * (lam - lam**-2) * (c10 + 2.0 * c20 * (i1 - 3.0))
 
 
-@pytest.mark.parametrize("name", sorted(RUBBER_LAWS))
+@pytest.mark.parametrize("name", sorted(n for n in RUBBER_LAWS if n.startswith("yeoh_")))
 @pytest.mark.parametrize("lam", [1.8, 0.8])
 def test_yeoh_uniaxial_reaction_matches_closed_form(name, lam):
     """One unit cube (6 tets), symmetry supports, end face pulled to λ: the end reaction is the
     closed-form nominal stress of each shipped Yeoh law (1e-8 relative)."""
-    c10, c20 = RUBBER_LAWS[name]
+    c10, c20 = RUBBER_LAWS[name].constants
     mesh = box_mesh(1.0, 1.0, 1.0, 1, 1, 1)
     X = mesh.points
     x1 = _on(X, 0, 1.0)
@@ -73,7 +73,7 @@ def test_shipped_yeoh_constants_pass_through_the_published_points():
     from benchmarks.studies import fit_rubber_tds as fit
 
     for name, (s100, sb, eb) in fit.TDS.items():
-        c10, c20 = RUBBER_LAWS[f"yeoh_{name}"]
+        c10, c20 = RUBBER_LAWS[f"yeoh_{name}"].constants
         got = _yeoh_nominal(np.array([2.0, 1.0 + eb / 100.0]), c10, c20)
         np.testing.assert_allclose(got, np.array([s100, sb]) * fit.PSI, rtol=1e-3)
         np.testing.assert_allclose((c10, c20), fit.fit(s100, sb, eb), rtol=1e-3)
@@ -181,10 +181,36 @@ def test_cap_law_goes_to_exactly_the_elements_below_c(wm):
     np.testing.assert_array_equal(mat.element_material == 1, below)
     np.testing.assert_array_equal(cap_elements(wm.mesh, wm.design.c), below)
     assert 0 < below.sum() < len(below)
-    assert mat.materials == (Yeoh(RUBBER_LAWS["yeoh_dragon_skin_10"]), Yeoh(RUBBER_LAWS["yeoh_dragon_skin_30"]))
+    assert mat.materials == (Yeoh(RUBBER_LAWS["yeoh_dragon_skin_10"].constants),
+                             Yeoh(RUBBER_LAWS["yeoh_dragon_skin_30"].constants))
     # a cap of the body's own law is one law
     assert scene_material(wm.mesh, SceneSpec(d, rubber="yeoh_dragon_skin_30", cap_rubber="yeoh_dragon_skin_30")) == \
-        Yeoh(RUBBER_LAWS["yeoh_dragon_skin_30"])
+        Yeoh(RUBBER_LAWS["yeoh_dragon_skin_30"].constants)
+
+
+def test_every_rubber_is_its_registered_factory_with_its_own_constants(monkeypatch):
+    """rubber_law builds each name of the registry by its factory: the neo-Hookean law of the material
+    section's C10, a Yeoh law of its own constants (C10 not read), D1 for all; a law added to the registry
+    alone (here a three-term Yeoh of made-up constants) is built by rubber_law and rubber_material."""
+    import types
+
+    import whisker_opt.experiment.spec as spec_mod
+    from whisker_opt.experiment.spec import RUBBERS, RubberLaw, rubber_law, rubber_material, yeoh
+
+    assert RUBBERS == tuple(RUBBER_LAWS) and RUBBERS[0] == "neo_hookean"
+    assert rubber_law("neo_hookean", 0.21, 0.03) == NeoHookean(0.21, 0.03)
+    for name in RUBBERS[1:]:
+        law = rubber_law(name, 0.21, 0.03)
+        assert law == Yeoh(RUBBER_LAWS[name].constants, 0.03) and law.c[0] != 0.21
+    with pytest.raises(ValueError, match="'neo_hookean' or 'yeoh_dragon_skin_30'"):
+        rubber_law("gent", 0.21, 0.0)
+    added = RubberLaw(yeoh, (0.1, -2e-3, 5e-5), "a test's constants")
+    monkeypatch.setattr(spec_mod, "RUBBER_LAWS", types.MappingProxyType({**RUBBER_LAWS, "yeoh_three_terms": added}))
+    assert rubber_law("yeoh_three_terms", 0.21, 0.01) == Yeoh((0.1, -2e-3, 5e-5), 0.01)
+    cap = np.array([True, False, False])
+    two = rubber_material("neo_hookean", "yeoh_three_terms", 0.21, 0.01, cap)
+    assert two.materials == (NeoHookean(0.21, 0.01), Yeoh((0.1, -2e-3, 5e-5), 0.01))
+    np.testing.assert_array_equal(two.element_material, [1, 0, 0])
 
 
 def test_sliding_base_sets(wm):

@@ -113,7 +113,7 @@ def _yeoh_slope(c: tuple[float, ...], i1: float) -> float:
 
 @pytest.mark.parametrize("material, slope", [
     ({"C10": 0.14}, lambda i1: 0.14),
-    ({"C10": 0.14, "rubber": "yeoh_dragon_skin_10"}, lambda i1: _yeoh_slope(RUBBER_LAWS["yeoh_dragon_skin_10"], i1)),
+    ({"C10": 0.14, "rubber": "yeoh_dragon_skin_10"}, lambda i1: _yeoh_slope(RUBBER_LAWS["yeoh_dragon_skin_10"].constants, i1)),
 ])
 def test_computed_von_mises_closed_form(tmp_path, material, slope):
     """A file with a displacement only: σ_vM = 2 W'(Ī1) (λ² − 1/λ) of the config's law under an incompressible

@@ -101,3 +101,70 @@ def test_bad_laws_are_refused_in_one_line(changes, match):
     with pytest.raises(ValueError, match=match) as exc:
         SceneSpec(WhiskerDesign(), **changes)
     assert "\n" not in str(exc.value)
+
+
+def _neo_hookean_pk2(c10: float, F: np.ndarray) -> np.ndarray:
+    """S̄ = 2 C10 J^(-2/3) (I − (I1/3) C⁻¹), the neo-Hookean isochoric second Piola–Kirchhoff stress, (k, 3, 3)."""
+    C = np.einsum("kiJ,kiL->kJL", F, F)  # (k, 3, 3)  FᵀF
+    i1 = np.einsum("kii->k", C)  # (k,)
+    return (2 * c10 * np.linalg.det(F) ** (-2 / 3))[:, None, None] * (np.eye(3) - (i1 / 3)[:, None, None]
+                                                                      * np.linalg.inv(C))
+
+
+@pytest.mark.parametrize("law", [{"wall_law": "sliding"}, {"wall_law": "calibrated", "wall_slope": -2.0}])
+def test_the_stored_stress_is_the_stress_the_deflection_solved(law, tmp_path, monkeypatch):
+    """The result files and von_mises_max carry the stress of the law the deflection was solved with.
+
+    At a node of the wall alone (every element around it a wall element) the law's Cauchy stress is, in
+    closed form from the rubber (neo-Hookean, C10) and the nodal F of the deflected and the pressurised
+    state, σ = J⁻¹ F [c S̄(C) − (c − 1) S̄(C_p)] Fᵀ + p I; everywhere it is the stress of the very problem
+    the Newton solve was handed (fem.post.problem_strain_stress); at the pressurised state that law's
+    stress is the pressurised one (the wall law keeps its equilibrium). The rubber alone differs by
+    (c − 1) [S̄(C) − S̄(C_p)] pushed forward.
+    """
+    pv = pytest.importorskip("pyvista")
+
+    import whisker_opt.experiment.scene as scene
+    from fem import post
+    from fem.material import von_mises_stress
+    from whisker_opt.output.scenes import write_scene_files
+
+    handed = []
+
+    def recording(problem, *args, **kwargs):
+        handed.append(problem)
+        return solve_path(problem, *args, **kwargs)
+
+    solve_path = scene.solve_path
+    monkeypatch.setattr(scene, "solve_path", recording)
+    spec = SceneSpec(WhiskerDesign(), sizing=COARSE, Q=0.2, deflection=2.0, n_deflection_steps=1, **law)
+    res = run_scene(spec, keep_states=True)
+    problem, c = handed[-1], spec.law.factor(spec.Q, spec.design)
+    assert problem.frozen_stresses and abs(c - 1) > 0.05  # the deflection was solved with the law
+    write_scene_files(tmp_path, "s", res)
+    stored = pv.read(tmp_path / "s_deflected.vtu").point_data
+    sigma = stored["cauchy_stress"][:, [0, 3, 5, 3, 1, 4, 5, 4, 2]].reshape(-1, 3, 3)  # XX YY ZZ XY YZ XZ -> 3x3
+
+    mesh, dfl, pre = res.mesh.mesh, res.states["deflected"], res.states["pressurised"]
+    scale = np.abs(sigma).max()
+    wall = np.zeros(mesh.n_elements, dtype=bool)
+    wall[chamber_elements(mesh.points, mesh.cells, spec.design)] = True
+    only_wall = np.ones(mesh.n_nodes, dtype=bool)
+    np.logical_and.at(only_wall, mesh.cells.ravel(), np.repeat(wall, mesh.cells.shape[1]))
+    assert only_wall.sum() > 50
+    F, used = post.nodal_deformation_gradient(mesh.points, mesh.cells, dfl.u)  # (n_used, 3, 3)
+    F = F[only_wall[used]]  # (k, 3, 3)
+    F_p = post.nodal_deformation_gradient(mesh.points, mesh.cells, pre.u)[0][only_wall[used]]  # (k, 3, 3)
+    S = c * _neo_hookean_pk2(spec.c10, F) - (c - 1) * _neo_hookean_pk2(spec.c10, F_p)  # (k, 3, 3)
+    p = post.element_to_nodes(mesh.cells, dfl.p, mesh.n_nodes)[only_wall]  # (k,)
+    closed = np.einsum("kiJ,kJL,kjL->kij", F, S, F) / np.linalg.det(F)[:, None, None] + p[:, None, None] * np.eye(3)
+    np.testing.assert_allclose(sigma[only_wall], closed, rtol=0, atol=1e-12 * scale)
+    rubber_alone = post.problem_strain_stress(handed[0], dfl.u, dfl.p)[1][only_wall]  # the pressurisation's law
+    assert np.abs(rubber_alone - closed).max() > 1e-4 * scale
+
+    solved = post.problem_strain_stress(problem, dfl.u, dfl.p)[1]  # (n_nodes, 3, 3)
+    np.testing.assert_allclose(sigma, solved, rtol=0, atol=1e-12 * scale)
+    np.testing.assert_allclose(stored["von_mises"], von_mises_stress(solved), rtol=0, atol=1e-12 * scale)
+    assert res.von_mises_max == pytest.approx(np.nanmax(von_mises_stress(solved)), rel=1e-12)
+    at_p = post.problem_strain_stress(problem, pre.u, pre.p)[1]
+    np.testing.assert_allclose(at_p, post.problem_strain_stress(handed[0], pre.u, pre.p)[1], rtol=0, atol=1e-12 * scale)

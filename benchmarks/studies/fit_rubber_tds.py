@@ -62,7 +62,7 @@ def main(argv: list[str] | None = None) -> None:
           f"{'P(2) [MPa]':>10} {'P(l_b) [MPa]':>12}")
     for name, (s100, sb, eb) in TDS.items():
         c10, c20 = fit(s100, sb, eb)
-        shipped = RUBBER_LAWS[f"yeoh_{name}"]
+        shipped = RUBBER_LAWS[f"yeoh_{name}"].constants
         p2, pb = yeoh_uniaxial_nominal([2.0, 1.0 + eb / 100.0], *shipped)
         print(f"{name:<16} {c10:10.5f} {c20:11.3e} {2 * c10:9.4f} {shipped[0]:>10.5f}, {shipped[1]:.3e} "
               f"{p2:10.4f} {pb:12.4f}")

@@ -86,6 +86,10 @@ class SceneResult:
     mesh : WhiskerMesh or None
     states : dict or None
         'pressurised' and 'deflected' :class:`fem.state.State` when kept.
+    problems : dict or None
+        The problems that solved the kept states, 'pressurised' and 'deflection' (their
+        constitutive law, a wall law's scaling and frozen stress included, without the solver's
+        caches), when the states are kept: :meth:`problem_of`.
     contact_x : float
         Mean current axial position of the contact nodes at contact onset [mm]; equals
         ``a·L_Q`` within :data:`whisker_opt.experiment.contact.CONTACT_TOL` on structured
@@ -101,7 +105,7 @@ class SceneResult:
         over the base nodes. With Q = 0 its y component balances the contact force.
     von_mises_max : float
         Largest nodal von Mises stress of the deflected state (δ = ``spec.deflection``) [MPa]:
-        :func:`peak_von_mises` (NaN when not computed).
+        :func:`peak_von_mises` of the deflection's problem (NaN when not computed).
     """
 
     spec: SceneSpec
@@ -119,6 +123,15 @@ class SceneResult:
     contact_force: np.ndarray | None = None
     base_reaction: np.ndarray | None = None
     von_mises_max: float = float("nan")
+    problems: dict | None = None
+
+    def problem_of(self, state: str):
+        """The problem that solved the kept state named ``state`` (a key of :attr:`states`): the
+        pressurisation's for 'pressurised', the deflection's for the others; None when the
+        result keeps no problems."""
+        if self.problems is None:
+            return None
+        return self.problems["pressurised" if state == "pressurised" else "deflection"]
 
     @property
     def eps(self) -> dict[str, np.ndarray]:
@@ -388,6 +401,8 @@ class Deflection:
     forces : ndarray, shape (k + 1, 4)
         Contact force F [N] and base reaction (x, y, z) [N] at onset and at each fraction
         (:func:`contact_reactions`).
+    problem : Problem or None
+        The problem the deflection was solved with (the wall law applied).
     """
 
     fractions: tuple
@@ -397,6 +412,7 @@ class Deflection:
     band: np.ndarray
     time_read: float
     forces: np.ndarray | None = None
+    problem: Problem | None = None
 
 
 def contact_reactions(problem: Problem, state: State, pressures: tuple, band: np.ndarray,
@@ -473,7 +489,8 @@ def deflect_and_read(spec: SceneSpec, gm: GaugedMesh, pre: Pressurised, contact:
 
     states, reports = solve_path(prob2, pre.state, load0, load1, fractions=fractions, options=spec.solve_options,
                                  callback=_read)
-    return Deflection(fractions, np.array(readings), states, list(reports), band, t_read[0], np.array(forces))
+    return Deflection(fractions, np.array(readings), states, list(reports), band, t_read[0], np.array(forces),
+                      prob2)
 
 
 def _gauged(m: WhiskerMesh | GaugedMesh, design: WhiskerDesign) -> GaugedMesh:
@@ -577,9 +594,7 @@ def run_scene(spec: SceneSpec, wm: WhiskerMesh | GaugedMesh | None = None, keep_
     timings["deflect"] = time.perf_counter() - t - dfl.time_read
     timings["readout"] = dfl.time_read
     delta = np.concatenate([[0.0], np.asarray(dfl.fractions) * spec.deflection])
-    kept = ({"pressurised": pre.state, "deflected": dfl.states[-1],
-             **{f"delta_{f * spec.deflection:.2f}": st for f, st in zip(dfl.fractions, dfl.states)}}
-            if keep_states else None)
+    kept, problems = _kept(spec, pre, dfl) if keep_states else (None, None)
     logger.debug("scene %s: %s", design, timings)
     return SceneResult(
         spec=spec,
@@ -596,21 +611,31 @@ def run_scene(spec: SceneSpec, wm: WhiskerMesh | GaugedMesh | None = None, keep_
         contact_x=float(np.mean(wm.mesh.points[dfl.band, 0] + u1[dfl.band, 0])),
         contact_force=dfl.forces[:, 0],
         base_reaction=dfl.forces[:, 1:],
-        von_mises_max=peak_von_mises(wm.mesh, dfl.states[-1], spec),
+        von_mises_max=peak_von_mises(dfl.problem, dfl.states[-1]),
+        problems=problems,
     )
 
 
-def peak_von_mises(mesh, state: State, spec: SceneSpec) -> float:
-    """Largest nodal von Mises stress of a solved state [MPa].
+def _kept(spec: SceneSpec, pre: Pressurised, dfl: Deflection) -> tuple[dict, dict]:
+    """The states a result keeps (:attr:`SceneResult.states`) and the problems that solved them
+    (:attr:`SceneResult.problems`), without their caches (sparsity, factorisation): a kept result
+    holds no solver."""
+    states = {"pressurised": pre.state, "deflected": dfl.states[-1],
+              **{f"delta_{f * spec.deflection:.2f}": st for f, st in zip(dfl.fractions, dfl.states)}}
+    return states, {"pressurised": replace(pre.problem, _cache={}), "deflection": replace(dfl.problem, _cache={})}
 
-    σ_vM = sqrt(3/2 s:s), s the deviator of the nodal Cauchy stress of the scene's own rubber
-    (:func:`fem.post.nodal_strain_stress` with :func:`scene_material`, the stress the result files
-    and the viewer show), maximised over the nodes of the mesh.
+
+def peak_von_mises(problem: Problem, state: State) -> float:
+    """Largest nodal von Mises stress of a state solved with ``problem`` [MPa].
+
+    σ_vM = sqrt(3/2 s:s), s the deviator of the nodal Cauchy stress of the problem's own
+    constitutive law (:func:`fem.post.problem_strain_stress`: the scene's rubber, and under a wall
+    law its scaled moduli and frozen stress; the stress the result files and the viewer show),
+    maximised over the nodes of the mesh.
     """
     from fem import post
     from fem.material import von_mises_stress
 
-    sigma = post.nodal_strain_stress(mesh.points, mesh.cells, state.u, state.p, scene_material(mesh, spec),
-                                     spec.formulation)[1]  # (n_nodes, 3, 3)
+    sigma = post.problem_strain_stress(problem, state.u, state.p)[1]  # (n_nodes, 3, 3)
     return float(np.nanmax(von_mises_stress(sigma)))
 

@@ -3,10 +3,10 @@
 Its user settings (contact, deflection, rubber constants, gauge factor) are declared here once
 with :func:`geometry.design.parameter`: their defaults, units, ranges and meanings; the
 ``scene`` and ``material`` sections of a run file are generated from them
-(:mod:`whisker_opt.config.model`). The rubbers are registered here by name, once: the
-named laws (:data:`RUBBER_LAWS`, :data:`RUBBERS`) and the law objects they stand for
-(:func:`rubber_law`, :func:`rubber_material`), used by the solver, the result files and the
-viewer alike. This module imports no solver code at import time (:mod:`fem.material` only
+(:mod:`whisker_opt.config.model`). The rubbers are registered here by name, once, each a
+factory of its law with the law's own constants (:class:`RubberLaw` in :data:`RUBBER_LAWS`, the
+names :data:`RUBBERS`), and made into law objects by :func:`rubber_law` and :func:`rubber_material`
+alone, for the solver, the result files and the viewer alike. This module imports no solver code at import time (:mod:`fem.material` only
 inside those functions), so the configuration can read it cheaply.
 """
 
@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
@@ -29,29 +29,77 @@ if TYPE_CHECKING:  # pragma: no cover
 #: Where the contact is placed (:attr:`SceneSpec.contact_at`).
 CONTACT_AT: tuple[str, ...] = ("pressurised", "reference")
 
-#: Two-term Yeoh laws of named silicones, ``{name: (C10, C20)}`` [MPa], W = C10 (Ī1 − 3) + C20 (Ī1 − 3)²
-#: (Yeoh 1993). Each pair passes exactly through the two uniaxial points of the manufacturer's technical
-#: bulletin (Smooth-On, ASTM D412): the 100 % modulus at λ = 2 and the tensile strength at the elongation
-#: at break; fitted by ``benchmarks/studies/fit_rubber_tds.py`` (which prints these numbers), from
-#: Dragon Skin 30: σ100 = 86 psi, 500 psi at 364 %; Dragon Skin 10 Medium: 22 psi, 475 psi at 1000 %;
-#: Ecoflex 00-30 (the Shore 00-30 grade): 10 psi, 200 psi at 900 %. Read-only.
+def neo_hookean(constants: tuple, c10: float, d1: float) -> IsochoricI1Material:
+    """W = C10 (Ī1 − 3) with the material section's C10 = ``c10`` (:class:`fem.material.NeoHookean`);
+    it has no constants of its own."""
+    from fem.material import NeoHookean
+
+    return NeoHookean(c10, d1)
+
+
+def yeoh(constants: tuple, c10: float, d1: float) -> IsochoricI1Material:
+    """W = Σ_k C_k0 (Ī1 − 3)^k with the law's own constants (C10, C20, ...) = ``constants``
+    (:class:`fem.material.Yeoh`); ``c10`` is not read."""
+    from fem.material import Yeoh
+
+    return Yeoh(tuple(constants), d1)
+
+
+@dataclass(frozen=True)
+class RubberLaw:
+    """A registered rubber law: a factory of the isochoric law with the law's own constants.
+
+    Attributes
+    ----------
+    make : callable
+        ``make(constants, c10, d1) -> fem.material.IsochoricI1Material``, importing :mod:`fem` when
+        called (e.g. :func:`neo_hookean`, :func:`yeoh`); ``c10`` [MPa] is the material section's C10,
+        ``d1`` [1/MPa] its D1, which every law takes.
+    constants : tuple of float
+        The law's own constants [MPa] (empty for a law of the material section's C10).
+    source : str
+        Where the constants come from.
+    """
+
+    make: Callable[[tuple, float, float], IsochoricI1Material]
+    constants: tuple[float, ...] = ()
+    source: str = ""
+
+    def law(self, c10: float, d1: float) -> IsochoricI1Material:
+        """The law with D1 = ``d1`` (and C10 = ``c10`` for a law that reads it)."""
+        return self.make(self.constants, c10, d1)
+
+
+#: The fits of the manufacturer's technical bulletin.
+_TDS = "Smooth-On technical bulletin (ASTM D412), fit by benchmarks/studies/fit_rubber_tds.py"
+
+#: The rubber laws of :attr:`SceneSpec.rubber` by name, read-only: the neo-Hookean law of the material
+#: section's C10 and D1, and two-term Yeoh laws of named silicones, W = C10 (Ī1 − 3) + C20 (Ī1 − 3)²
+#: (Yeoh 1993), their own ``constants`` (C10, C20) [MPa]. Each Yeoh pair passes exactly through the two
+#: uniaxial points of the manufacturer's technical bulletin (Smooth-On, ASTM D412): the 100 % modulus at
+#: λ = 2 and the tensile strength at the elongation at break; fitted by
+#: ``benchmarks/studies/fit_rubber_tds.py`` (which prints these numbers), from Dragon Skin 30: σ100 = 86 psi,
+#: 500 psi at 364 %; Dragon Skin 10 Medium: 22 psi, 475 psi at 1000 %; Ecoflex 00-30 (the Shore 00-30 grade):
+#: 10 psi, 200 psi at 900 %. A new law is its class in :mod:`fem.material`, a factory as :func:`yeoh` and
+#: one entry here.
 RUBBER_LAWS = MappingProxyType({
-    "yeoh_dragon_skin_30": (0.14514, 6.0678e-3),
-    "yeoh_dragon_skin_10": (0.041520, 4.5462e-4),
-    "yeoh_ecoflex_00_30": (0.018663, 2.5902e-4),
+    "neo_hookean": RubberLaw(neo_hookean, (), "material.C10 and material.D1"),
+    "yeoh_dragon_skin_30": RubberLaw(yeoh, (0.14514, 6.0678e-3), _TDS),
+    "yeoh_dragon_skin_10": RubberLaw(yeoh, (0.041520, 4.5462e-4), _TDS),
+    "yeoh_ecoflex_00_30": RubberLaw(yeoh, (0.018663, 2.5902e-4), _TDS),
 })
 
-#: The rubber laws of :attr:`SceneSpec.rubber`: the neo-Hookean law of ``c10``/``d1``, or a named Yeoh fit.
-RUBBERS: tuple[str, ...] = ("neo_hookean",) + tuple(RUBBER_LAWS)
+#: The names of the rubber laws (:data:`RUBBER_LAWS`).
+RUBBERS: tuple[str, ...] = tuple(RUBBER_LAWS)
 
 
 def rubber_law(name: str, c10: float, d1: float) -> IsochoricI1Material:
     """The isochoric law called ``name``, one of :data:`RUBBERS`: the one place a rubber's name
-    becomes a law.
+    becomes a law, by its registered factory (:meth:`RubberLaw.law`).
 
     'neo_hookean': W = C10 (Ī1 − 3) with C10 = ``c10`` (:class:`fem.material.NeoHookean`);
-    a key of :data:`RUBBER_LAWS`: W = C10 (Ī1 − 3) + C20 (Ī1 − 3)² with that silicone's
-    constants (:class:`fem.material.Yeoh`; ``c10`` is not used). D1 = ``d1`` for every law.
+    a Yeoh entry: W = C10 (Ī1 − 3) + C20 (Ī1 − 3)² with that silicone's constants
+    (:class:`fem.material.Yeoh`; ``c10`` is not used). D1 = ``d1`` for every law.
 
     Parameters
     ----------
@@ -70,13 +118,9 @@ def rubber_law(name: str, c10: float, d1: float) -> IsochoricI1Material:
     ValueError
         An unknown name (the message lists :data:`RUBBERS`).
     """
-    from fem.material import NeoHookean, Yeoh
-
-    if name == "neo_hookean":
-        return NeoHookean(c10, d1)
     if name not in RUBBER_LAWS:
         raise ValueError(f"rubber {name!r}: must be " + " or ".join(map(repr, RUBBERS)))
-    return Yeoh(RUBBER_LAWS[name], d1)
+    return RUBBER_LAWS[name].law(c10, d1)
 
 
 def cap_elements(mesh, c: float) -> np.ndarray:
@@ -163,8 +207,8 @@ class SceneSpec:
         at K/μ = 1000, benchmarks/results/time_vs_error.md).
     rubber : str
         Rubber law of the body (every element, or every element outside the cap when
-        ``cap_rubber`` differs): 'neo_hookean' (C10 = ``c10``, the default) or a key of
-        :data:`RUBBER_LAWS` (a two-term Yeoh fit of a named silicone). D1 = ``d1`` for all.
+        ``cap_rubber`` differs): one of :data:`RUBBERS`, 'neo_hookean' (C10 = ``c10``, the
+        default) or a two-term Yeoh fit of a named silicone (:data:`RUBBER_LAWS`). D1 = ``d1`` for all.
     cap_rubber : str
         'same' (default: the cap is of the body's rubber) or one of :data:`RUBBERS` for the
         elements of the cap, those whose centroid lies at x < c, bonded to the body.

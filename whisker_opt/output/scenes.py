@@ -197,16 +197,16 @@ def scene_tags(res) -> tuple[dict, dict]:
 
 
 # ------------------------------------------------------------------------------ fields
-def state_fields(mesh, state, spec=None) -> tuple[dict, dict]:
+def state_fields(mesh, state, problem=None) -> tuple[dict, dict]:
     """Point and cell arrays of one solved state.
 
     Point arrays: ``displacement`` u [mm] (n, 3); ``displacement_magnitude`` |u| [mm];
     ``log_strain``, the Eulerian log strain ln V = ½ ln(F Fᵀ) (n, 6) in VTK's order XX, YY,
     ZZ, XY, YZ, XZ; ``log_strain_axial`` its XX [-]; ``cauchy_stress`` σ [MPa] (n, 6), same
-    order, of the scene's own rubber law with the mixed pressure
-    (:func:`whisker_opt.experiment.scene.scene_material`, its
-    :meth:`~fem.material.IsochoricI1Material.cauchy_stress`); ``von_mises`` [MPa] of that σ. Nodal values: F
-    averaged over the elements sharing a node, the element pressures likewise
+    order, of the constitutive law of the problem that solved the state, with its mixed pressure
+    (:func:`fem.post.problem_strain_stress`: the scene's rubber, and under a wall law its scaled
+    moduli and frozen stress, the stress the Newton solve balanced); ``von_mises`` [MPa] of that σ.
+    Nodal values: F averaged over the elements sharing a node, the element pressures likewise
     (:func:`fem.post.nodal_strain_stress`). Cell array ``mixed_pressure`` [MPa]: the element
     pressure unknown p of the u–p formulation, the mean stress tr σ / 3, positive in tension
     (left out for the 'displacement' formulation, whose pressure is no unknown). Point arrays ``J`` = det F
@@ -218,16 +218,16 @@ def state_fields(mesh, state, spec=None) -> tuple[dict, dict]:
     mesh : fem.mesh.TetMesh
     state : fem.state.State
         ``u`` (n_nodes, 3) and ``p`` (n_el,).
-    spec : whisker_opt.experiment.spec.SceneSpec, optional
-        The rubber (:attr:`~whisker_opt.experiment.spec.SceneSpec.rubber`, ``cap_rubber``, C10,
-        D1) and the formulation; without it the stress arrays are left out.
+    problem : fem.problem.Problem, optional
+        The problem that solved ``state`` (:meth:`whisker_opt.experiment.scene.SceneResult.problem_of`):
+        its material, frozen stresses and formulation; without it the stress arrays are left out.
 
     Returns
     -------
     point_data, cell_data : dict of name -> ndarray
     """
     u = np.asarray(state.u, dtype=float)
-    formulation = getattr(spec, "formulation", "mixed")
+    formulation = getattr(problem, "formulation", "mixed")
     pdata = {"displacement": u, "displacement_magnitude": np.linalg.norm(u, axis=1)}
     F, used = post.nodal_deformation_gradient(mesh.points, mesh.cells, u)  # (k, 3, 3)
     pdata["J"] = post.spread_to_nodes(np.linalg.det(F), used)
@@ -236,11 +236,8 @@ def state_fields(mesh, state, spec=None) -> tuple[dict, dict]:
     cdata = {}
     if formulation == "mixed":
         cdata["mixed_pressure"] = np.asarray(state.p, dtype=float)
-    if spec is not None:
-        from whisker_opt.experiment.scene import scene_material
-
-        le, sigma = post.nodal_strain_stress(mesh.points, mesh.cells, u, state.p, scene_material(mesh, spec),
-                                             formulation)
+    if problem is not None:
+        le, sigma = post.problem_strain_stress(problem, u, state.p)
         pdata["log_strain"] = post.symmetric_components(le)
         pdata["log_strain_axial"] = le[:, 0, 0]
         pdata["cauchy_stress"] = post.symmetric_components(sigma)
@@ -375,12 +372,13 @@ def write_scene_files(out: Path, name: str, res) -> SceneFiles:
         raise ValueError(f"scene {name!r}: {exc}") from None
     out = Path(out)
     spec = getattr(res, "spec", None)
+    problem_of = getattr(res, "problem_of", lambda state: None)
     mesh = res.mesh.mesh
     point_tags, cell_tags = scene_tags(res)
     comps = {"log_strain": post.SYMMETRIC_COMPONENTS, "cauchy_stress": post.SYMMETRIC_COMPONENTS}
     vtus, fibre_paths = [], []
     for state_name, delta, st in states:
-        pdata, cdata = state_fields(mesh, st, spec)
+        pdata, cdata = state_fields(mesh, st, problem_of(state_name))
         pdata.update(point_tags)
         cdata.update(cell_tags)
         meta = scene_metadata(name, state_name, delta, spec)

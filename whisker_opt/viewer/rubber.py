@@ -6,7 +6,8 @@ file lacks one does it compute it, and then with the law the run was solved with
 made into a law by the one registry of rubbers,
 :func:`whisker_opt.experiment.spec.rubber_material`. A cap of another rubber needs the cap's
 end c [mm]: the file's own ``design_c`` field data, else the scene's design, else the
-config's ``design.c``.
+config's ``design.c``. Under a wall law other than ``embedded`` that is the rubber alone: the law's
+scaling and frozen stress are in the stored stress only (:func:`fem.post.problem_strain_stress`).
 """
 
 from __future__ import annotations

@@ -29,7 +29,9 @@ cell checks. The laws (:data:`WALL_LAWS`):
     ``embedded``. A fitted s is a property of that prototype, with its data source in
     ``calibrated.yaml``.
 
-A law other than ``embedded`` is opt-in: ``material.wall_law``.
+A law other than ``embedded`` is opt-in: ``material.wall_law``. The stress of a state it solved (the result
+files, ``von_mises_max``) is this law's, frozen stress included (:func:`apply_law`,
+:func:`fem.post.problem_strain_stress`).
 """
 
 from __future__ import annotations
@@ -160,6 +162,25 @@ def chamber_elements(points: np.ndarray, cells: np.ndarray, design: WhiskerDesig
     return np.nonzero((x > design.c) & (x < design.l))[0]
 
 
+def _isochoric_pk2(material, F: np.ndarray) -> np.ndarray:
+    """The law's isochoric second Piola–Kirchhoff stress S̄ = F⁻¹ P̄(F), symmetric to round-off.
+
+    Parameters
+    ----------
+    material : fem.material.IsochoricI1Material
+        With one row per row of ``F`` when it differs by element or node.
+    F : ndarray, shape (..., 3, 3)
+
+    Returns
+    -------
+    ndarray, shape (..., 3, 3)
+    """
+    G = np.linalg.inv(F)  # (..., 3, 3)
+    P = material.stress_tangent(F, G, np.linalg.det(F), need_tangent=False)[0]  # (..., 3, 3)
+    S = np.matmul(G, P)  # (..., 3, 3)  S̄ = F⁻¹ P̄
+    return 0.5 * (S + np.swapaxes(S, -1, -2))
+
+
 def apply_law(problem, state, c: float, elements: np.ndarray):
     """``problem`` with its wall's incremental material stiffness about ``state`` multiplied by ``c``.
 
@@ -179,10 +200,16 @@ def apply_law(problem, state, c: float, elements: np.ndarray):
     fem.problem.Problem
         The rubber's moduli × c on ``elements`` (:class:`fem.material.ScaledMaterial`) and the frozen
         stress −(c − 1) S̄_p there (:class:`fem.problem.FrozenStress`), S̄_p = F⁻¹ P̄ the rubber's
-        isochoric second Piola–Kirchhoff stress at p; the same problem when c = 1.
+        isochoric second Piola–Kirchhoff stress at p; the same problem when c = 1. The frozen stress
+        at the nodes, for the stress of a solved state (:func:`fem.post.problem_strain_stress`), is
+        the same law at the nodal deformation of p (:func:`fem.post.nodal_deformation_gradient`),
+        −(c_n − 1) S̄(F_p,n) with c_n the nodal factor of the scaled law
+        (:meth:`fem.material.ScaledMaterial.at_nodes`): at p the nodal stress is the rubber's, as
+        it is at the quadrature points.
     """
     from dataclasses import replace
 
+    from fem import post
     from fem.assembly import Assembler
     from fem.material import ScaledMaterial
     from fem.problem import FrozenStress
@@ -191,12 +218,15 @@ def apply_law(problem, state, c: float, elements: np.ndarray):
         raise ValueError(f"wall law: c = {c!r} must be finite and > 0")
     if c == 1.0 or len(elements) == 0:
         return problem
-    mat = problem.material
-    F, J, G = Assembler(problem).deformation(state.u)  # (n_el, n_qp, 3, 3), (n_el, n_qp), (n_el, n_qp, 3, 3)
-    P_iso = mat.stress_coefficients(F, G, J)[0]  # (n_el, n_qp, 3, 3)
-    S = np.matmul(G[elements], P_iso[elements])  # (n_sel, n_qp, 3, 3)  S̄ = F⁻¹ P̄
-    S = 0.5 * (S + np.swapaxes(S, -1, -2))  # symmetric to round-off
-    factor = np.ones(problem.mesh.n_elements)
+    mat, mesh = problem.material, problem.mesh
+    F = Assembler(problem).deformation(state.u)[0]  # (n_el, n_qp, 3, 3)
+    S = _isochoric_pk2(mat, F)[elements]  # (n_sel, n_qp, 3, 3)
+    factor = np.ones(mesh.n_elements)
     factor[elements] = c
-    return replace(problem, material=ScaledMaterial(mat, factor),
-                   frozen_stresses=(FrozenStress(elements, -(c - 1.0) * S, name="wall law"),))
+    scaled = ScaledMaterial(mat, factor)
+    F_n, used = post.nodal_deformation_gradient(mesh.points, mesh.cells, state.u)  # (k, 3, 3)
+    at_nodes = scaled.at_nodes(mesh.cells, used)
+    T_n = -(at_nodes.factor - 1.0)[:, None, None] * _isochoric_pk2(at_nodes.base, F_n)  # (k, 3, 3)
+    return replace(problem, material=scaled,
+                   frozen_stresses=(FrozenStress(elements, -(c - 1.0) * S, name="wall law",
+                                                 nodal=post.spread_to_nodes(T_n, used, fill=0.0)),))
