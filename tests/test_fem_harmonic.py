@@ -1,4 +1,4 @@
-"""The axisymmetric + Fourier-harmonic solid (fem.harmonic) against closed forms and finite differences.
+"""The axisymmetric + Fourier-harmonic solid (fem.axisym.harmonic) against closed forms and finite differences.
 
 References
 ----------
@@ -17,10 +17,10 @@ import math
 import numpy as np
 import pytest
 
-from fem.harmonic import HarmonicSolid, HoopFibre, Region
-from fem.harmonic_solve import AxisymmetricPath, EndThrust, Reduction, harmonic_response
+from fem.axisym.harmonic import HarmonicSolid, HoopFibre, Region
+from fem.axisym.harmonic_solve import AxisymmetricPath, EndThrust, Reduction, harmonic_response
 from fem.material import NeoHookean, Yeoh
-from fem.meshgen2d import grid_mesh, inclusion_mesh
+from fem.axisym.meshgen2d import grid_mesh, inclusion_mesh
 from tests.tube_closed_form import closed_end_tube
 
 MU = 1.0
@@ -126,7 +126,7 @@ def test_axisymmetric_tangent_matches_finite_differences():
 def _energy_3d(solid, x, amp, theta_pts, eps):
     """∫∫ [W_iso + p(J − 1) − D1/4 p² + ½ k Ē²] R dA dΘ of the axisymmetric state plus ε × the harmonic-1 field
     (amplitudes ``amp`` = (n_nodes, 3) and element pressures (n_el, 3)), by a trapezoidal rule in Θ."""
-    from fem.quad9 import gauss_square, pressure_basis
+    from fem.axisym.quad9 import gauss_square, pressure_basis
     u, p = x[: solid.n_u0].reshape(-1, 2), x[solid.n_u0:].reshape(-1, 3)
     a, q = amp
     xi, w = gauss_square(3)
@@ -213,7 +213,7 @@ def test_n1_bending_of_a_pressurised_tube_matches_the_3d_solver():
 
 def test_inclusion_mesh_converges_to_the_circle():
     """The area of the meshed inclusion approaches π a² at the rate of quadratic (isoparametric) arcs."""
-    from fem.quad9 import gauss_square, shape_gradients
+    from fem.axisym.quad9 import gauss_square, shape_gradients
     xi, w = gauss_square(3)
     dN = shape_gradients(xi)
     errs = []

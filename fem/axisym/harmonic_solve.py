@@ -23,7 +23,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from fem.harmonic import HarmonicSolid
+from fem.axisym.harmonic import HarmonicSolid
 from fem.linsolve import LinearSolverError, make_solver
 
 log = logging.getLogger(__name__)
@@ -87,7 +87,7 @@ class EndThrust:
 
 
 class AxisymmetricPath:
-    """Newton on (y, Q) for one :class:`fem.harmonic.HarmonicSolid` under a :class:`Reduction`.
+    """Newton on (y, Q) for one :class:`fem.axisym.harmonic.HarmonicSolid` under a :class:`Reduction`.
 
     An iteration ends the solve when the residual of the state it starts from is below ``tol`` times the
     step's force scale (the larger of the first residual and the pressure load of max(Q, 1e-3)), or below
