@@ -8,8 +8,9 @@ implement it: :class:`SolidSystem` here (the 10-node tetrahedral solid of :mod:`
 :class:`fem.axisym.harmonic_solve.AxisymmetricSystem` (the axisymmetric state of a body of revolution with
 its cavity pressure as an unknown).
 
-A load is any object with ``check(system_problem)`` and ``interpolate(other, s)`` (``(1 − s)·self +
-s·other``), such as :class:`fem.loads.LoadState`; the system turns it into prescribed values.
+A load is any object with ``interpolate(other, s)`` (``(1 − s)·self + s·other``), such as
+:class:`fem.loads.LoadState` or :class:`fem.axisym.harmonic_solve.Control`; the system turns it into
+prescribed values and the loads of its residual.
 """
 
 from __future__ import annotations
@@ -45,9 +46,6 @@ class NonlinearSystem(Protocol):
     constrained_dofs: np.ndarray
     volume: float
     symmetric: bool | None
-
-    def check_load(self, load):
-        """The load validated against the system (full-shape arrays)."""
 
     def prescribed(self, load) -> tuple[np.ndarray, np.ndarray]:
         """(indices, values) of the prescribed unknowns under ``load``."""
@@ -131,9 +129,6 @@ class SolidSystem:
             solver = make_solver(name)
             self.problem._cache[skey] = solver
         return solver
-
-    def check_load(self, load):
-        return load.check(self.problem)
 
     def prescribed(self, load) -> tuple[np.ndarray, np.ndarray]:
         return load.prescribed_vector(self.problem)

@@ -48,6 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from fem.assembly import InvertedElements
 from fem.axisym import quad9
 from fem.axisym.harmonic_pressure import EdgePressureKernel
 from fem.material import IsochoricI1Material
@@ -186,8 +187,9 @@ class HarmonicSolid:
     def _material(self, F: np.ndarray, p: np.ndarray, els: np.ndarray):
         """Stress and tangent with the volumetric term: P, A (flattened 9 × 9), J, JG (J F⁻ᵀ flattened)."""
         J = np.linalg.det(F)  # (n_sel, n_qp)
-        if np.any(J <= 0) or not np.all(np.isfinite(J)):
-            raise FloatingPointError(f"HarmonicSolid: det F <= 0 at {int(np.sum(J <= 0))} quadrature points")
+        bad = (J <= 0) | ~np.isfinite(J)
+        if np.any(bad):
+            raise InvertedElements(int(np.sum(bad)), float(np.nanmin(J)) if np.any(np.isfinite(J)) else math.nan)
         G = np.linalg.inv(F)  # (n_sel, n_qp, 3, 3)
         P = np.empty_like(F)
         A = np.empty(F.shape + (3, 3))

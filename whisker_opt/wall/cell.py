@@ -30,10 +30,11 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from fem.axisym.harmonic import HarmonicSolid, HoopFibre, Region
-from fem.axisym.harmonic_solve import AxisymmetricPath, EndThrust, HarmonicSolveFailed, Reduction, harmonic_response
-from fem.material import NeoHookean
+from fem.axisym.harmonic_solve import AxisymmetricPath, EndThrust, Reduction, harmonic_response
 from fem.axisym.meshgen2d import QuadMesh, grid_mesh, inclusion_mesh
 from fem.axisym.quad9 import line_shape
+from fem.material import NeoHookean
+from fem.newton import SolveFailed
 from whisker_opt.experiment.spec import rubber_law
 from whisker_opt.wall.mechanisms import WallMechanism
 
@@ -226,7 +227,7 @@ class WallCell:
         for Q in pressures:
             try:
                 self.pressurise(Q)
-            except (HarmonicSolveFailed, FloatingPointError) as exc:
+            except SolveFailed as exc:
                 if not stop_on_failure:
                     raise
                 log.warning("wall cell %s: Q = %.3g MPa not reached (%s)", self.mech.name, Q, exc)
