@@ -187,7 +187,8 @@ class HarmonicSolid:
     def _material(self, F: np.ndarray, p: np.ndarray, els: np.ndarray):
         """Stress and tangent with the volumetric term: P, A (flattened 9 × 9), J, JG (J F⁻ᵀ flattened)."""
         J = np.linalg.det(F)  # (n_sel, n_qp)
-        bad = (J <= 0) | ~np.isfinite(J)
+        # a hoop stretch ≤ 0 is a ring through the axis: inverted in 3-D, even where the mirrored section keeps J > 0
+        bad = (J <= 0) | ~np.isfinite(J) | (F[..., 2, 2] <= 0)
         if np.any(bad):
             raise InvertedElements(int(np.sum(bad)), float(np.nanmin(J)) if np.any(np.isfinite(J)) else math.nan)
         G = np.linalg.inv(F)  # (n_sel, n_qp, 3, 3)
