@@ -230,8 +230,8 @@ class NewtonSolver:
         x0 : ndarray, shape (n_dofs,)
             Start state (displacements, then element pressures); its prescribed DOFs hold
             the previous load level's values.
-        load : LoadState
-            The load level to reach.
+        load : LoadState or the system's load
+            The load level to reach (its prescribed values by :meth:`fem.system.NonlinearSystem.prescribed`).
         opts : SolveOptions
         timer : object
             Has float attributes ``time_assembly``, ``time_factorize`` and ``time_solve``
