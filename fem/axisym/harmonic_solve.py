@@ -158,6 +158,7 @@ class AxisymmetricSystem:
         return self.T @ y + self.x_fixed
 
     def linear_solver(self, name: str) -> LinearSolver:
+        """The path's solver when it gave one, else :func:`fem.linsolve.make_solver` of ``name`` (kept)."""
         if self._linear is None:
             self._linear = make_solver(name)
         return self._linear
@@ -229,6 +230,7 @@ class AxisymmetricSystem:
                 float(np.linalg.norm(R[self.constrained])))
 
     def min_jacobian(self, z: np.ndarray) -> float:
+        """Smallest det F at the quadrature points of the state z."""
         u = self.full(z[:-1])[: self.solid.n_u0].reshape(-1, 2)
         return float(np.min(np.linalg.det(self.solid.deformation_gradient(u))))
 
