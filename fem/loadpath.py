@@ -9,6 +9,8 @@ step (cut-back); easy increments (at most 4 iterations) let the step grow by 1.5
 Increments after the first may start from the secant extrapolation of the last two
 converged states.
 
+:func:`follow_path` steps any :class:`fem.system.NonlinearSystem` (state vectors in, state vectors
+out); :func:`solve_path` is the 3-D solid's front (:class:`fem.state.State` in and out).
 A failed path raises :class:`fem.newton.SolveFailed` carrying the step reports; a
 non-converged or non-finite state is never returned.
 """
@@ -87,21 +89,72 @@ def solve_path(problem: Problem, state0: State, load0: LoadState, load1: LoadSta
     fem.newton.SolveFailed
         When an increment cannot converge within the cut-back limits.
     """
-    fr = [float(f) for f in fractions]
-    if not fr or any(not (0.0 < f <= 1.0) for f in fr) or any(b <= a for a, b in zip(fr, fr[1:])):
-        raise ValueError(f"solve_path: fractions={fractions!r} must be increasing values in (0, 1]")
+    _check_fractions(fractions)
     load0 = load0.check(problem)
     load1 = load1.check(problem)
     newton = NewtonSolver(problem, options.linear_solver)
+    states = []
 
-    x = state0.as_vector().astype(float)
-    cd, cv = load0.prescribed_vector(problem)
+    def reached(target: float, x: np.ndarray, residual: np.ndarray | None) -> None:
+        st = State.from_vector(x, problem.mesh.n_nodes, residual)
+        states.append(st)
+        if callback is not None:
+            callback(target, st)
+
+    _, reports, _ = follow_path(newton, state0.as_vector(), load0, load1, fractions, options, reached)
+    return states, reports
+
+
+def _check_fractions(fractions) -> list[float]:
+    fr = [float(f) for f in fractions]
+    if not fr or any(not (0.0 < f <= 1.0) for f in fr) or any(b <= a for a, b in zip(fr, fr[1:])):
+        raise ValueError(f"solve_path: fractions={fractions!r} must be increasing values in (0, 1]")
+    return fr
+
+
+def follow_path(newton: NewtonSolver, x0: np.ndarray, load0, load1, fractions=(1.0,),
+                options: SolveOptions = SolveOptions(), callback=None, history: tuple | None = None):
+    """Follow the load path load0 → load1 of ``newton``'s system from the state vector ``x0``.
+
+    Parameters
+    ----------
+    newton : NewtonSolver
+        The solver of the system (:class:`fem.system.NonlinearSystem`).
+    x0 : ndarray
+        Converged state under ``load0`` (copied; its prescribed unknowns are overwritten by load0's values).
+    load0, load1 : load
+        Checked loads of the system (``interpolate(other, s)``).
+    fractions : sequence of float
+        Increasing values in (0, 1] at which states are kept (and ``callback`` called).
+    options : SolveOptions
+    callback : callable(fraction, x, residual) or None
+        ``residual``: R at ``x`` as the converged solve last evaluated it.
+    history : tuple (x, s) or None
+        A converged state before ``x0`` on the same path and its load parameter (s < 0), for the
+        first increment's secant predictor.
+
+    Returns
+    -------
+    reached : list of (x, residual)
+        The states at ``fractions``.
+    reports : list of StepReport
+    history : tuple (x, s) or None
+        The last converged state before the end and its load parameter, for a path that goes on.
+
+    Raises
+    ------
+    fem.newton.SolveFailed
+        When an increment cannot converge within the cut-back limits.
+    """
+    fr = _check_fractions(fractions)
+    x = np.array(x0, dtype=float)
+    cd, cv = newton.system.prescribed(load0)
     x[cd] = cv
     s = 0.0
     ds = min(options.initial_step, options.max_step)
-    states, reports = [], []
+    reached, reports = [], []
     n_cut_total = 0
-    hist = None  # (x, s) of the previous converged state, for the secant predictor
+    hist = history  # (x, s) of the previous converged state, for the secant predictor
     loose = options
     if options.intermediate_rtol is not None:
         loose = replace(options, rtol=options.intermediate_rtol, etol=max(options.etol, options.intermediate_rtol**2))
@@ -148,8 +201,7 @@ def solve_path(problem: Problem, state0: State, load0: LoadState, load1: LoadSta
                         reports, inc)
         rep.time_total = time.perf_counter() - t_start
         reports.append(rep)
-        st = State.from_vector(x, problem.mesh.n_nodes, newton.residual)
-        states.append(st)
+        reached.append((x, newton.residual))
         if callback is not None:
-            callback(target, st)
-    return states, reports
+            callback(target, x, newton.residual)
+    return reached, reports, hist

@@ -3,7 +3,11 @@
 One *increment* drives the state from the last converged load level to the next one
 (:class:`NewtonSolver`). Its first iteration applies the prescribed-displacement
 increment through the tangent (a consistent linear predictor), so the previous
-converged state is the warm start.
+converged state is the warm start. The solver knows its problem only as a
+:class:`fem.system.NonlinearSystem` (residual, tangent, prescribed unknowns, norms): the 3-D
+solid (:class:`fem.system.SolidSystem`) and the axisymmetric state of a body of revolution
+(:class:`fem.axisym.harmonic_solve.AxisymmetricSystem`) go through the same iterations, rules,
+line search and load stepping.
 
 Measures of an iteration (:class:`Iterate`; Wriggers 2008, §5.1; Abaqus' criteria): the
 residual ‖R_u‖ on the free DOFs after the step, the force scale F_ref (the largest of the
@@ -48,10 +52,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from fem.assembly import Assembler, InvertedElements
-from fem.linsolve import SOLVER_NAMES, LinearSolverError, make_solver
+from fem.assembly import InvertedElements
+from fem.linsolve import SOLVER_NAMES, LinearSolverError
 from fem.loads import LoadState
 from fem.problem import Problem
+from fem.system import NonlinearSystem, SolidSystem
 
 
 @dataclass(frozen=True)
@@ -178,63 +183,25 @@ class SolveFailed(RuntimeError):
         self.last = last
 
 
-class _Constraint:
-    """Elimination of prescribed DOFs by zeroing rows/columns (unit diagonal).
-
-    Keeping the full pattern lets every Dirichlet set share one sparsity pattern and
-    one PARDISO analysis.
-    """
-
-    def __init__(self, problem: Problem, pattern) -> None:
-        self.dofs = problem.constrained_dofs()
-        n = pattern.n_dofs
-        self.is_c = np.zeros(n, dtype=bool)
-        self.is_c[self.dofs] = True
-        rows = np.repeat(np.arange(n), np.diff(pattern.indptr))
-        self.zero_mask = self.is_c[rows] | self.is_c[pattern.indices]
-        self.diag_pos = pattern.diag[self.dofs]
-        self.free_u = ~self.is_c[: problem.n_u]
-        self.n_u = problem.n_u
-
-    def apply(self, data: np.ndarray) -> np.ndarray:
-        d = data.copy()
-        d[self.zero_mask] = 0.0
-        d[self.diag_pos] = 1.0
-        return d
-
-
-def _norms(R: np.ndarray, con: _Constraint):
-    """(‖R_u‖ on free DOFs, ‖R_p‖, ‖R_u‖ on prescribed DOFs = the reaction norm)."""
-    ru = R[: con.n_u][con.free_u]
-    return float(np.linalg.norm(ru)), float(np.linalg.norm(R[con.n_u:])), float(np.linalg.norm(R[: con.n_u][~con.free_u]))
-
-
 class NewtonSolver:
-    """Newton solves of one problem's load levels.
+    """Newton solves of one system's load levels.
 
-    Holds what the increments of one load path share: the assembler, the elimination of
-    prescribed DOFs, the linear solver (cached on the problem, so problems sharing a
-    sparsity pattern share its analysis) and, for modified Newton, the last
-    factorisation.
+    Holds what the increments of one load path share: the system (:class:`fem.system.NonlinearSystem`:
+    residual, tangent, prescribed unknowns, norms), the linear solver (the system's, so systems sharing a
+    sparsity pattern share its analysis) and, for modified Newton, the last factorisation.
 
     Parameters
     ----------
-    problem : Problem
+    problem : Problem or NonlinearSystem
+        A 3-D :class:`fem.problem.Problem` (solved as a :class:`fem.system.SolidSystem`) or any system.
     linear_solver : str
         One of :data:`fem.linsolve.SOLVER_NAMES` (see :func:`fem.linsolve.make_solver`).
     """
 
-    def __init__(self, problem: Problem, linear_solver: str = "auto") -> None:
-        self.problem = problem
-        self.assembler = Assembler(problem)
-        self.constraint = _Constraint(problem, self.assembler.pattern)
-        skey = ("linear_solver", linear_solver, id(self.assembler.pattern))
-        solver = problem._cache.get(skey)
-        if solver is None:
-            solver = make_solver(linear_solver)
-            problem._cache[skey] = solver
-        self.linear = solver
-        self.volume = float(self.assembler.topo.vol.sum())
+    def __init__(self, problem: Problem | NonlinearSystem, linear_solver: str = "auto") -> None:
+        self.system = SolidSystem(problem) if isinstance(problem, Problem) else problem
+        self.linear = self.system.linear_solver(linear_solver)
+        self.volume = float(self.system.volume)
         self._fact = {"valid": False, "data": None}  # factorisation state (modified Newton)
         #: R at the state the last converged :meth:`solve` returned (its last evaluation), else None
         self.residual: np.ndarray | None = None
@@ -245,7 +212,7 @@ class NewtonSolver:
 
     def min_jacobian(self, x: np.ndarray) -> float:
         """Smallest det F of the state vector ``x`` (displacements first)."""
-        return self.assembler.min_jacobian(x[: self.problem.n_u].reshape(-1, 3))
+        return self.system.min_jacobian(x)
 
     def solve(self, x0: np.ndarray, load: LoadState, opts: SolveOptions, timer) -> tuple[np.ndarray, IncrementReport]:
         """Newton iterations from ``x0`` to equilibrium under ``load``.
@@ -263,8 +230,8 @@ class NewtonSolver:
         x0 : ndarray, shape (n_dofs,)
             Start state (displacements, then element pressures); its prescribed DOFs hold
             the previous load level's values.
-        load : LoadState
-            The load level to reach.
+        load : LoadState or the system's load
+            The load level to reach (its prescribed values by :meth:`fem.system.NonlinearSystem.prescribed`).
         opts : SolveOptions
         timer : object
             Has float attributes ``time_assembly``, ``time_factorize`` and ``time_solve``
@@ -291,9 +258,9 @@ class NewtonSolver:
 
     def _iterate(self, x0: np.ndarray, load: LoadState, opts: SolveOptions, timer, inc: IncrementReport) -> np.ndarray:
         """The Newton loop of :meth:`solve`: the converged state, filling ``inc``; raises :class:`_IncrementFailed`."""
-        con, fact = self.constraint, self._fact
+        system, fact = self.system, self._fact
         modified = opts.reuse_tangent > 0
-        cd, cv_new = load.prescribed_vector(self.problem)
+        cd, cv_new = system.prescribed(load)
         x = x0.copy()
         du_c = np.zeros(len(x))
         du_c[cd] = cv_new - x0[cd]
@@ -301,7 +268,7 @@ class NewtonSolver:
             R, data, min_j = self._evaluate(x, load, not (modified and fact["valid"]), timer)
         except InvertedElements as exc:
             raise _IncrementFailed(f"start state: {exc}", stale=False) from None
-        ru0, _, rc0 = _norms(R, con)
+        ru0, _, rc0 = system.norms(R)
         f_ref = max(ru0, rc0, 1e-300)
         e0 = None
         ratio = 0.0
@@ -317,14 +284,14 @@ class NewtonSolver:
                 except InvertedElements as exc:  # pragma: no cover - x was evaluated before
                     raise _IncrementFailed(f"iteration {it}: {exc}") from None
             dx = self._newton_step(it, R, data, refactor, du_c, timer)
-            energy = abs(float(np.dot(dx, np.where(con.is_c, 0.0, R))))
+            energy = abs(float(np.dot(dx, np.where(system.constrained, 0.0, R))))
             # reference energy: the largest seen in this increment (the first iteration of a
             # displacement-driven increment has no free residual, so its energy is 0)
             e0 = max(energy, 1e-300) if e0 is None else max(e0, energy)
             # full Newton near the solution: the next iterations keep this factorisation
             keep = keep or (it > 1 and energy <= opts.near_solution_energy * e0)
             x, R, data, min_j = self._line_search(x, dx, R, it, load, opts, timer, keep, it == 1 and bool(np.any(du_c)))
-            ru, rp, rc = _norms(R, con)
+            ru, rp, rc = system.norms(R)
             ratio = ru / max(ru_prev, 1e-300)
             ru_prev = ru
             f_ref = max(f_ref, rc)
@@ -342,31 +309,25 @@ class NewtonSolver:
 
     def _evaluate(self, x: np.ndarray, load: LoadState, tangent: bool, timer):
         """(R, tangent data or None, min det F) at the state ``x``; raises :class:`InvertedElements`."""
-        n_u = self.problem.n_u
         t = time.perf_counter()
         try:
-            return self.assembler.evaluate(x[:n_u].reshape(-1, 3), x[n_u:], load.pressures, tangent, load.tractions)
+            return self.system.evaluate(x, load, tangent)
         finally:
             timer.time_assembly += time.perf_counter() - t
 
     def _newton_step(self, it: int, R: np.ndarray, data, refactor: bool, du_c: np.ndarray, timer) -> np.ndarray:
         """Δx of K Δx = −R (with the prescribed increment ``du_c`` on the first iteration), factorising K
         first when ``refactor`` (else the last factorisation's K); raises :class:`_IncrementFailed`."""
-        asm, con, solver, fact = self.assembler, self.constraint, self.linear, self._fact
+        system, solver, fact = self.system, self.linear, self._fact
         rhs = -R
         if it == 1 and np.any(du_c):
-            rhs = rhs - pat_matvec(asm, data if refactor else fact["data"], du_c)
+            rhs = rhs - system.matvec(data if refactor else fact["data"], du_c)
         rhs = rhs.copy()
-        rhs[con.dofs] = du_c[con.dofs] if it == 1 else 0.0
+        rhs[system.constrained_dofs] = du_c[system.constrained_dofs] if it == 1 else 0.0
         t = time.perf_counter()
         try:
             if refactor:
-                # the solver probes the symmetry itself (relative 1e-11): a follower-pressure
-                # tangent that is non-symmetric only at that level (the whisker's, dominated by
-                # the fibres) is factorised as symmetric and the checked refinement on the full
-                # matrix removes the difference: 2.9 s instead of 3.7 s for the intact default
-                # scene with the same reading to 1e-11 (telling it "non-symmetric" forced LU)
-                solver.factorize(asm.pattern.matrix(con.apply(data)))
+                solver.factorize(system.matrix(data), symmetric=system.symmetric)
                 fact["valid"], fact["data"] = True, data
                 timer.time_factorize += time.perf_counter() - t
             t = time.perf_counter()
@@ -392,16 +353,17 @@ class NewtonSolver:
         Trial states are evaluated without the tangent when the next iteration ``keep``s the
         factorisation. Raises :class:`_IncrementFailed` when every trial inverts an element.
         """
-        con = self.constraint
+        system = self.system
         whole = prescribed or (it == 1 and not opts.first_line_search)
-        free = ~con.is_c
+        free = ~system.constrained
         s0 = float(np.dot(dx[free], R[free]))
         alpha = 1.0
         best = None
         for trial in range(10):
             x_try = x + alpha * dx
             if it == 1 and alpha < 1.0:
-                x_try[con.dofs] = x[con.dofs] + dx[con.dofs]  # keep the prescribed values exact
+                cdofs = system.constrained_dofs
+                x_try[cdofs] = x[cdofs] + dx[cdofs]  # keep the prescribed values exact
             try:
                 R_try, data_try, mj = self._evaluate(x_try, load, not keep, timer)
             except InvertedElements:
@@ -489,8 +451,3 @@ def acceptance_rule(m: Iterate, opts: SolveOptions, volume: float) -> str:
 
 #: The acceptance rules in the order :func:`acceptance_rule` tries them (module docstring).
 ACCEPTANCE_RULES: tuple[str, ...] = ("energy", "residual", "residual_floor")
-
-
-def pat_matvec(asm: Assembler, data: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """K v with the unconstrained tangent data."""
-    return asm.pattern.matrix(data) @ v

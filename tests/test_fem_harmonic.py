@@ -1,4 +1,4 @@
-"""The axisymmetric + Fourier-harmonic solid (fem.harmonic) against closed forms and finite differences.
+"""The axisymmetric + Fourier-harmonic solid (fem.axisym.harmonic) against closed forms and finite differences.
 
 References
 ----------
@@ -13,14 +13,17 @@ References
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
-from fem.harmonic import HarmonicSolid, HoopFibre, Region
-from fem.harmonic_solve import AxisymmetricPath, EndThrust, Reduction, harmonic_response
+from fem.axisym.harmonic import HarmonicSolid, HoopFibre, Region
+from fem.axisym.harmonic_solve import (PATH_OPTIONS, AxisymmetricPath, AxisymmetricSystem, Control, EndThrust, Reduction,
+                                      harmonic_response)
+from fem.axisym.meshgen2d import grid_mesh, inclusion_mesh
 from fem.material import NeoHookean, Yeoh
-from fem.meshgen2d import grid_mesh, inclusion_mesh
+from fem.newton import SolveFailed
 from tests.tube_closed_form import closed_end_tube
 
 MU = 1.0
@@ -70,6 +73,60 @@ def test_closed_tube_reaches_its_limit_pressure():
         ex.append(P_exact)
     assert int(np.argmax(fe)) == int(np.argmax(ex)) not in (0, len(ex) - 1)  # a true maximum inside the path
     assert max(fe) == pytest.approx(max(ex), rel=1e-4)
+
+
+def _closed_tube_path():
+    m, solid = _tube(n_r=8)
+    P = m.points
+    bottom = np.nonzero(P[:, 1] < 1e-12)[0]
+    top = np.nonzero(np.abs(P[:, 1] - 0.5) < 1e-12)[0]
+    red = Reduction(solid.n_u0 + 3 * solid.n_el, 2 * bottom + 1, ties=(2 * top + 1,))
+    return m, solid, red, EndThrust(0, A, 2 * _node(m, A, 0.5), current=True)
+
+
+def test_pressure_past_the_limit_fails_as_the_3d_solver_does():
+    """Load control of the closed-end tube: 0.97 of the exact limit pressure is reached (the cavity stretch
+    as the exact solution's on its rising branch), 1.03 of it is not, and the path fails with the 3-D solver's
+    SolveFailed after its cut-backs."""
+    m, solid, red, thrust = _closed_tube_path()
+    lam = np.linspace(1.5, 2.5, 41)
+    P = np.array([closed_end_tube(v, A, B, MU)[0] for v in lam])
+    p_max = P.max()
+    path = AxisymmetricPath(solid, red, thrust, replace(PATH_OPTIONS, max_cutbacks=2))  # fails sooner
+    y, Q, prev = path.follow(np.zeros(path.n_red), 0.0, 0.97 * p_max, 8)
+    rising = lam[: int(np.argmax(P)) + 1]
+    lam_a = 1 + path.full(y)[2 * _node(m, A, 0.0)] / A
+    assert closed_end_tube(lam_a, A, B, MU)[0] == pytest.approx(0.97 * p_max, rel=1e-4) and lam_a < rising[-1]
+    with pytest.raises(SolveFailed, match="3 cut-backs"):  # the limit exceeded
+        path.follow(y, Q, 1.03 * p_max, 1, previous=prev)
+
+
+@pytest.mark.parametrize("control", [None, "cavity"])
+def test_axisymmetric_system_tangent_is_the_derivative_of_its_residual(control):
+    """The bordered tangent of (y, Q) (two laws, a hoop fibre, follower pressure, the current end thrust) times
+    random directions against central differences of the residual, in every row but the prescribed slot,
+    under load control and with the cavity's radial displacement prescribed (its equation in Q's slot)."""
+    m, solid = _mixed_mesh()
+    P = m.points
+    bottom = np.nonzero(P[:, 1] < 1e-12)[0]
+    top = np.nonzero(np.abs(P[:, 1] - 0.6) < 1e-12)[0]
+    red = Reduction(solid.n_u0 + 3 * solid.n_el, 2 * bottom + 1, ties=(2 * top + 1,))
+    thrust = EndThrust(0, A, 2 * _node(m, A, 0.6), current=True)
+    e = None
+    if control == "cavity":
+        e = int(Reduction.matrix(red).getrow(2 * _node(m, A, 0.3)).indices[0])
+    system = AxisymmetricSystem(solid, red, thrust, control=e)
+    rng = np.random.default_rng(5)
+    x = _random_state(solid, rng)
+    z = np.append(system.T.T @ x, 0.3)  # the reduced unknowns of a random state, Q = 0.3
+    R, A_z, _ = system.evaluate(z, Control(0.0), True)
+    rows = ~system.constrained
+    h = 1e-6
+    for _ in range(4):
+        v = rng.standard_normal(len(z))
+        fd = (system.evaluate(z + h * v, Control(0.0), False)[0] - system.evaluate(z - h * v, Control(0.0), False)[0])
+        assert np.allclose(system.matvec(A_z, v)[rows], fd[rows] / (2 * h), rtol=1e-6,
+                           atol=1e-7 * np.abs(fd[rows] / (2 * h)).max())
 
 
 def _bend(m, solid, x, Q, plane_r):
@@ -126,7 +183,7 @@ def test_axisymmetric_tangent_matches_finite_differences():
 def _energy_3d(solid, x, amp, theta_pts, eps):
     """∫∫ [W_iso + p(J − 1) − D1/4 p² + ½ k Ē²] R dA dΘ of the axisymmetric state plus ε × the harmonic-1 field
     (amplitudes ``amp`` = (n_nodes, 3) and element pressures (n_el, 3)), by a trapezoidal rule in Θ."""
-    from fem.quad9 import gauss_square, pressure_basis
+    from fem.axisym.quad9 import gauss_square, pressure_basis
     u, p = x[: solid.n_u0].reshape(-1, 2), x[solid.n_u0:].reshape(-1, 3)
     a, q = amp
     xi, w = gauss_square(3)
@@ -213,7 +270,7 @@ def test_n1_bending_of_a_pressurised_tube_matches_the_3d_solver():
 
 def test_inclusion_mesh_converges_to_the_circle():
     """The area of the meshed inclusion approaches π a² at the rate of quadratic (isoparametric) arcs."""
-    from fem.quad9 import gauss_square, shape_gradients
+    from fem.axisym.quad9 import gauss_square, shape_gradients
     xi, w = gauss_square(3)
     dN = shape_gradients(xi)
     errs = []

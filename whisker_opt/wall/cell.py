@@ -6,7 +6,7 @@ few degrees from the hoop, so the cell models its turns as rings of the fibre's 
 the cell Z ∈ [0, s] (ring at Z = s/2) with those planes kept plane is the infinite wall exactly, under
 inflation and under pure bending alike:
 
-1. **Pressurisation** (axisymmetric, :class:`fem.harmonic.HarmonicSolid`): follower pressure Q on the
+1. **Pressurisation** (axisymmetric, :class:`fem.axisym.harmonic.HarmonicSolid`): follower pressure Q on the
    cavity, u_z = 0 on Z = 0, a uniform axial displacement U of Z = s carrying the closed-end thrust
    N = Q π a², a the cavity radius at that plane (current: the wall's force across any section of a
    closed chamber; ``thrust='reference'`` uses r_i, as the 3-D reference cell did).
@@ -29,11 +29,12 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from fem.harmonic import HarmonicSolid, HoopFibre, Region
-from fem.harmonic_solve import AxisymmetricPath, EndThrust, HarmonicSolveFailed, Reduction, harmonic_response
+from fem.axisym.harmonic import HarmonicSolid, HoopFibre, Region
+from fem.axisym.harmonic_solve import AxisymmetricPath, EndThrust, Reduction, harmonic_response
+from fem.axisym.meshgen2d import QuadMesh, grid_mesh, inclusion_mesh
+from fem.axisym.quad9 import line_shape
 from fem.material import NeoHookean
-from fem.meshgen2d import QuadMesh, grid_mesh, inclusion_mesh
-from fem.quad9 import line_shape
+from fem.newton import SolveFailed
 from whisker_opt.experiment.spec import rubber_law
 from whisker_opt.wall.mechanisms import WallMechanism
 
@@ -149,7 +150,7 @@ def _laws(mech: WallMechanism):
 
 
 def cell_solid(geo: WallGeometry, mech: WallMechanism, mesh: QuadMesh) -> HarmonicSolid:
-    """The cell's :class:`fem.harmonic.HarmonicSolid`: regions, hoop fibre, cavity pressure, sliding interface."""
+    """The cell's :class:`fem.axisym.harmonic.HarmonicSolid`: regions, hoop fibre, cavity pressure, sliding interface."""
     laws = _laws(mech)
     regions = [Region(mesh.elements_of(n), laws[n]) for n in mesh.region_names if len(mesh.elements_of(n))]
     fib = mesh.elements_of("fibre")
@@ -226,7 +227,7 @@ class WallCell:
         for Q in pressures:
             try:
                 self.pressurise(Q)
-            except (HarmonicSolveFailed, FloatingPointError) as exc:
+            except SolveFailed as exc:
                 if not stop_on_failure:
                     raise
                 log.warning("wall cell %s: Q = %.3g MPa not reached (%s)", self.mech.name, Q, exc)

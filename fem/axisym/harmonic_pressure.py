@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-from fem import quad9
+from fem.axisym import quad9
 
 
 class EdgePressureKernel:

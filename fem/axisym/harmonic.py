@@ -1,6 +1,6 @@
 """An axisymmetric solid at finite strain and its Fourier-harmonic tangent ("semi-analytical" elements).
 
-A body of revolution is meshed in the (R, Z) half-plane with 9-node quadrilaterals (:mod:`fem.quad9`).
+A body of revolution is meshed in the (R, Z) half-plane with 9-node quadrilaterals (:mod:`fem.axisym.quad9`).
 Its displacement, in the cylindrical basis (e_r, e_z, e_θ) at the reference angle Θ, is
 
     u = u_r e_r + u_z e_z + u_θ e_θ,
@@ -48,8 +48,9 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from fem import quad9
-from fem.harmonic_pressure import EdgePressureKernel
+from fem.assembly import InvertedElements
+from fem.axisym import quad9
+from fem.axisym.harmonic_pressure import EdgePressureKernel
 from fem.material import IsochoricI1Material
 
 # (i, J, k, kind): a non-zero entry of the gradient operator for a node's shape function:
@@ -93,7 +94,7 @@ class HarmonicSolid:
     points : ndarray (n_nodes, 2)
         Reference (R, Z); R > 0 at every quadrature point.
     cells : ndarray (n_el, 9)
-        :mod:`fem.quad9` connectivity, counter-clockwise.
+        :mod:`fem.axisym.quad9` connectivity, counter-clockwise.
     regions : sequence of Region
         Every element in exactly one region.
     hoop_fibres : sequence of HoopFibre
@@ -186,8 +187,10 @@ class HarmonicSolid:
     def _material(self, F: np.ndarray, p: np.ndarray, els: np.ndarray):
         """Stress and tangent with the volumetric term: P, A (flattened 9 × 9), J, JG (J F⁻ᵀ flattened)."""
         J = np.linalg.det(F)  # (n_sel, n_qp)
-        if np.any(J <= 0) or not np.all(np.isfinite(J)):
-            raise FloatingPointError(f"HarmonicSolid: det F <= 0 at {int(np.sum(J <= 0))} quadrature points")
+        # a hoop stretch ≤ 0 is a ring through the axis: inverted in 3-D, even where the mirrored section keeps J > 0
+        bad = (J <= 0) | ~np.isfinite(J) | (F[..., 2, 2] <= 0)
+        if np.any(bad):
+            raise InvertedElements(int(np.sum(bad)), float(np.nanmin(J)) if np.any(np.isfinite(J)) else math.nan)
         G = np.linalg.inv(F)  # (n_sel, n_qp, 3, 3)
         P = np.empty_like(F)
         A = np.empty(F.shape + (3, 3))

@@ -21,7 +21,7 @@ from typing import Callable
 
 import numpy as np
 
-from fem.quad9 import EDGES, gauss_1d, shape_gradients
+from fem.axisym.quad9 import EDGES, gauss_1d, shape_gradients
 
 Curve = Callable[[np.ndarray], np.ndarray]  # t (n,) in [0, 1] -> points (n, 2)
 
@@ -35,7 +35,7 @@ class QuadMesh:
     points : ndarray (n_nodes, 2)
         Reference (R, Z) coordinates.
     cells : ndarray (n_el, 9) int
-        Node indices in :mod:`fem.quad9` order, counter-clockwise.
+        Node indices in :mod:`fem.axisym.quad9` order, counter-clockwise.
     region : ndarray (n_el,) int
         Index into ``region_names`` of each element.
     region_names : tuple of str
