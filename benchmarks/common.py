@@ -64,13 +64,13 @@ def report_stats(reports) -> dict:
 def classify_exception(exc: BaseException) -> str:
     """Failure status of a scene exception, as the GA's evaluator classifies it.
 
-    Mirrors :class:`whisker_opt.experiment.evaluator.SceneEvaluator`: InvalidDesignError ->
+    Mirrors :class:`whisker_opt.optimise.evaluator.SceneEvaluator`: InvalidDesignError ->
     ``invalid_geometry``, SolveFailed -> ``solve_failed``, meshing -> ``mesh_failed``,
     anything else -> ``error``.
     """
     from fem.newton import SolveFailed
     from geometry.design import InvalidDesignError
-    from whisker_opt.experiment.evaluator import _is_mesh_error
+    from whisker_opt.optimise.evaluator import _is_mesh_error
 
     if isinstance(exc, InvalidDesignError):
         return "invalid_geometry"

@@ -47,9 +47,9 @@ import numpy as np
 from benchmarks.numerics import observed_order
 from geometry.design import WhiskerDesign
 from whisker_opt.experiment.spec import rubber_law
-from whisker_opt.wall.cell import PRESSURES, Resolution, WallCell, WallGeometry
-from whisker_opt.wall.mechanisms import VARIANTS, WallMechanism
-from whisker_opt.wall.reading import inferred_k, reading_ratios
+from whisker_opt.wallcell.cell import PRESSURES, Resolution, WallCell, WallGeometry
+from whisker_opt.wallcell.mechanisms import VARIANTS, WallMechanism
+from whisker_opt.wallcell.reading import inferred_k, reading_ratios
 from whisker_opt.wall.table import WallTable, default_path
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -205,7 +205,7 @@ def commit() -> str:
     try:
         sha = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True,
                              check=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--", "fem", "whisker_opt/wall",
+        dirty = subprocess.run(["git", "status", "--porcelain", "--", "fem", "whisker_opt/wall", "whisker_opt/wallcell",
                                 ":!whisker_opt/wall/data"], cwd=ROOT,
                                capture_output=True, text=True, check=True).stdout.strip()
         return sha + ("+modified" if dirty else "")

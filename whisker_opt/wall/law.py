@@ -3,7 +3,7 @@
 The 3-D scene carries the fibre winding as embedded trusses (:mod:`geometry.fibres`). On the GA's mesh
 these give the chamber wall the bending stiffness of a perfectly bonded wall under pressure: the
 periodic wall cell with embedded lines (``benchmarks/studies/fibre_cell.py``) reproduces the converged bonded
-cell (:mod:`whisker_opt.wall.cell`, the ``bonded`` entries of the stored table) within the tolerances
+cell (:mod:`whisker_opt.wallcell.cell`, the ``bonded`` entries of the stored table) within the tolerances
 measured in ``benchmarks/results/wall_law.md`` ("The wall law in the whisker scene"). A *wall law* is a named
 statement of what the wall does instead, applied as a correction of the wall's incremental stiffness
 about the pressurised state (the pressurisation itself, and so the extension Δl(Q), stays the

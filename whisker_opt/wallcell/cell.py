@@ -35,7 +35,7 @@ from fem.material import NeoHookean
 from fem.meshgen2d import QuadMesh, grid_mesh, inclusion_mesh
 from fem.quad9 import line_shape
 from whisker_opt.experiment.spec import rubber_law
-from whisker_opt.wall.mechanisms import WallMechanism
+from whisker_opt.wallcell.mechanisms import WallMechanism
 
 log = logging.getLogger(__name__)
 

@@ -1,6 +1,6 @@
 """The named mechanisms of the chamber wall: how the fibre is bonded, what the rubber is, what the fibre is.
 
-A :class:`WallMechanism` is one variant of the wall cell (:mod:`whisker_opt.wall.cell`); every field is a
+A :class:`WallMechanism` is one variant of the wall cell (:mod:`whisker_opt.wallcell.cell`); every field is a
 modelling choice with its data source:
 
 bond
@@ -28,7 +28,7 @@ fibre_offset
 thrust, plane
     Definitions, not physics: the closed-end thrust on the current cavity area (``current``) or on the
     reference one, and the end plane rotated about current or reference positions. ``reference`` for both
-    reproduces the 3-D reference cell's loading (:mod:`whisker_opt.wall.cell`).
+    reproduces the 3-D reference cell's loading (:mod:`whisker_opt.wallcell.cell`).
 """
 
 from __future__ import annotations
