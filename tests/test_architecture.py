@@ -186,6 +186,28 @@ def test_preset_names_are_listed_in_one_place():
     assert PRESET_NAMES == tuple(PRESETS) == ("coarse", "default", "level2", "fine", "level3", "level4")
 
 
+def _numbers(source: str) -> set[float]:
+    """The numeric literals of a module's code (comments and docstrings left out)."""
+    import io
+    import tokenize
+
+    return {float(ast.literal_eval(t.string)) for t in tokenize.generate_tokens(io.StringIO(source).readline)
+            if t.type == tokenize.NUMBER and not t.string.endswith(("j", "J"))}
+
+
+def test_the_materials_are_held_in_one_place():
+    # C10 of the rubber (and μ = 2 C10), the fibre's modulus, Poisson ratio and diameter: geometry/materials.py alone
+    constants = {0.14, 0.28, 31067.0, 0.36, 0.38}
+    homes = sorted(n for pkg in ("whisker_opt", "geometry") for n, s in _sources(pkg).items()
+                   if _numbers(s) & constants)
+    assert homes == ["geometry.materials"]
+
+
+def test_mid_chamber_is_computed_in_one_place():
+    pattern = re.compile(r"\(\s*\w+\.c\s*\+\s*\w+\.l\s*\)")
+    homes = sorted(n for pkg in ("whisker_opt", "geometry") for n, s in _sources(pkg).items() if pattern.search(s))
+    assert homes == ["whisker_opt.wall.law"]
+
 def test_the_project_speaks_of_itself_only():
     """No pointer to documents outside the repository or to a tracker's numbering."""
     import subprocess

@@ -50,6 +50,7 @@ from whisker_opt.experiment.spec import rubber_law
 from whisker_opt.wallcell.cell import PRESSURES, Resolution, WallCell, WallGeometry
 from whisker_opt.wallcell.mechanisms import VARIANTS, WallMechanism
 from whisker_opt.wallcell.reading import inferred_k, reading_ratios
+from whisker_opt.wall.law import mid_chamber_x
 from whisker_opt.wall.table import WallTable, default_path
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -236,7 +237,7 @@ def prototype_comparison(table: WallTable) -> list[dict]:
     """Per variant at the default wall: EI ratio, the k the thesis' beam model would infer, reading ratios."""
     design = WhiskerDesign()
     geo = default_geometry()
-    x_cell = 0.5 * (design.c + design.l)
+    x_cell = mid_chamber_x(design)
     rows = []
     for v in table.variants:
         e = next(x for x in table.points(v) if math.isclose(x["r_i"], geo.r_i) and math.isclose(x["t"], geo.t))

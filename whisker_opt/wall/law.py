@@ -75,10 +75,25 @@ SLOPE_RANGE = (-4.5, 10.0)
 MIN_FACTOR = 0.05
 
 
+def mid_chamber_x(design: WhiskerDesign) -> float:
+    """The axial station of mid-chamber, x = (c + l)/2 [mm]: where a table law reads the wall, the wall cell
+    stands by default and the scene measures the chamber's radial growth.
+
+    Parameters
+    ----------
+    design : geometry.design.WhiskerDesign
+
+    Returns
+    -------
+    float
+    """
+    return 0.5 * (design.c + design.l)
+
+
 def mid_chamber_wall(design: WhiskerDesign) -> tuple[float, float]:
-    """(r_i, t) of the wall at mid-chamber x = (c + l)/2 [mm]: the point at which a table law is read."""
-    x = 0.5 * (design.c + design.l)
-    return float(design.r_outer(x) - design.t), float(design.t)
+    """(r_i, t) of the wall at mid-chamber x = (c + l)/2 [mm] (:func:`mid_chamber_x`): the point at which a
+    table law is read."""
+    return float(design.r_inner(mid_chamber_x(design))), float(design.t)
 
 
 @lru_cache(maxsize=1)
