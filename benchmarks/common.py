@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from geometry.design import WhiskerDesign
+from geometry.materials import RUBBER_C10
 from geometry.mesh import MeshSizing
 from whisker_opt.experiment.fidelity import PRESETS
 from whisker_opt.config.optimiser import GenesConfig
@@ -25,7 +26,7 @@ from whisker_opt.experiment.spec import SceneSpec
 GENE_BOX: dict[str, tuple[float, float]] = dict(zip(GENE_NAMES, GenesConfig().bounds()))
 
 #: Shear modulus of the default rubber, μ = 2 C10 [MPa].
-MU = 2 * 0.14
+MU = 2 * RUBBER_C10
 #: D1 of a compressible rubber with K/μ = 1000 (K = 2/D1) [1/MPa].
 D1_K1000 = 2.0 / (1000.0 * MU)
 
@@ -64,13 +65,13 @@ def report_stats(reports) -> dict:
 def classify_exception(exc: BaseException) -> str:
     """Failure status of a scene exception, as the GA's evaluator classifies it.
 
-    Mirrors :class:`whisker_opt.experiment.evaluator.SceneEvaluator`: InvalidDesignError ->
+    Mirrors :class:`whisker_opt.optimise.evaluator.SceneEvaluator`: InvalidDesignError ->
     ``invalid_geometry``, SolveFailed -> ``solve_failed``, meshing -> ``mesh_failed``,
     anything else -> ``error``.
     """
     from fem.newton import SolveFailed
     from geometry.design import InvalidDesignError
-    from whisker_opt.experiment.evaluator import _is_mesh_error
+    from whisker_opt.optimise.evaluator import _is_mesh_error
 
     if isinstance(exc, InvalidDesignError):
         return "invalid_geometry"

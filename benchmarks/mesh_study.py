@@ -92,7 +92,7 @@ def evaluate(design_name: str, cfg: Config) -> dict:
     meshing as in the GA; f1 uses the evaluator's own samples and curve interpolation.
     """
     from geometry.mesh import build_mesh
-    from whisker_opt.experiment.evaluator import SceneEvaluator
+    from whisker_opt.optimise.evaluator import SceneEvaluator
     from whisker_opt.experiment.scene import run_scene
 
     alpha, l, t = DESIGNS[design_name]

@@ -18,7 +18,7 @@ from benchmarks.mesh_study import DESIGNS, Q_I, TRIM, mesh_level
 from fem.query import positions_at
 from geometry.locate import PointLocator
 from whisker_opt.experiment import objective
-from whisker_opt.experiment.evaluator import SceneEvaluator
+from whisker_opt.optimise.evaluator import SceneEvaluator
 from whisker_opt.experiment.scene import run_scene
 
 VARIANTS = ("line", "centroid", "chord")

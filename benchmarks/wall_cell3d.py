@@ -54,6 +54,8 @@ from fem.quadrature import tet_rule
 from fem.state import State
 from geometry.design import WhiskerDesign
 from geometry.locate import PointLocator
+from geometry.materials import RUBBER_C10
+from whisker_opt.wall.law import mid_chamber_x
 
 #: The thesis' prototypes' effective modulus of the chamber region, k(Q) = −1.337 Q + 0.9958 (Q in MPa).
 PROTOTYPE_K = {0.1: -1.337 * 0.1 + 0.9958, 0.2: -1.337 * 0.2 + 0.9958}
@@ -73,12 +75,12 @@ class Cell:
     side: float  # square cross-section of the fibre's area
     E_f: float
     A_f: float
-    c10: float = 0.14
+    c10: float = RUBBER_C10
 
     @classmethod
     def default(cls) -> "Cell":
         d = WhiskerDesign()
-        x = 0.5 * (d.c + d.l)
+        x = mid_chamber_x(d)
         A_f = math.pi * d.fibre_diameter**2 / 4
         return cls(r_i=float(d.r_inner(x)), t=d.t, r_f=float(d.r_fibre(x)), s=d.fibre_pitch / d.n_fibres,
                    side=math.sqrt(A_f), E_f=d.fibre_E, A_f=A_f)

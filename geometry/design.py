@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from geometry.errors import GeometryError
+from geometry.materials import FIBRE_DIAMETER, FIBRE_MODULUS, FIBRE_POISSON
 
 
 class InvalidDesignError(ValueError, GeometryError):
@@ -153,10 +154,10 @@ class WhiskerDesign:
     fibre_radius_frac: float = parameter(0.5, "-", "fibre radius inside the wall: 0 = cavity, 1 = outer surface",
                                          ge=0, le=1)
     fibre_pitch: float = parameter(3.0, "mm", "helix pitch", gt=0, le=100)
-    fibre_diameter: float = parameter(0.38, "mm", "fibre diameter", gt=0, le=5)
+    fibre_diameter: float = parameter(FIBRE_DIAMETER, "mm", "fibre diameter", gt=0, le=5)
     n_fibres: int = parameter(2, "-", "number of helices, evenly rotated", ge=0, le=8)
-    fibre_E: float = parameter(31067.0, "MPa", "fibre Young's modulus", gt=0, le=1e6)
-    fibre_nu: float = parameter(0.36, "-", "fibre Poisson ratio (recorded; a truss has no lateral strain, so the "
+    fibre_E: float = parameter(FIBRE_MODULUS, "MPa", "fibre Young's modulus", gt=0, le=1e6)
+    fibre_nu: float = parameter(FIBRE_POISSON, "-", "fibre Poisson ratio (recorded; a truss has no lateral strain, so the "
                                 "solve does not use it)", ge=0, lt=0.5)
     gauge_half_angle_deg: float = 20.0
     tip_clearance: float = 5.0

@@ -18,11 +18,11 @@ PACKAGES = ("fem", "geometry", "whisker_opt", "peers")
 MAX_LINES = 700
 
 
-def _modules() -> dict[str, Path]:
+def _modules(root: Path = ROOT) -> dict[str, Path]:
     mods = {}
     for pkg in PACKAGES:
-        for path in sorted((ROOT / pkg).rglob("*.py")):
-            parts = path.relative_to(ROOT).with_suffix("").parts
+        for path in sorted((root / pkg).rglob("*.py")):
+            parts = path.relative_to(root).with_suffix("").parts
             name = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
             mods[name] = path
     return mods
@@ -31,8 +31,8 @@ def _modules() -> dict[str, Path]:
 MODULES = _modules()
 
 
-def _imports(name: str, path: Path) -> set[str]:
-    """Project modules that ``name`` imports (resolved to the longest known module name)."""
+def _imports(name: str, path: Path, modules: dict[str, Path] = MODULES) -> set[str]:
+    """Project modules that ``name`` imports (resolved to the longest known module name of ``modules``)."""
     tree = ast.parse(path.read_text(), filename=str(path))
     is_pkg = path.name == "__init__.py"
     out: set[str] = set()
@@ -48,14 +48,20 @@ def _imports(name: str, path: Path) -> set[str]:
                 base = ".".join(pkg + ([base] if base else []))
             targets = [f"{base}.{a.name}" for a in node.names] + [base]
         for t in targets:
-            while t and t not in MODULES:
+            while t and t not in modules:
                 t = t.rpartition(".")[0]
             if t and t != name:
                 out.add(t)
     return out
 
 
-GRAPH = {name: _imports(name, path) for name, path in MODULES.items()}
+def _graph(root: Path = ROOT) -> dict[str, set[str]]:
+    """The import graph of the tree at ``root``: module -> the project modules it imports (lazy ones too)."""
+    modules = MODULES if root == ROOT else _modules(root)
+    return {name: _imports(name, path, modules) for name, path in modules.items()}
+
+
+GRAPH = _graph()
 
 
 def _find_cycle(graph: dict[str, set[str]]) -> list[str] | None:
@@ -180,6 +186,28 @@ def test_preset_names_are_listed_in_one_place():
     assert PRESET_NAMES == tuple(PRESETS) == ("coarse", "default", "level2", "fine", "level3", "level4")
 
 
+def _numbers(source: str) -> set[float]:
+    """The numeric literals of a module's code (comments and docstrings left out)."""
+    import io
+    import tokenize
+
+    return {float(ast.literal_eval(t.string)) for t in tokenize.generate_tokens(io.StringIO(source).readline)
+            if t.type == tokenize.NUMBER and not t.string.endswith(("j", "J"))}
+
+
+def test_the_materials_are_held_in_one_place():
+    # C10 of the rubber (and μ = 2 C10), the fibre's modulus, Poisson ratio and diameter: geometry/materials.py alone
+    constants = {0.14, 0.28, 31067.0, 0.36, 0.38}
+    homes = sorted(n for pkg in ("whisker_opt", "geometry") for n, s in _sources(pkg).items()
+                   if _numbers(s) & constants)
+    assert homes == ["geometry.materials"]
+
+
+def test_mid_chamber_is_computed_in_one_place():
+    pattern = re.compile(r"\(\s*\w+\.c\s*\+\s*\w+\.l\s*\)")
+    homes = sorted(n for pkg in ("whisker_opt", "geometry") for n, s in _sources(pkg).items() if pattern.search(s))
+    assert homes == ["whisker_opt.wall.law"]
+
 def test_the_project_speaks_of_itself_only():
     """No pointer to documents outside the repository or to a tracker's numbering."""
     import subprocess
@@ -217,3 +245,133 @@ def test_output_imports_nothing_of_optimise():
     bad = sorted(f"{n} -> {m}" for n, deps in GRAPH.items() if n.startswith("whisker_opt.output")
                  for m in deps if m.startswith("whisker_opt.optimise"))
     assert not bad
+
+
+# --------------------------------------------------------------------------- the layers inside whisker_opt/
+
+#: The layers inside ``whisker_opt/``, lowest first, declared once (CONTRIBUTING.md draws them from here). A unit
+#: is a sub-package (``wall``) or a top-level module (``genes``; ``__init__`` is the package's face). A module
+#: imports its own unit and the units of lower layers only, lazy imports inside functions included; the units
+#: of one layer import nothing of each other.
+LAYERS: tuple[tuple[str, ...], ...] = (
+    ("numfmt", "wall"),
+    ("experiment",),
+    ("genes",),
+    ("config", "output"),
+    ("optimise",),
+    ("wiring",),
+    ("analysis",),
+    ("calibration", "wallcell", "report"),
+    ("workflows", "robustness"),
+    ("compensation", "export"),
+    ("viewer", "api"),
+    ("__init__",),
+    ("cli",),
+)
+
+
+def _unit(module: str) -> str | None:
+    """The unit of ``whisker_opt`` that holds ``module`` (None outside the package)."""
+    parts = module.split(".")
+    if parts[0] != "whisker_opt":
+        return None
+    return parts[1] if len(parts) > 1 else "__init__"
+
+
+def unplaced_units(graph: dict[str, set[str]], layers=LAYERS) -> list[str]:
+    """Units of ``whisker_opt`` in ``graph`` that stand in no layer, or in more than one."""
+    placed = [u for layer in layers for u in layer]
+    units = {_unit(n) for n in graph} - {None}
+    return sorted(u for u in units if placed.count(u) != 1)
+
+
+def upward_imports(graph: dict[str, set[str]], layers=LAYERS) -> list[str]:
+    """The imports inside ``whisker_opt`` that break ``layers``: into a higher layer, or into another unit of
+    the importer's own layer, one line per edge ``importer -> imported`` (lazy imports included)."""
+    level = {u: i for i, layer in enumerate(layers) for u in layer}
+    bad = []
+    for n, deps in graph.items():
+        a = _unit(n)
+        for m in deps:
+            b = _unit(m)
+            if a is None or b is None or a == b or a not in level or b not in level:
+                continue
+            if level[b] >= level[a]:
+                bad.append(f"{n} -> {m}")
+    return sorted(bad)
+
+
+def unit_graph(graph: dict[str, set[str]]) -> dict[str, set[str]]:
+    """The import graph between the units of ``whisker_opt`` (sub-packages and top-level modules)."""
+    out: dict[str, set[str]] = {}
+    for n, deps in graph.items():
+        a = _unit(n)
+        if a is not None:
+            out.setdefault(a, set()).update(b for b in map(_unit, deps) if b not in (None, a))
+    return out
+
+
+def unit_knots(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The knots among the units of ``whisker_opt``: each a set of two or more units that all reach each
+    other through imports (the strongly connected components of :func:`unit_graph`), sorted."""
+    units = unit_graph(graph)
+    reach = {u: set() for u in units}
+    for u in units:
+        todo = list(units[u])
+        while todo:
+            v = todo.pop()
+            if v not in reach[u]:
+                reach[u].add(v)
+                todo.extend(units.get(v, ()))
+    knots = {frozenset({u} | {v for v in reach[u] if u in reach.get(v, ())}) for u in units}
+    return sorted(sorted(k) for k in knots if len(k) > 1)
+
+
+def layer_diagram(layers=LAYERS, width: int = 112) -> str:
+    """The layers as CONTRIBUTING.md draws them, lowest first: ``a/, b.py  ->  c/ ...``, wrapped."""
+    names = [", ".join(f"{u}/" if (ROOT / "whisker_opt" / u).is_dir() else f"{u}.py" for u in layer)
+             for layer in layers]
+    lines = [names[0]]
+    for name in names[1:]:
+        if len(lines[-1]) + len(name) + 5 > width:
+            lines.append("    ->  " + name)
+        else:
+            lines[-1] += "  ->  " + name
+    return "\n".join(lines)
+
+
+def test_every_unit_of_whisker_opt_stands_in_one_layer():
+    assert unplaced_units(GRAPH) == []
+
+
+def test_whisker_opt_imports_run_down_its_layers():
+    assert upward_imports(GRAPH) == []
+
+
+def test_no_knot_among_the_units_of_whisker_opt():
+    assert unit_knots(GRAPH) == []
+
+
+def test_a_broken_layer_and_a_knot_would_be_found():
+    graph = {"whisker_opt.genes": {"whisker_opt.wall.law"}, "whisker_opt.wall.law": set(),
+             "whisker_opt.wall.table": {"whisker_opt.genes"},  # a lazy import counts as any other
+             "whisker_opt.numfmt": {"whisker_opt.wall.law"}}  # a sibling in the same layer
+    layers = (("numfmt", "wall"), ("genes",))
+    assert upward_imports(graph, layers) == ["whisker_opt.numfmt -> whisker_opt.wall.law",
+                                             "whisker_opt.wall.table -> whisker_opt.genes"]
+    assert unit_knots(graph) == [["genes", "wall"]]
+    assert unplaced_units({**graph, "whisker_opt.api": set()}, layers) == ["api"]
+
+
+def test_contributing_draws_the_layers():
+    assert layer_diagram() in (ROOT / "CONTRIBUTING.md").read_text()
+
+
+if __name__ == "__main__":  # the counts of a tree: python3 tests/test_architecture.py [ROOT]
+    import sys
+
+    graph = _graph(Path(sys.argv[1]).resolve()) if len(sys.argv) > 1 else GRAPH
+    print(f"imports running up the layers of whisker_opt/: {len(upward_imports(graph))}")
+    print("\n".join(f"  {line}" for line in upward_imports(graph)))
+    print(f"units outside the layers: {unplaced_units(graph)}")
+    print(f"knots among the units of whisker_opt/: {len(unit_knots(graph))} {unit_knots(graph)}")

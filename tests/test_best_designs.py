@@ -16,7 +16,8 @@ from whisker_opt.genes import GENE_NAMES
 from whisker_opt.optimise.best import best_designs, gene_distance, run_best_designs
 from whisker_opt.optimise.executors import SerialExecutor
 from whisker_opt.optimise.ga import GeneticAlgorithm
-from whisker_opt.optimise.runner import report, run_optimisation
+from whisker_opt.optimise.runner import run_optimisation
+from whisker_opt.report import report
 from tests.analytic_fitness import AnalyticFitness
 
 BOUNDS = OptimiserConfig().genes.bounds()

@@ -343,7 +343,8 @@ def test_resolution_stop_is_said_in_the_log_report_and_best_json(tmp_path, caplo
     import json
     import logging
 
-    from whisker_opt.optimise.runner import report, run_optimisation
+    from whisker_opt.optimise.runner import run_optimisation
+    from whisker_opt.report import report
 
     cfg = OptimiserConfig.model_validate({"ga": {"population": 12}, "stopping": {
         "max_generations": 40, "target_fp": 1e-6, "resolution_generations": 3}, "executor": {"kind": "serial"}})

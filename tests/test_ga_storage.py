@@ -10,7 +10,8 @@ import pytest
 from whisker_opt.config.optimiser import OptimiserConfig
 from whisker_opt.genes import GENE_NAMES
 from whisker_opt.output.plots import plot_convergence, plot_curves
-from whisker_opt.optimise.runner import report, run_optimisation
+from whisker_opt.optimise.runner import run_optimisation
+from whisker_opt.report import report
 from whisker_opt.output.storage import read_csv, write_csv, write_json
 from tests.analytic_fitness import AnalyticFitness, FailureRegion
 

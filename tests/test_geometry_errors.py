@@ -15,7 +15,7 @@ from fem.linsolve import LinearSolverError
 from fem.mesh import MeshError
 from fem.newton import SolveFailed
 from geometry.errors import GeometryError
-from whisker_opt.experiment.evaluator import _is_mesh_error
+from whisker_opt.optimise.evaluator import _is_mesh_error
 
 
 def _geometry_error_classes():

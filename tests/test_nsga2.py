@@ -17,7 +17,8 @@ from whisker_opt.optimise.executors import SerialExecutor
 from whisker_opt.optimise.ga import GeneticAlgorithm
 from whisker_opt.optimise.nsga2 import HV_REFERENCE, NSGA2, finer_preset, make_algorithm
 from whisker_opt.optimise.pareto import dominates, hypervolume, non_dominated
-from whisker_opt.optimise.runner import report, resume_optimisation, run_optimisation
+from whisker_opt.optimise.runner import resume_optimisation, run_optimisation
+from whisker_opt.report import report
 from whisker_opt.output.storage import read_csv
 from tests.analytic_fitness import AnalyticFitness, FailureRegion, Interrupt
 

@@ -19,7 +19,8 @@ from whisker_opt.analysis.beam import BeamModel, BeamResponse, BeamSensitivity
 from whisker_opt.config.model import FidelityConfig
 from whisker_opt.config.optimiser import OptimiserConfig
 from whisker_opt.experiment import fidelity, objective
-from whisker_opt.optimise.runner import report, run_optimisation
+from whisker_opt.optimise.runner import run_optimisation
+from whisker_opt.report import report
 from whisker_opt.output import compensation as comp_io
 from whisker_opt.output.plots import (convergence_figure, curves_figure, fidelity_label, short_float,
                                       write_best_curves)

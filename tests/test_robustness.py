@@ -285,7 +285,7 @@ def test_a_ga_run_records_the_robust_objective_and_the_nominal_f1(tmp_path):
 def test_without_the_robust_option_the_evaluator_is_the_plain_one():
     from whisker_opt import wiring
     from whisker_opt.config.model import WhiskerConfig
-    from whisker_opt.experiment.evaluator import SceneEvaluator
+    from whisker_opt.optimise.evaluator import SceneEvaluator
 
     cfg = WhiskerConfig.model_validate({"optimiser": {"trim": 5.0}})
     assert type(wiring.evaluator(cfg)) is SceneEvaluator

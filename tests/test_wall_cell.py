@@ -1,4 +1,4 @@
-"""The wall cell (whisker_opt.wall.cell): closed forms where the fibre is rubber, and the mechanisms' bounds.
+"""The wall cell (whisker_opt.wallcell.cell): closed forms where the fibre is rubber, and the mechanisms' bounds.
 
 References
 ----------
@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 
 from tests.tube_closed_form import closed_end_tube
-from whisker_opt.wall.cell import PRESSURES, Resolution, WallCell, WallGeometry
-from whisker_opt.wall.mechanisms import VARIANTS, WallMechanism
+from whisker_opt.wallcell.cell import PRESSURES, Resolution, WallCell, WallGeometry
+from whisker_opt.wallcell.mechanisms import VARIANTS, WallMechanism
 
 GEO = WallGeometry(r_i=5.0, t=3.0)
 

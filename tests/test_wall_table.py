@@ -1,4 +1,4 @@
-"""The stored wall-law table (whisker_opt.wall.table) and what a wall law does to the reading (wall.reading).
+"""The stored wall-law table (whisker_opt.wall.table) and what a wall law does to the reading (wallcell.reading).
 
 References
 ----------
@@ -16,7 +16,7 @@ import pytest
 
 from geometry.design import WhiskerDesign
 from whisker_opt.analysis.beam import BeamModel
-from whisker_opt.wall.reading import cell_sensitivity, inferred_k
+from whisker_opt.wallcell.reading import cell_sensitivity, inferred_k
 from whisker_opt.wall.table import WallTable, default_path
 
 MU = 0.28
@@ -62,8 +62,8 @@ def test_a_table_of_another_format_is_refused(tmp_path):
 
 
 def test_the_shipped_table_holds_every_variant_at_the_default_wall():
-    from whisker_opt.wall.cell import WallGeometry
-    from whisker_opt.wall.mechanisms import VARIANTS
+    from whisker_opt.wallcell.cell import WallGeometry
+    from whisker_opt.wallcell.mechanisms import VARIANTS
 
     table = WallTable.load(default_path())
     geo = WallGeometry.of_design(WhiskerDesign())

@@ -204,7 +204,7 @@ def warn_smeared_on_one_layer(cfg: WhiskerConfig) -> bool:
 
 
 def evaluator(cfg: WhiskerConfig, keep_curves: bool = False, validate: bool = True, robust: bool = True):
-    """The GA's :class:`whisker_opt.experiment.evaluator.SceneEvaluator` for a config (its base
+    """The GA's :class:`whisker_opt.optimise.evaluator.SceneEvaluator` for a config (its base
     design validated unless ``validate`` is False).
 
     With ``optimiser.robust`` set (and ``robust`` True) it is wrapped in a :class:`RobustEvaluator`,
@@ -212,7 +212,7 @@ def evaluator(cfg: WhiskerConfig, keep_curves: bool = False, validate: bool = Tr
     ``optimiser.wall_laws`` in a :class:`LawSetEvaluator`, whose f1 is the mean or the worst over
     the wall laws; ``robust=False`` gives the nominal evaluator whatever the config says.
     """
-    from whisker_opt.experiment.evaluator import SceneEvaluator
+    from whisker_opt.optimise.evaluator import SceneEvaluator
 
     warn_smeared_on_one_layer(cfg)
     base = scene_spec(cfg, design_from_config(cfg, 0.0, validate), 0.0)
@@ -347,7 +347,7 @@ def deviated(ev, genes: Mapping[str, float], deviation) -> tuple:
 
     Parameters
     ----------
-    ev : whisker_opt.experiment.evaluator.SceneEvaluator
+    ev : whisker_opt.optimise.evaluator.SceneEvaluator
         The nominal evaluator.
     genes : mapping
         The nominal genome.

@@ -528,7 +528,7 @@ def check_runnable(cfg: WhiskerConfig):
 
     Returns
     -------
-    whisker_opt.experiment.evaluator.SceneEvaluator
+    whisker_opt.optimise.evaluator.SceneEvaluator
 
     Raises
     ------
@@ -607,7 +607,7 @@ def finish_law_spread(run_dir: Path, cfg: WhiskerConfig, progress: bool = False)
     """
     from whisker_opt.analysis.law_spread import format_spread
     from whisker_opt.analysis.verify import law_spread_run
-    from whisker_opt.experiment.evaluator import SceneEvaluator
+    from whisker_opt.optimise.evaluator import SceneEvaluator
 
     top = wiring.optimiser_of(cfg).law_spread_top
     if not top or not isinstance(wiring.evaluator(cfg, robust=False), SceneEvaluator):

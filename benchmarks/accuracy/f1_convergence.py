@@ -48,7 +48,7 @@ from benchmarks.numerics import richardson
 from geometry.mesh import build_mesh
 from geometry.sizing import MeshSizing
 from whisker_opt.experiment import objective
-from whisker_opt.experiment.evaluator import SceneEvaluator
+from whisker_opt.optimise.evaluator import SceneEvaluator
 from whisker_opt.experiment.fidelity import ladder_sizing
 from whisker_opt.experiment.scene import run_scene
 

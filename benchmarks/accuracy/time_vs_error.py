@@ -7,7 +7,7 @@ Q_i = 0.2 MPa and the same design trimmed by 5 mm and vented, contact at the tip
 (a) Δl, the axial extension at Q = 0.2 MPa (intact scene);
 (b) ε(5 mm), the calibrated gauge reading (line variant) of the intact scene;
 (c) f1 = mean over δ_k = 0.01 … 5 mm of |ε_i(δ_k) − ε_c(δ_k)| (the definition of
-    :class:`whisker_opt.experiment.evaluator.SceneEvaluator`, curves by its spline);
+    :class:`whisker_opt.optimise.evaluator.SceneEvaluator`, curves by its spline);
 
 against references extrapolated (Richardson) from the finest levels of a mesh study.
 

@@ -22,7 +22,7 @@ A case is *in range* when its genes lie in the GA box, Q ≤ 0.2 MPa, δ_max ≤
 D1 = 0; *GA scene* when in range and a = 1. The target: every in-range
 case converges at the default preset; no NaN anywhere (every converged case's
 readings are checked finite; a non-finite one is recorded as status ``nan``); every
-failure carries a classified reason (statuses as :mod:`whisker_opt.experiment.evaluator`:
+failure carries a classified reason (statuses as :mod:`whisker_opt.optimise.evaluator`:
 ``invalid_geometry``, ``mesh_failed``, ``solve_failed``, ``timeout``, ``error``).
 
 Perturbation check

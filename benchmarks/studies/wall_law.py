@@ -47,9 +47,10 @@ import numpy as np
 from benchmarks.numerics import observed_order
 from geometry.design import WhiskerDesign
 from whisker_opt.experiment.spec import rubber_law
-from whisker_opt.wall.cell import PRESSURES, Resolution, WallCell, WallGeometry
-from whisker_opt.wall.mechanisms import VARIANTS, WallMechanism
-from whisker_opt.wall.reading import inferred_k, reading_ratios
+from whisker_opt.wallcell.cell import PRESSURES, Resolution, WallCell, WallGeometry
+from whisker_opt.wallcell.mechanisms import VARIANTS, WallMechanism
+from whisker_opt.wallcell.reading import inferred_k, reading_ratios
+from whisker_opt.wall.law import mid_chamber_x
 from whisker_opt.wall.table import WallTable, default_path
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -205,7 +206,7 @@ def commit() -> str:
     try:
         sha = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True,
                              check=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--", "fem", "whisker_opt/wall",
+        dirty = subprocess.run(["git", "status", "--porcelain", "--", "fem", "whisker_opt/wall", "whisker_opt/wallcell",
                                 ":!whisker_opt/wall/data"], cwd=ROOT,
                                capture_output=True, text=True, check=True).stdout.strip()
         return sha + ("+modified" if dirty else "")
@@ -236,7 +237,7 @@ def prototype_comparison(table: WallTable) -> list[dict]:
     """Per variant at the default wall: EI ratio, the k the thesis' beam model would infer, reading ratios."""
     design = WhiskerDesign()
     geo = default_geometry()
-    x_cell = 0.5 * (design.c + design.l)
+    x_cell = mid_chamber_x(design)
     rows = []
     for v in table.variants:
         e = next(x for x in table.points(v) if math.isclose(x["r_i"], geo.r_i) and math.isclose(x["t"], geo.t))

@@ -68,11 +68,12 @@ from numpy.polynomial import Chebyshev
 from scipy import integrate, optimize
 
 from geometry.design import WhiskerDesign
+from geometry.materials import RUBBER_C10
 
 logger = logging.getLogger(__name__)
 
-#: Neo-Hookean small-strain Young's modulus E = 3 μ = 6 C10 with C10 = 0.14 MPa.
-DEFAULT_E = 3.0 * 0.28
+#: Neo-Hookean small-strain Young's modulus E = 3 μ = 6 C10 of the rubber's C10 (:mod:`geometry.materials`).
+DEFAULT_E = 3.0 * (2 * RUBBER_C10)
 
 TubeMode = Literal["exact", "thin", "solid"]
 ExtensionFn = Callable[[WhiskerDesign, float], float]

@@ -89,7 +89,7 @@ def verify_run(run_dir: Path, preset: str = "fine", top: int = 3, progress: bool
     from whisker_opt.experiment.fidelity import f1_resolution
     from whisker_opt.optimise.best import describe_distance
     from whisker_opt.optimise.penalty import dynamic_penalty, penalty_terms
-    from whisker_opt.experiment.evaluator import SceneEvaluator
+    from whisker_opt.optimise.evaluator import SceneEvaluator
     from whisker_opt.output.progress import Progress, format_duration
 
     run_dir = Path(run_dir)

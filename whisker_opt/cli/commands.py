@@ -225,7 +225,8 @@ def _run_args(p: argparse.ArgumentParser) -> None:
 
 def _run_run(args: argparse.Namespace) -> int:
     import whisker_opt.workflows as workflows
-    from whisker_opt.optimise.runner import check_new_run_dir, report
+    from whisker_opt.optimise.runner import check_new_run_dir
+    from whisker_opt.report import report
     from whisker_opt.output.lock import RunDirLock
 
     cfg = _read(args)
@@ -285,7 +286,7 @@ def _resume_run(args: argparse.Namespace) -> int:
         has_older_checkpoint,
         restore_previous,
     )
-    from whisker_opt.optimise.runner import report
+    from whisker_opt.report import report
     from whisker_opt.output.lock import RunDirLock
 
     if args.trust_pickle and not has_older_checkpoint(args.run_dir):
@@ -348,7 +349,7 @@ def _verify_run(args: argparse.Namespace) -> int:
 
 
 def _report_run(args: argparse.Namespace) -> int:
-    from whisker_opt.optimise.runner import report
+    from whisker_opt.report import report
 
     check_run_dir(args.run_dir)
     ensure_writable_dir(args.run_dir, "run_dir (report rebuilds its plots)")

@@ -1,7 +1,7 @@
 """The named measures of one evaluation: numbers read from its outcome by name.
 
 A measure is a small object with a name, a unit, a description and a function from a successful
-:class:`whisker_opt.experiment.outcome.EvalOutcome` (as :class:`whisker_opt.experiment.evaluator.SceneEvaluator`
+:class:`whisker_opt.experiment.outcome.EvalOutcome` (as :class:`whisker_opt.optimise.evaluator.SceneEvaluator`
 fills it) to a float. The GA's penalties, the NSGA-II objectives, the robustness study and ``verify`` read
 them from :data:`MEASURES` by name. The measures:
 

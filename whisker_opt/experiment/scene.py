@@ -56,7 +56,7 @@ from whisker_opt.experiment.contact import Contact, contact_band, place_contact_
 from whisker_opt.experiment.gauge import GaugedMesh, GaugeReader
 from whisker_opt.experiment.gauge_variants import GAUGE_VARIANTS
 from whisker_opt.experiment.spec import SceneSpec, cap_elements, rubber_material
-from whisker_opt.wall.law import apply_law, chamber_elements
+from whisker_opt.wall.law import apply_law, chamber_elements, mid_chamber_x
 
 logger = logging.getLogger(__name__)
 
@@ -227,7 +227,7 @@ def mid_chamber_radial_growth(wm: WhiskerMesh, u: np.ndarray) -> float:
     d = wm.design
     X = wm.mesh.points
     outer = wm.node_sets["outer"]
-    xm = 0.5 * (d.c + d.l)
+    xm = mid_chamber_x(d)
     dist = np.abs(X[outer, 0] - xm)
     half = min(max(0.5, float(dist.min()) + 1e-9), 0.25 * (d.l - d.c))
     sel = outer[dist <= half]

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Callable
 import numpy as np
 
 from geometry.design import WhiskerDesign, parameter, parameter_violations
+from geometry.materials import RUBBER_C10
 from geometry.sizing import MeshSizing
 from whisker_opt.wall.law import SLOPE_RANGE, WALL_LAW_NAMES, WallLaw
 
@@ -237,7 +238,7 @@ class SceneSpec:
         "x = a·(L − Δ), the pusher staying where it stood before the whisker extended",
         choices=CONTACT_AT)
     deflection: float = parameter(5.0, "mm", "largest deflection δ_max of the contact", gt=0, le=30)
-    c10: float = parameter(0.14, "MPa", "neo-Hookean C10 = μ/2", gt=0, le=100, key="C10")
+    c10: float = parameter(RUBBER_C10, "MPa", "neo-Hookean C10 = μ/2", gt=0, le=100, key="C10")
     d1: float = parameter(0.0, "1/MPa", "compressibility D1 = 2/K; 0 = incompressible", ge=0, le=100, key="D1")
     calibration: float = parameter(3.9, "-", "gauge calibration factor ξ: every reading (hence f1 and F_p) is the "
                                    "simulated strain times ξ", gt=0, le=100)

@@ -30,6 +30,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
+from geometry.materials import FIBRE_DIAMETER
 from whisker_opt.viewer.colours import _per_panel, panel_clims, panel_scopes
 from whisker_opt.viewer.fields import field_names, resolve_field
 from whisker_opt.viewer.guard import ViewerError, is_headless, require_pyvista
@@ -205,7 +206,7 @@ def _add_markers(plotter, sv: StateView, clip: bool, prefix: str, show_fibres: b
     """The fibres (tubes, cut with the body), the gauge patch (whole: it is a marker) and the contact
     point with the push's direction."""
     if show_fibres:
-        r_tube = 0.5 * float((sv.info.design or {}).get("fibre_diameter", 0.38) or 0.38)
+        r_tube = 0.5 * float((sv.info.design or {}).get("fibre_diameter", FIBRE_DIAMETER) or FIBRE_DIAMETER)
         for k, line in enumerate(fibre_lines(sv)):
             line = _clip(line, clip, sv.cut_z)
             if line is not None and line.n_points:

@@ -3,7 +3,7 @@
 The 3-D scene carries the fibre winding as embedded trusses (:mod:`geometry.fibres`). On the GA's mesh
 these give the chamber wall the bending stiffness of a perfectly bonded wall under pressure: the
 periodic wall cell with embedded lines (``benchmarks/studies/fibre_cell.py``) reproduces the converged bonded
-cell (:mod:`whisker_opt.wall.cell`, the ``bonded`` entries of the stored table) within the tolerances
+cell (:mod:`whisker_opt.wallcell.cell`, the ``bonded`` entries of the stored table) within the tolerances
 measured in ``benchmarks/results/wall_law.md`` ("The wall law in the whisker scene"). A *wall law* is a named
 statement of what the wall does instead, applied as a correction of the wall's incremental stiffness
 about the pressurised state (the pressurisation itself, and so the extension Δl(Q), stays the
@@ -77,10 +77,25 @@ SLOPE_RANGE = (-4.5, 10.0)
 MIN_FACTOR = 0.05
 
 
+def mid_chamber_x(design: WhiskerDesign) -> float:
+    """The axial station of mid-chamber, x = (c + l)/2 [mm]: where a table law reads the wall, the wall cell
+    stands by default and the scene measures the chamber's radial growth.
+
+    Parameters
+    ----------
+    design : geometry.design.WhiskerDesign
+
+    Returns
+    -------
+    float
+    """
+    return 0.5 * (design.c + design.l)
+
+
 def mid_chamber_wall(design: WhiskerDesign) -> tuple[float, float]:
-    """(r_i, t) of the wall at mid-chamber x = (c + l)/2 [mm]: the point at which a table law is read."""
-    x = 0.5 * (design.c + design.l)
-    return float(design.r_outer(x) - design.t), float(design.t)
+    """(r_i, t) of the wall at mid-chamber x = (c + l)/2 [mm] (:func:`mid_chamber_x`): the point at which a
+    table law is read."""
+    return float(design.r_inner(mid_chamber_x(design))), float(design.t)
 
 
 @lru_cache(maxsize=1)

@@ -1,6 +1,6 @@
 """The stored wall-law table: what pressure does to the chamber wall, per mechanism and wall geometry.
 
-Written by ``benchmarks/studies/wall_law.py`` from converged wall cells (:mod:`whisker_opt.wall.cell`) and
+Written by ``benchmarks/studies/wall_law.py`` from converged wall cells (:mod:`whisker_opt.wallcell.cell`) and
 shipped as package data (``whisker_opt/wall/data/wall_law.json``). Each entry holds, at the table's
 pressures Q [MPa]: the bending stiffness EI [N mm², whole tube, per reference length], the axial strain
 ε_z, the outer surface's radial growth at the ring and at mid-gap [mm] and the gauge transfer g (mean,

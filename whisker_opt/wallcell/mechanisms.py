@@ -1,6 +1,6 @@
 """The named mechanisms of the chamber wall: how the fibre is bonded, what the rubber is, what the fibre is.
 
-A :class:`WallMechanism` is one variant of the wall cell (:mod:`whisker_opt.wall.cell`); every field is a
+A :class:`WallMechanism` is one variant of the wall cell (:mod:`whisker_opt.wallcell.cell`); every field is a
 modelling choice with its data source:
 
 bond
@@ -28,21 +28,23 @@ fibre_offset
 thrust, plane
     Definitions, not physics: the closed-end thrust on the current cavity area (``current``) or on the
     reference one, and the end plane rotated about current or reference positions. ``reference`` for both
-    reproduces the 3-D reference cell's loading (:mod:`whisker_opt.wall.cell`).
+    reproduces the 3-D reference cell's loading (:mod:`whisker_opt.wallcell.cell`).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
+from geometry.materials import FIBRE_MODULUS, FIBRE_POISSON, RUBBER_C10
+
 #: Young's modulus of a drawn nylon 6,6 monofilament [MPa]: Callister & Rethwisch, *Materials Science and
 #: Engineering*, Appendix B, give 1 590–3 790 MPa for nylon 6,6 (ν = 0.39); a drawn monofilament sits in the
 #: upper part of that range. The thesis' FE value 31 067 MPa, ν = 0.36, is an aramid fibre's.
 NYLON_MODULUS = 3000.0
 NYLON_POISSON = 0.39
-#: The thesis' FE fibre: E = 31 067 MPa, ν = 0.36.
-THESIS_FIBRE_MODULUS = 31067.0
-THESIS_FIBRE_POISSON = 0.36
+#: The thesis' FE fibre: E = 31 067 MPa, ν = 0.36 (:mod:`geometry.materials`).
+THESIS_FIBRE_MODULUS = FIBRE_MODULUS
+THESIS_FIBRE_POISSON = FIBRE_POISSON
 
 BONDS = ("bonded", "sliding", "layer")
 SECTIONS = ("round", "square", "band")
@@ -60,7 +62,7 @@ class WallMechanism:
     layer_shear_modulus: float = 0.028
     rubber: str = "neo_hookean"
     rubber_outer: str = "same"
-    c10: float = 0.14
+    c10: float = RUBBER_C10
     section: str = "round"
     fibre_law: str = "solid"
     fibre_modulus: float = THESIS_FIBRE_MODULUS

@@ -8,7 +8,7 @@ on a thinned tube:
   stiffness at its station, carried along the cone by the bare tube's 3μπ(r_o⁴ − r_i⁴)/4;
 * the chamber stretched uniformly by λ = 1 + ε_z(Q) (material point ξ at x = c + λ(ξ − c)), the
   tip beyond it shifted by (λ − 1)(l − c);
-* the gauge strain g(Q) r_o κ, κ = M/B the curvature per reference length (:mod:`whisker_opt.wall.cell`).
+* the gauge strain g(Q) r_o κ, κ = M/B the curvature per reference length (:mod:`whisker_opt.wallcell.cell`).
 
 So ε/δ follows from the cell's EI(Q), ε_z(Q) and g(Q) alone, with solid end regions of E = 3μ.
 

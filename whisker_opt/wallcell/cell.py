@@ -35,8 +35,10 @@ from fem.axisym.meshgen2d import QuadMesh, grid_mesh, inclusion_mesh
 from fem.axisym.quad9 import line_shape
 from fem.material import NeoHookean
 from fem.newton import SolveFailed
+from geometry.materials import FIBRE_DIAMETER
 from whisker_opt.experiment.spec import rubber_law
-from whisker_opt.wall.mechanisms import WallMechanism
+from whisker_opt.wall.law import mid_chamber_x
+from whisker_opt.wallcell.mechanisms import WallMechanism
 
 log = logging.getLogger(__name__)
 
@@ -52,7 +54,7 @@ class WallGeometry:
     r_i: float
     t: float
     s: float = 1.5
-    fibre_diameter: float = 0.38
+    fibre_diameter: float = FIBRE_DIAMETER
     r_f: float | None = None  # None: mid-wall
 
     def __post_init__(self) -> None:
@@ -79,7 +81,7 @@ class WallGeometry:
     @classmethod
     def of_design(cls, design, x: float | None = None) -> "WallGeometry":
         """The wall of ``design`` (geometry.design.WhiskerDesign) at axial station x (mid-chamber by default)."""
-        x = 0.5 * (design.c + design.l) if x is None else x
+        x = mid_chamber_x(design) if x is None else x
         return cls(r_i=float(design.r_inner(x)), t=float(design.t), s=design.fibre_pitch / design.n_fibres,
                    fibre_diameter=design.fibre_diameter, r_f=float(design.r_fibre(x)))
 
