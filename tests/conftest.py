@@ -16,6 +16,7 @@ import pytest
 QUICK: dict[str, tuple[str, ...]] = {
     "test_api.py": ("test_load_config_from_a_mapping_equals_the_yaml_file", "test_load_config_refuses_other_types",
                     "test_cells_are_converted"),
+    "test_aggregate.py": ("*",),
     "test_architecture.py": ("*",),
     "test_bad_inputs_more.py": ("test_a_key_given_twice_is_refused", "test_output_name_must_be_a_plain_name"),
     "test_bad_inputs_faults.py": ("test_calibrate_refuses_bounds_over_six_decades",
