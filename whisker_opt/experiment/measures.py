@@ -20,7 +20,7 @@ them from :data:`MEASURES` by name. The measures:
     vented, both at δ_max; :func:`whisker_opt.experiment.scene.peak_von_mises`):
     max of ``extra["von_mises_max"]``.
 ``eps_i_<variant>``, ``eps_c_<variant>``
-    For every gauge variant of :data:`whisker_opt.experiment.gauge.GAUGE_VARIANTS`, the reading of the
+    For every gauge reading of :data:`whisker_opt.experiment.gauge_variants.GAUGE_VARIANTS`, the reading of the
     intact (i) or the trimmed (c) scene at δ_max: ``extra["readings"][variant]["intact" | "trimmed"]``.
 
 Adding a measure: one entry of :func:`_registry` (and a test of its value against the outcome).
