@@ -113,3 +113,43 @@ def test_an_aggregate_survives_the_checkpoint():
     back = _outcome(_outcome_data(out, "test"))
     assert back == out
     assert "measures" not in _outcome_data(NOMINAL, "test")  # a single evaluation's entry is unchanged
+
+
+class _Law:
+    """A stand-in evaluator of one wall law: f1 = scale · (α + l/10), every other measure read from the nominal
+    outcome's layout; fails for α above ``fail_above``."""
+
+    def __init__(self, scale, fail_above=math.inf):
+        self.scale, self.fail_above = scale, fail_above
+
+    def __call__(self, genes):
+        if genes["alpha"] > self.fail_above:
+            return EvalOutcome.failure("solve_failed", "no convergence", {"total": 0.0})
+        f1 = self.scale * (genes["alpha"] + genes["l"] / 10.0)
+        return _outcome(f1, 0.1 * self.scale, 1.0, 0.3, 1e-3, 2e-3)
+
+
+def test_a_ga_run_over_laws_records_f1_and_the_aggregate_it_minimises(tmp_path):
+    from whisker_opt.optimise.penalty import dynamic_penalty, penalty_terms
+    from whisker_opt.optimise.runner import run_optimisation
+    from whisker_opt.output.storage import read_csv
+
+    opt = OptimiserConfig.model_validate({"wall_laws": {"objective": "mean"}, "ga": {"population": 6, "n_elite": 1},
+                                          "stopping": {"max_generations": 1}})
+    lo, hi = opt.genes.bounds()[0]
+    ev = AggregateEvaluator(_Law(1e-3), LawVariants((_Law(1e-3), _Law(3e-3, fail_above=(lo + hi) / 2)),
+                                                    ("embedded", "sliding")), "mean", "mean_over_laws")
+    run_optimisation(opt, tmp_path / "run", ev, seed=3, progress=False)
+    rows = read_csv(tmp_path / "run" / "evaluations.csv")
+    ok = [r for r in rows if r["status"] == "ok"]
+    failed = [r for r in rows if r["status"] != "ok"]
+    assert ok and failed
+    for r in ok:
+        g = float(r["alpha"]) + float(r["l"]) / 10.0
+        genes = {k: float(r[k]) for k in opt.genes.names()}
+        assert float(r["f1"]) == pytest.approx(1e-3 * g, rel=1e-15)  # the nominal design's
+        assert float(r["f1_mean_over_laws"]) == pytest.approx(2e-3 * g, rel=1e-15)  # (1 + 3)/2 · 1e-3 · g
+        assert float(r["F_p"]) == pytest.approx(
+            dynamic_penalty(float(r["f1_mean_over_laws"]), genes, penalty_terms(opt))[1], rel=1e-12)
+    for r in failed:
+        assert r["f1"] == r["f1_mean_over_laws"] == r["f1_mean"] == "" and "wall law sliding" in r["reason"]

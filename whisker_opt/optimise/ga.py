@@ -494,7 +494,8 @@ class GeneticAlgorithm:
             if measures:
                 ind.info["measures"] = measures
             rec: dict[str, Any] = {"eval_id": eval_id, "generation": generation, **genes, "f1": f1}
-            rec.update(measure_values(out, aggregate_columns(self.cfg)))
+            aggregates = aggregate_columns(self.cfg)  # empty for a failed evaluation
+            rec.update(measure_values(out, aggregates) if out.ok else dict.fromkeys(aggregates))
             rec.update(measures)
             for t in self.terms:
                 rec[t.column] = pen.kappas.get(t.gene)
