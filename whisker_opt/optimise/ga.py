@@ -74,7 +74,7 @@ from whisker_opt.config.optimiser import OptimiserConfig
 from whisker_opt.genes import GENE_NAMES, genes_dict
 from whisker_opt.experiment.measures import measure_values
 from whisker_opt.experiment.outcome import EvalOutcome
-from whisker_opt.optimise.penalty import PenaltyTerm, fitness_values, penalise, penalty_terms
+from whisker_opt.optimise.penalty import PenaltyTerm, dynamic_penalty, fitness_values, penalise, penalty_terms
 from whisker_opt.numfmt import short_float
 from whisker_opt.optimise.aggregate import aggregate_columns, objective_column
 
@@ -454,7 +454,9 @@ class GeneticAlgorithm:
             progress.start_generation(state, generation, len(run_keys), len(invalid) - len(run_keys))
 
             def on_result(i: int, out: EvalOutcome) -> None:
-                fp = penalise(out, batch[i], self.terms, self.cfg.failure_penalty, self.objective).fp if out.ok else None
+                fp = None
+                if out.ok:  # F_p of f1 or of its aggregate over variants
+                    fp = dynamic_penalty(measure_values(out, (self.objective,))[self.objective], batch[i], self.terms)[1]
                 progress.result(state, generation, batch[i], out, fp)
 
             outcomes = executor.map(batch, seeds, on_result=on_result) if run_keys else []
