@@ -16,11 +16,13 @@ import pytest
 QUICK: dict[str, tuple[str, ...]] = {
     "test_api.py": ("test_load_config_from_a_mapping_equals_the_yaml_file", "test_load_config_refuses_other_types",
                     "test_cells_are_converted"),
+    "test_aggregate.py": ("*",),
     "test_architecture.py": ("*",),
     "test_bad_inputs_more.py": ("test_a_key_given_twice_is_refused", "test_output_name_must_be_a_plain_name"),
     "test_bad_inputs_faults.py": ("test_calibrate_refuses_bounds_over_six_decades",
                                   "test_the_api_refuses_a_run_directory_of_no_path_type",
                                   "test_an_atomic_write_that_fails_names_its_file_and_leaves_nothing"),
+    "test_gauge_readings.py": ("*",),
     "test_geometry_errors.py": ("*",),
     "test_beam.py": ("test_integrator_uniform_cantilever_is_euler_bernoulli", "test_uniform_tube_piecewise_closed_form",
                      "test_extension_matches_closed_form", "test_pressurised_uniform_tube_closed_form",

@@ -94,7 +94,7 @@ def evaluate(name: str, genes: tuple, label: str, sizing: MeshSizing, level: int
         res[scene] = run_scene(spec, wm)
     delta = ev.samples()
     f1 = objective.f1(res["intact"].curve(delta, ev.gauge_variant), res["trimmed"].curve(delta, ev.gauge_variant))
-    ei, ec = float(res["intact"].eps_line[-1]), float(res["trimmed"].eps_line[-1])
+    ei, ec = float(res["intact"].eps["line"][-1]), float(res["trimmed"].eps["line"][-1])
     return {"design": name, "mesh": label, "level": level, "alpha": alpha, "l": l, "t": t, "Q_i": q_i,
             "elements": n_el, "time_s": f"{time.perf_counter() - t0:.1f}", "delta_l": f"{res['intact'].delta_l:.5f}",
             "eps_i5": f"{ei:.6f}", "eps_c5": f"{ec:.6f}", "diff5": f"{ei - ec:+.6f}", "f1": f"{f1:.5e}"}

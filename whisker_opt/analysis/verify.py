@@ -87,8 +87,9 @@ def verify_run(run_dir: Path, preset: str = "fine", top: int = 3, progress: bool
     """
     import whisker_opt.wiring as wiring
     from whisker_opt.experiment.fidelity import f1_resolution
+    from whisker_opt.optimise.aggregate import objective_column
     from whisker_opt.optimise.best import describe_distance
-    from whisker_opt.optimise.penalty import dynamic_penalty, penalty_terms
+    from whisker_opt.optimise.penalty import penalise, penalty_terms
     from whisker_opt.optimise.evaluator import SceneEvaluator
     from whisker_opt.output.progress import Progress, format_duration
 
@@ -129,7 +130,7 @@ def verify_run(run_dir: Path, preset: str = "fine", top: int = 3, progress: bool
                    "status": out.status, "reason": out.reason,
                    "time_s": float(out.timings.get("total", float("nan"))), **resolution}
             if out.ok:
-                _, fp = dynamic_penalty(out.f1, genes, terms)
+                fp = penalise(out, genes, terms, opt.failure_penalty, objective_column(opt)).fp  # F_p as the run's
                 row.update(f1_verify=out.f1, F_p_verify=fp,
                            f1_change=out.f1 / f1_run - 1.0 if f1_run else float("nan"))
             else:

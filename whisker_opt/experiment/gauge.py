@@ -1,20 +1,10 @@
 """The strain gauge: where it sits on the whisker and in its mesh, and how it is read.
 
-Two readings are offered.
-
-``line`` (default)
-    The gauge is a material line of length ``e`` on the +y generator of the outer cone,
-    from x = x_ss to x = x_ss + e. Its unit tangent in the reference configuration is
-    ``T = (1, -tan α, 0) / sqrt(1 + tan² α)``. At ``n`` Gauss-Legendre points along it the
-    local stretch is ``λ = |F T|``; the reading is the length-weighted mean of the
-    logarithmic strain relative to contact onset,
-    ``ε = ξ · Σ_k w_k ln(λ_k(δ) / λ_k(0))``, with ``Σ w_k = 1`` and ξ the calibration
-    factor. Relative to onset, because the gauge is zeroed when contact begins.
-
-``centroid`` (the thesis' variant)
-    The axial component of the Eulerian logarithmic strain ``ln V = ½ ln(F Fᵀ)`` at the
-    centroid of the element under the gauge centre, relative to onset, times ξ. That is
-    what Abaqus reports as LE11 for the element under the gauge.
+The readings are registered by name in :mod:`whisker_opt.experiment.gauge_variants`, one module each in
+:mod:`whisker_opt.experiment.readings`: ``line`` (default), the mean logarithmic strain along the gauge line,
+and ``centroid`` (the thesis' variant), the axial Eulerian log strain at the centroid of the element under the
+gauge centre. :class:`GaugeReader` zeroes every one at contact onset and returns them relative to it, times
+the calibration factor ξ (the gauge is zeroed when contact begins).
 
 The gauge's host elements depend on the mesh only: they are located once per mesh
 (:func:`locate_gauge`) and travel with it as a :class:`GaugedMesh`.
@@ -26,10 +16,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fem.query import deformation_gradient_at
 from geometry.design import WhiskerDesign
 from geometry.locate import PointLocator
 from geometry.mesh import WhiskerMesh
+from whisker_opt.experiment.gauge_variants import GAUGE_READINGS
+
 
 @dataclass(frozen=True)
 class GaugeGeometry:
@@ -118,23 +109,6 @@ class GaugedMesh:
         return cls(wm, locate_gauge(wm, design))
 
 
-def line_stretch(mesh, u: np.ndarray, gauge: GaugeGeometry) -> np.ndarray:
-    """Local stretches ``λ_k = |F_k T|`` at the gauge points, shape (n,)."""
-    F = deformation_gradient_at(mesh, u, gauge.host_elements, gauge.local_coords)  # (n, 3, 3)
-    return np.linalg.norm(F @ gauge.tangent, axis=1)  # (n,)
-
-
-def centroid_log_strain_xx(mesh, u: np.ndarray, gauge: GaugeGeometry) -> float:
-    """Axial Eulerian log strain ``(½ ln F Fᵀ)_xx`` at the centroid of the gauge's element."""
-    F = deformation_gradient_at(
-        mesh, u, np.array([gauge.centroid_element]), np.full((1, 3), 0.25)
-    )[0]  # (3, 3)
-    b = F @ F.T
-    lam2, vec = np.linalg.eigh(b)
-    ln_v = 0.5 * (vec * np.log(lam2)) @ vec.T
-    return float(ln_v[0, 0])
-
-
 @dataclass
 class GaugeReader:
     """Stateful reader: remembers the onset state and returns calibrated readings.
@@ -147,13 +121,11 @@ class GaugeReader:
     calibration: float
 
     def zero(self, u: np.ndarray) -> None:
-        self._lam0 = line_stretch(self.mesh, u, self.gauge)
-        self._c0 = centroid_log_strain_xx(self.mesh, u, self.gauge)
+        """Keep what every registered reading needs of the onset state ``u``."""
+        self._onset = {n: r.state(self.mesh, u, self.gauge) for n, r in GAUGE_READINGS.items()}
 
-    def read(self, u: np.ndarray) -> tuple[float, float]:
-        """Return ``(line reading, centroid reading)`` (the order of :data:`GAUGE_VARIANTS`), both times the
+    def read(self, u: np.ndarray) -> dict[str, float]:
+        """Every registered reading (:data:`GAUGE_READINGS`, in its order) of ``u`` relative to onset, times the
         calibration factor."""
-        lam = line_stretch(self.mesh, u, self.gauge)
-        line = float(self.gauge.weights @ np.log(lam / self._lam0))
-        cen = centroid_log_strain_xx(self.mesh, u, self.gauge) - self._c0
-        return self.calibration * line, self.calibration * cen
+        return {n: self.calibration * r.relative(r.state(self.mesh, u, self.gauge), self._onset[n], self.gauge)
+                for n, r in GAUGE_READINGS.items()}

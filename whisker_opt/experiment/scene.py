@@ -69,8 +69,9 @@ class SceneResult:
     ----------
     delta : ndarray, shape (k + 1,)
         Solved deflections [mm], starting at 0.
-    eps_line, eps_centroid : ndarray, shape (k + 1,)
-        Calibrated gauge readings (line and thesis-centroid variants) [-].
+    eps : dict of str -> ndarray, shape (k + 1,)
+        Calibrated gauge readings [-] by name, one per registered reading
+        (:data:`whisker_opt.experiment.gauge_variants.GAUGE_READINGS`: ``line``, ``centroid``).
     delta_l : float
         Axial extension of the tip after pressurisation [mm].
     length_q : float
@@ -110,8 +111,7 @@ class SceneResult:
 
     spec: SceneSpec
     delta: np.ndarray
-    eps_line: np.ndarray
-    eps_centroid: np.ndarray
+    eps: dict[str, np.ndarray]
     delta_l: float
     length_q: float
     radial_growth: float
@@ -132,11 +132,6 @@ class SceneResult:
         if self.problems is None:
             return None
         return self.problems["pressurised" if state == "pressurised" else "deflection"]
-
-    @property
-    def eps(self) -> dict[str, np.ndarray]:
-        """The readings at the solved deflections by gauge variant (:data:`GAUGE_VARIANTS`)."""
-        return dict(zip(GAUGE_VARIANTS, (self.eps_line, self.eps_centroid)))
 
     @property
     def contact_stiffness(self) -> float:
@@ -389,8 +384,9 @@ class Deflection:
     ----------
     fractions : tuple of float
         Solved fractions of ``spec.deflection``.
-    readings : ndarray, shape (k + 1, 2)
-        Calibrated (line, centroid) readings, the first row at onset (0, 0).
+    readings : ndarray, shape (k + 1, n_readings)
+        Calibrated readings, one column per registered reading in :data:`GAUGE_VARIANTS` order, the first
+        row at onset (0, ...).
     states : list of State
         The state at each fraction.
     reports : list of fem.loadpath.StepReport
@@ -475,7 +471,7 @@ def deflect_and_read(spec: SceneSpec, gm: GaugedMesh, pre: Pressurised, contact:
     load1 = LoadState(pq, (pre.zeros_base, *pre.extra_base, uy0 - spec.deflection))
     reader.zero(u1)
     fractions = tuple(np.linspace(0, 1, spec.n_deflection_steps + 1)[1:])
-    readings = [(0.0, 0.0)]
+    readings = [(0.0,) * len(GAUGE_VARIANTS)]
     t_read = [0.0]
     base = np.asarray(wm.node_sets["base"], dtype=np.int64)
     forces = [contact_reactions(prob2, pre.state, pq, band, base)]
@@ -483,7 +479,7 @@ def deflect_and_read(spec: SceneSpec, gm: GaugedMesh, pre: Pressurised, contact:
 
     def _read(fraction: float, st: State) -> None:
         tr = time.perf_counter()
-        readings.append(reader.read(st.u))
+        readings.append(tuple(reader.read(st.u).values()))
         forces.append(contact_reactions(prob2, st, pq, band, base, st.residual))  # R of prob2's solve
         t_read[0] += time.perf_counter() - tr
 
@@ -599,8 +595,7 @@ def run_scene(spec: SceneSpec, wm: WhiskerMesh | GaugedMesh | None = None, keep_
     return SceneResult(
         spec=spec,
         delta=delta,
-        eps_line=dfl.readings[:, 0],
-        eps_centroid=dfl.readings[:, 1],
+        eps={name: dfl.readings[:, j] for j, name in enumerate(GAUGE_VARIANTS)},
         delta_l=delta_l,
         length_q=design.length + delta_l,
         radial_growth=radial,
