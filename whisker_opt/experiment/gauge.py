@@ -37,6 +37,14 @@ class GaugeGeometry:
         Unit reference tangent of the line.
     centroid_element : int
         Element under the gauge centre (the thesis' readout).
+    section_elements : ndarray, shape (2, m)
+        Host elements of the sampling points of the wall's cross-sections at the gauge's two ends
+        (:func:`section_points`; the ``section`` reading).
+    section_coords : ndarray, shape (2, m, 3)
+    section_weights : ndarray, shape (m,)
+        Area weights of those points, normalised to sum 1.
+    radius : float
+        Reference outer radius at the gauge centre [mm].
     """
 
     host_elements: np.ndarray
@@ -44,6 +52,37 @@ class GaugeGeometry:
     weights: np.ndarray
     tangent: np.ndarray
     centroid_element: int
+    section_elements: np.ndarray
+    section_coords: np.ndarray
+    section_weights: np.ndarray
+    radius: float
+
+
+@dataclass(frozen=True)
+class ReadingContext:
+    """What a reading may know of its scene beyond the mesh and the gauge.
+
+    Attributes
+    ----------
+    wall_transfer : float
+        G(Q) = g(Q) (1 + ε_z(Q)) of the stored wall cell at the scene's chamber pressure and wall
+        (:meth:`whisker_opt.wall.law.WallLaw.gauge_transfer`; NaN when the wall lies outside the table).
+    """
+
+    wall_transfer: float = 1.0
+
+
+def section_points(design: WhiskerDesign, x: float, n_r: int = 4, n_theta: int = 16) -> tuple[np.ndarray, np.ndarray]:
+    """Sampling points of the wall's cross-section at ``x`` (r_i … r_o, Gauss–Legendre in r, equal angles
+    offset by half a step) and their area weights r w_r (normalised to sum 1), shapes (n_r n_theta, 3), (n_r n_theta,)."""
+    s, w = np.polynomial.legendre.leggauss(n_r)
+    ri, ro = design.r_inner(x), design.r_outer(x)
+    r = ri + 0.5 * (ro - ri) * (s + 1.0)  # (n_r,)
+    th = 2.0 * np.pi * (np.arange(n_theta) + 0.5) / n_theta  # (n_theta,)
+    R, T = np.meshgrid(r, th, indexing="ij")  # (n_r, n_theta)
+    pts = np.stack([np.full(R.size, float(x)), (R * np.cos(T)).ravel(), (R * np.sin(T)).ravel()], axis=1)
+    wt = np.repeat(w * r, n_theta)
+    return pts, wt / wt.sum()
 
 
 def gauge_points(x_ss: float, e: float, r_outer, alpha: float, n: int = 4) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -79,14 +118,19 @@ def locate_gauge(wm: WhiskerMesh, design: WhiskerDesign, n: int = 16) -> GaugeGe
     """
     pts, w, tangent = gauge_points(design.x_ss, design.e, design.r_outer, design.alpha, n)
     centre = np.array([[design.x_ss + 0.5 * design.e, design.r_outer(design.x_ss + 0.5 * design.e), 0.0]])
+    sec = [section_points(design, x) for x in (design.x_ss, design.x_ss + design.e)]
+    m = len(sec[0][1])
     # Points on the exact cone lie up to the P2 surface-interpolation error outside the
     # mesh; a host whose local coordinates are slightly outside (barycentric >= -0.05)
     # with an exact inverse map is the right host (the field extends smoothly).
-    loc = PointLocator(wm.mesh.points, wm.mesh.cells).locate(np.vstack([pts, centre]), tol=0.05)
+    loc = PointLocator(wm.mesh.points, wm.mesh.cells).locate(np.vstack([pts, centre, sec[0][0], sec[1][0]]), tol=0.05)
     if not np.all(loc.inside) or np.any(loc.residual > 1e-8 * (1.0 + design.D)):
-        raise ValueError(f"gauge points not located in the mesh (inside {loc.inside}, residuals {loc.residual})")
+        bad = int(np.sum(~np.asarray(loc.inside)) + np.sum(np.asarray(loc.residual) > 1e-8 * (1.0 + design.D)))
+        raise ValueError(f"gauge points not located in the mesh: {bad} of {len(loc.inside)} sampling points "
+                         f"(gauge line, centre, the wall sections at its ends)")
     elems, xi = loc.host_elements, loc.local_coords
-    return GaugeGeometry(elems[:n], xi[:n], w, tangent, int(elems[n]))
+    return GaugeGeometry(elems[:n], xi[:n], w, tangent, int(elems[n]), elems[n + 1:].reshape(2, m),
+                         xi[n + 1:].reshape(2, m, 3), sec[0][1], float(centre[0, 1]))
 
 
 @dataclass(frozen=True, eq=False)
@@ -119,6 +163,7 @@ class GaugeReader:
     mesh: object
     gauge: GaugeGeometry
     calibration: float
+    context: ReadingContext = ReadingContext()
 
     def zero(self, u: np.ndarray) -> None:
         """Keep what every registered reading needs of the onset state ``u``."""
@@ -127,5 +172,6 @@ class GaugeReader:
     def read(self, u: np.ndarray) -> dict[str, float]:
         """Every registered reading (:data:`GAUGE_READINGS`, in its order) of ``u`` relative to onset, times the
         calibration factor."""
-        return {n: self.calibration * r.relative(r.state(self.mesh, u, self.gauge), self._onset[n], self.gauge)
+        return {n: self.calibration * r.relative(r.state(self.mesh, u, self.gauge), self._onset[n], self.gauge,
+                                                 self.context)
                 for n, r in GAUGE_READINGS.items()}

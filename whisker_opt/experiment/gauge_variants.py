@@ -2,7 +2,8 @@
 
 Each reading is a module of :mod:`whisker_opt.experiment.readings` with a ``NAME``, a one-line
 ``DESCRIPTION``, ``state(mesh, u, gauge)`` (what it needs of one displacement: stretches, a strain) and
-``relative(now, onset, gauge) -> float`` (the uncalibrated reading of a state relative to contact onset).
+``relative(now, onset, gauge, context) -> float`` (the uncalibrated reading of a state relative to contact onset;
+``context`` a :class:`whisker_opt.experiment.gauge.ReadingContext`, what the reading may know of its scene).
 :class:`whisker_opt.experiment.gauge.GaugeReader` reads every registered reading; the scene's result
 (:attr:`whisker_opt.experiment.scene.SceneResult.eps`), the evaluation's outcome and its measures
 (:mod:`whisker_opt.experiment.measures`) and ``scene.gauge_variant`` follow this registry. The reading modules
@@ -29,9 +30,9 @@ class GaugeReading:
 
 
 def _registry() -> dict[str, GaugeReading]:
-    from whisker_opt.experiment.readings import centroid, line
+    from whisker_opt.experiment.readings import centroid, line, section
 
-    return {m.NAME: GaugeReading(m.NAME, m.DESCRIPTION, m.state, m.relative) for m in (line, centroid)}
+    return {m.NAME: GaugeReading(m.NAME, m.DESCRIPTION, m.state, m.relative) for m in (line, centroid, section)}
 
 
 #: The gauge readings, by name, in the order a reader returns them (read-only).

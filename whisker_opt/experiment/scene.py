@@ -35,6 +35,7 @@ Only gauge quantities are evaluated per increment; full states are kept only whe
 
 from __future__ import annotations
 
+import math
 import contextlib
 import logging
 import time
@@ -53,7 +54,7 @@ from geometry.design import WhiskerDesign
 from geometry.fibre_field import smeared_fibres
 from geometry.mesh import MeshSizing, WhiskerMesh, build_mesh
 from whisker_opt.experiment.contact import Contact, contact_band, place_contact_ring
-from whisker_opt.experiment.gauge import GaugedMesh, GaugeReader
+from whisker_opt.experiment.gauge import GaugedMesh, GaugeReader, ReadingContext
 from whisker_opt.experiment.gauge_variants import GAUGE_VARIANTS
 from whisker_opt.experiment.spec import SceneSpec, cap_elements, rubber_material
 from whisker_opt.wall.law import apply_law, chamber_elements, mid_chamber_x
@@ -447,6 +448,17 @@ def contact_reactions(problem: Problem, state: State, pressures: tuple, band: np
     return np.concatenate([[-Ru[band, 1].sum()], Ru[base].sum(axis=0)])
 
 
+def reading_context(spec: SceneSpec) -> ReadingContext:
+    """What the gauge readings know of ``spec``: the wall cell's transfer G(Q) at its pressure and wall
+    (:meth:`whisker_opt.wall.law.WallLaw.gauge_transfer`; NaN outside the wall table, where the ``section``
+    reading is then NaN)."""
+    try:
+        return ReadingContext(spec.law.gauge_transfer(spec.Q, spec.design))
+    except ValueError as exc:
+        logger.debug("section reading unavailable: %s", exc)
+        return ReadingContext(math.nan)
+
+
 def deflect_and_read(spec: SceneSpec, gm: GaugedMesh, pre: Pressurised, contact: Contact) -> Deflection:
     """Step 2: push the contact band by ``spec.deflection`` in −y, reading the gauge.
 
@@ -457,7 +469,7 @@ def deflect_and_read(spec: SceneSpec, gm: GaugedMesh, pre: Pressurised, contact:
     stiffness about the pressurised state (:func:`whisker_opt.wall.law.apply_law`).
     """
     wm, u1 = gm.wm, pre.state.u
-    reader = GaugeReader(wm.mesh, gm.gauge, spec.calibration)
+    reader = GaugeReader(wm.mesh, gm.gauge, spec.calibration, reading_context(spec))
     band = contact_band(wm, u1, contact.x(wm, u1), spec.band_width, contact.at_tip)
     # same mesh, faces and fibres: replace() shares the topology cache (sparsity
     # pattern, PARDISO analysis) with the pressurise problem

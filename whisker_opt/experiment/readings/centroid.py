@@ -27,6 +27,6 @@ def state(mesh, u: np.ndarray, gauge) -> float:
     return float(ln_v[0, 0])
 
 
-def relative(now: float, onset: float, gauge) -> float:
+def relative(now: float, onset: float, gauge, context=None) -> float:
     """The uncalibrated reading: the axial log strain ``now`` less that at ``onset``."""
     return now - onset

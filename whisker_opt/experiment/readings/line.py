@@ -27,6 +27,6 @@ def state(mesh, u: np.ndarray, gauge) -> np.ndarray:
     return np.linalg.norm(F @ gauge.tangent, axis=1)  # (n,)
 
 
-def relative(now: np.ndarray, onset: np.ndarray, gauge) -> float:
+def relative(now: np.ndarray, onset: np.ndarray, gauge, context=None) -> float:
     """Σ_k w_k ln(λ_k / λ_k⁰): the uncalibrated reading of the stretches ``now`` relative to those at ``onset``."""
     return float(gauge.weights @ np.log(now / onset))
