@@ -112,9 +112,8 @@ def locate_gauge(wm: WhiskerMesh, design: WhiskerDesign, n: int = 16) -> GaugeGe
 
     ``n`` Gauss–Legendre points along the gauge: the axial strain is piecewise
     polynomial and discontinuous across the elements the gauge crosses, so few points
-    integrate it poorly. Measured on the default design (Q = 0, δ = 5 mm, swept meshes
-    of 1128–9648 elements): 4 points differ from 64 by up to 0.46 % of the reading,
-    16 points by at most 0.05 %.
+    integrate it poorly; 16 points read as 64 do to a small fraction of the mesh's own error
+    (``benchmarks/results/gauge_readings.md``, "Gauss points along the gauge").
     """
     pts, w, tangent = gauge_points(design.x_ss, design.e, design.r_outer, design.alpha, n)
     centre = np.array([[design.x_ss + 0.5 * design.e, design.r_outer(design.x_ss + 0.5 * design.e), 0.0]])
