@@ -66,6 +66,25 @@ def test_curve_measures_scalars():
         comp.curve_measures(o, b, c, "max")
 
 
+def test_recovery_below_the_resolution_shows_the_gaps_not_a_percentage():
+    o = np.array([1.0, 2.0, 3.0])
+    b = o + 0.001  # the trim moves the reading by 1e-3
+    c = o + 0.031  # the vent by 3.1e-2: a rate of (1 − 31)·100 = −3000 %
+    rec = comp.recovery(o, b, c, "mean", resolution=2e-3)
+    assert rec.trim_effect == pytest.approx(1e-3) and rec.vent_gap == pytest.approx(0.031)
+    assert rec.rate == pytest.approx(-3000.0) and not rec.resolved and np.isnan(rec.shown_rate)
+    assert rec.text() == "trim effect below resolution (0.001 < 0.002), vent gap 0.031"
+    assert not rec.restores(50.0)  # what venting leaves exceeds the resolution
+    assert comp.recovery(o, b, o + 0.0015, "mean", resolution=2e-3).restores(50.0)  # left within it
+    # at or above the resolution the rate is the measure, as curve_measures gives it
+    ok = comp.recovery(o, o + 0.004, o + 0.001, "mean", resolution=2e-3)
+    assert ok.resolved and ok.shown_rate == pytest.approx(75.0) and ok.text() == "recovery 75.0 %"
+    assert ok.rate == pytest.approx(comp.curve_measures(o, o + 0.004, o + 0.001, "mean")[0])
+    assert ok.restores(50.0) and not ok.restores(80.0)
+    # no resolution known: every rate is shown
+    assert comp.recovery(o, b, c, "gap").resolved and comp.recovery(o, b, c, "gap").text() == "recovery -3000.0 %"
+
+
 # ----------------------------------------------------------------------------- analytic
 def test_analytic_compensation_default_design():
     """Default design intact at Q_i = 0.2, trimmed by 5 mm: a root in (0, Q_i) matching the target."""
