@@ -296,10 +296,26 @@ def test_compensate_command_writes_table_and_comparison(tmp_path, monkeypatch, c
         assert float(r["stiffness_o_N_per_mm"]) > 0 and len(c["force_o_N"]) == len(meta["deltas_mm"])
     cmp = list(csv.DictReader((out / "sensitivity_comparison.csv").open()))
     assert len(cmp) == 4 and max(abs(float(r["rel_diff"])) for r in cmp) < 1e-12
+    # the terminal shows a short table with units (the CSV's columns stay in the file): a line per trim
+    said = capsys.readouterr().out
+    printed = said.splitlines()
+    k = next(i for i, ln in enumerate(printed) if ln.split() and ln.split()[0] == "trim")
+    assert printed[k].split("  ")[0:1] == ["trim [mm]"] and "Q [MPa]" in printed[k] and "recovery [%]" in printed[k]
+    assert "(calibrated strain)" in printed[k + 1]
+    assert not any("stiffness_o_N_per_mm" in ln or "eps_o_mean" in ln for ln in printed)
+    for line, r in zip(printed[k + 2:k + 5], rows):
+        cells = line.split()
+        assert [float(cells[0]), float(cells[1]), float(cells[2])] == pytest.approx(
+            [float(r["trim_mm"]), float(r["Q_MPa"]), float(r["Q_analytic_MPa"])], abs=1e-4)
+        if float(r["trim_mm"]) > 0:  # the mean scalar's rate, as in the CSV (its trim effect is resolved here)
+            assert float(cells[3]) == pytest.approx(float(r["recovery_rate_pct"]), abs=0.06)
+            assert float(cells[4]) == pytest.approx(abs(float(r["eps_b_mean"]) - float(r["eps_o_mean"])), rel=1e-2)
+        else:
+            assert cells[3] == "-" and line.endswith("intact: nothing to recover")
     # off-tip contact: the scene is asked for a = 0.5 at each Q (it places the ring itself)
     off = [s for s in _FakeRunner.specs if s.contact_ratio < 1.0]
     assert {(s.contact_ratio, s.Q) for s in off} == {(0.5, 0.0), (0.5, 0.2)}
-    assert "max |relative difference| = 0.0%" in capsys.readouterr().out
+    assert "max |relative difference| = 0.0%" in said
 
 
 def test_scene_sensitivity_off_tip_contact_coarse_fe():
