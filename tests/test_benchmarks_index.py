@@ -122,3 +122,14 @@ def test_no_doc_holds_a_control_character():
            if CONTROL.search(line)]
     assert bad == [], f"control characters in the docs: {bad}"
     assert CONTROL.search("c\\,\x08ar W") and not CONTROL.search("c\\,\\bar W")
+
+
+def test_the_readme_names_every_fidelity_preset_in_order_of_cost():
+    """``--preset a|b|...`` and the fidelity section list :data:`PRESET_NAMES`, cheapest first."""
+    from whisker_opt.experiment.fidelity import PRESET_NAMES
+
+    readme = (ROOT / "README.md").read_text()
+    assert f"`--preset {'|'.join(PRESET_NAMES)}`" in readme
+    section = readme.split("## Fidelity and how far to trust f1", 1)[1].split("\n## ", 1)[0]
+    named = re.findall(r"`(\w+)`", section.split("One evaluation", 1)[0])
+    assert [n for n in named if n in PRESET_NAMES][:len(PRESET_NAMES)] == list(PRESET_NAMES)
