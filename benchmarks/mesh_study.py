@@ -117,7 +117,7 @@ def evaluate(design_name: str, cfg: Config) -> dict:
     return {"design": design_name, "config": cfg.name, "family": cfg.family, "level": cfg.level,
             "n_elements": n_el, "time_s": wall, "time_intact_s": t_intact,
             "iterations": sum(s["iterations"] for s in stats), "increments": sum(s["increments"] for s in stats),
-            "delta_l": results["intact"].delta_l, "eps5": float(results["intact"].eps_line[-1]), "f1": f1}
+            "delta_l": results["intact"].delta_l, "eps5": float(results["intact"].eps["line"][-1]), "f1": f1}
 
 
 ERR_FLOOR = 1e-9  # errors below this (the reference level itself) are drawn at the floor

@@ -59,7 +59,7 @@ def measure(design_name: str, level: int, fibre_model: str = "embedded") -> dict
         cur = {}
         for k, s in specs.items():
             r = res[k]
-            y = {"line": r.eps_line, "centroid": r.eps_centroid}.get(var)
+            y = r.eps.get(var)
             cur[k] = _curve(r.delta, chord_reading(r, s.design, s.calibration) if y is None else y, delta)
         row.update({f"f1_{var}": objective.f1(cur["i"], cur["c"]), f"eps_i_{var}": float(cur["i"][-1]),
                     f"eps_c_{var}": float(cur["c"][-1])})

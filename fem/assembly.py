@@ -200,8 +200,9 @@ class Assembler:
     def deformation(self, u: np.ndarray):
         """F, J, G = F⁻¹ at every quadrature point; raises InvertedElements if J ≤ 0."""
         ue = u[self.topo.cells]  # (n_el, 10, 3)
-        # F_iJ = δ_iJ + Σ_a u_ai dN_aJ as a batched (3×10)·(10×3) product: 6-12× faster than
-        # the equivalent einsum "eai,eqaJ->eqiJ" (numpy's unoptimised einsum loops)
+        # F_iJ = δ_iJ + Σ_a u_ai dN_aJ as a batched (3×10)·(10×3) product: several times faster than
+        # the equivalent einsum "eai,eqaJ->eqiJ" (numpy's unoptimised einsum loops; the figure:
+        # benchmarks/results/bench_fem.md, "Figures moved from the FE core's docstrings and comments")
         F = np.matmul(np.swapaxes(ue, 1, 2)[:, None], self.topo.dNdX)  # (n_el, n_qp, 3, 3)
         F[..., 0, 0] += 1.0
         F[..., 1, 1] += 1.0

@@ -3,10 +3,10 @@ and adds it straight into the sparse tangent's data.
 
 Why compiled: the vectorised numpy tangent (:meth:`fem.assembly.Assembler.evaluate`)
 materialises the (n_el, 30, 30) element matrices plus (n_el, n_terms·n_qp, 30) factors and
-scatters them with ``np.bincount``; at 12k elements that is ~0.3 GB of memory traffic per
-tangent, 0.25–0.44 s, and assembly was 54–70 % of a modified-Newton iteration in
-``benchmarks/performance/bench_fem.py`` (our solve 2.9×/4.1× CalculiX's at 10k/30k DOFs
-against a 5× target). This kernel computes the same sums per element and quadrature
+scatters them with ``np.bincount``: memory traffic that made assembly the larger part of a
+modified-Newton iteration in ``benchmarks/performance/bench_fem.py`` and kept our solve short of
+its 5× target against CalculiX (the figures before and after: ``benchmarks/results/bench_fem.md``).
+This kernel computes the same sums per element and quadrature
 point with no temporaries. The numpy path stays the reference implementation and the
 fallback when numba is missing; ``tests/test_fem_jit.py`` checks the two agree to
 round-off.

@@ -1,10 +1,10 @@
 """Sparse direct solvers for the (non-symmetric, indefinite) Newton systems.
 
 ``pardiso`` (Intel MKL PARDISO via pypardiso, real non-symmetric, mtype 11) is the
-default: measured 0.77 / 4.3 / 26 s per factorisation at 19k / 58k / 146k P2 DOFs on
-this machine kind, against 9.9 / 154 s for SuperLU (see
-``benchmarks/performance/bench_fem.py``). The symbolic analysis (reordering, phase 11) is done
-once per sparsity pattern and reused by every numerical factorisation (phase 22).
+default, several times faster per factorisation than SuperLU and more so on larger meshes
+(``benchmarks/performance/bench_fem.py``; the figures: ``benchmarks/results/bench_fem.md``,
+"Figures moved from the FE core's docstrings and comments"). The symbolic analysis (reordering,
+phase 11) is done once per sparsity pattern and reused by every numerical factorisation (phase 22).
 The saddle-point systems of the mixed u–p formulation have zero diagonal blocks when
 D1 = 0; PARDISO handles them with weighted matching (2×2 pivots), falling back to
 pivot perturbation, and each solve is followed by iterative refinement on the true
@@ -82,10 +82,10 @@ class PardisoSolver:
 
     * ``matching``: weighted matching (iparm(13)=1), which pairs each zero-diagonal
       pressure unknown of the mixed u–p system with a displacement unknown into a
-      2×2 pivot. On the whisker scene's D1 = 0 tangent (15.5k DOFs) it perturbs no
-      pivot and the first solve is accurate to 1e-10, against 2662 perturbed pivots
-      and 4 refinement sweeps without matching: 0.11 s + 6 ms per solve instead of
-      0.07–0.1 s + 70 ms (measured 2026-11-23, ``benchmarks/performance/bench_fem.py``).
+      2×2 pivot. On the whisker scene's D1 = 0 tangent it perturbs no pivot and the
+      first solve is accurate, where without matching thousands of pivots are perturbed
+      and every solve needs refinement sweeps (the figures: ``benchmarks/results/bench_fem.md``,
+      "Figures moved from the FE core's docstrings and comments").
     * ``perturb``: no matching, pivot perturbation 1e-8 (iparm(10)=8). Matching gave
       useless factors on some clamped D1 = 0 meshes (Cook, cantilever: residuals up to
       1e32 in the solver verification) where this strategy converges in ≤ 4 sweeps.
@@ -147,7 +147,7 @@ class PardisoSolver:
 
     @staticmethod
     def _same_pattern(A: sp.csr_matrix, indptr: np.ndarray, indices: np.ndarray) -> bool:
-        """Exact structure comparison (O(nnz), ~1 ms at 1e6 entries; scipy copies index arrays, so ids lie)."""
+        """Exact structure comparison (O(nnz); scipy copies index arrays, so ids lie)."""
         return (A.indptr.shape == indptr.shape and A.indices.shape == indices.shape
                 and np.array_equal(A.indptr, indptr) and np.array_equal(A.indices, indices))
 
@@ -283,8 +283,8 @@ class PardisoSolver:
 
     def __del__(self) -> None:
         # MKL keeps the factors in its own memory, which pypardiso never frees on garbage
-        # collection: without this, every scene leaked its factorisation (GA workers
-        # reached 6.3 GB after ~130 evaluations, measured 2026-11-23).
+        # collection: without this, every scene leaked its factorisation (the GA workers'
+        # growth: benchmarks/results/bench_case.md, the first attempt at case 1).
         try:
             self.release()
         except Exception:  # pragma: no cover - interpreter shutdown
@@ -296,7 +296,8 @@ def _mkl_rt_name() -> str | None:
     """Path of the MKL runtime for pypardiso, found once per process.
 
     pypardiso searches ``sys.prefix`` recursively when ``find_library`` fails, and does
-    so at import (it builds a module-level solver): ~1.2 s per process here. The pip
+    so at import (it builds a module-level solver), a second or so per process
+    (``benchmarks/results/bench_fem.md``, "Figures moved from the FE core's docstrings and comments"). The pip
     layout (``<prefix>/lib/libmkl_rt.so*``) is tried first, non-recursively, and
     exported as pypardiso's documented ``PYPARDISO_MKL_RT`` (unless the user set it)
     so the import skips the search.

@@ -73,7 +73,9 @@ class PressureKernel:
         """
         xf = x[self.faces]  # (n_f, 6, 3)
         # contractions over the face nodes/points as (broadcast) matrix products, which
-        # numpy runs 10-50× faster than the equivalent multi-operand einsums
+        # numpy runs an order of magnitude faster than the equivalent multi-operand einsums
+        # (the figure: benchmarks/results/bench_fem.md, "Figures moved from the FE core's docstrings
+        # and comments")
         t1 = np.matmul(self.dN[:, :, 0], xf)  # (n_f, n_qp, 3)  Σ_a dN_a,1 x_a
         t2 = np.matmul(self.dN[:, :, 1], xf)  # (n_f, n_qp, 3)
         nda = np.cross(t1, t2)  # (n_f, n_qp, 3)

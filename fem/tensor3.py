@@ -1,8 +1,9 @@
 """Closed-form determinant and inverse of stacks of 3×3 matrices.
 
 ``numpy.linalg.det``/``inv`` call LAPACK once per matrix; for the ~10⁴ deformation
-gradients of an assembly the cofactor formulas below are ~10× faster (21 ms → 2 ms
-for 10 656 matrices, measured 2026-11-23) and agree to round-off.
+gradients of an assembly the cofactor formulas below are an order of magnitude faster
+and agree to round-off (the timing: ``benchmarks/results/bench_fem.md``, "Figures moved from the FE
+core's docstrings and comments").
 """
 
 from __future__ import annotations

@@ -66,6 +66,10 @@ class MeshSizing:
     n_theta : int
         Swept mesher (:mod:`geometry.swept`): angular sectors of the cross-section
         (even, >= 6). Unused by fTetWild.
+    theta_grading : float
+        Swept mesher: the sectors narrowed towards the gauge's side of the section by ``1 − theta_grading``
+        and widened on the far side by ``1 + theta_grading`` (:func:`geometry.swept.graded_angles`), in
+        [0, 0.9]; 0 (equal sectors) leaves the sizing's key as it was without the field.
     axial_pitch_fraction : float
         Swept mesher: axial layer size in the chamber as a fraction of the fibre pitch,
         ``dz = axial_pitch_fraction * design.fibre_pitch``.
@@ -86,6 +90,7 @@ class MeshSizing:
     h_body: float = 10.0
     grading: float = 0.5
     n_theta: int = 8
+    theta_grading: float = 0.0
     axial_pitch_fraction: float = 0.5
     contact_fractions: tuple = (0.5, 0.75)
     epsilon: float = 1e-3
@@ -99,6 +104,7 @@ class MeshSizing:
             ("grading", self.grading, 0.0, 10.0),
             ("epsilon", self.epsilon, 1e-5, 1e-2),
             ("axial_pitch_fraction", self.axial_pitch_fraction, 0.02, 5.0),
+            ("theta_grading", self.theta_grading, 0.0, 0.9),
         ]
         fr = self.contact_fractions
         if not isinstance(fr, tuple):  # e.g. a list from JSON: keep the dataclass hashable
@@ -137,7 +143,11 @@ class MeshSizing:
 
     # ------------------------------------------------------------------ identity
     def as_dict(self) -> dict:
-        return dataclasses.asdict(self)
+        """The fields by name; ``theta_grading`` only when not 0, so that keys of equal sectors are unchanged."""
+        out = dataclasses.asdict(self)
+        if not out["theta_grading"]:
+            del out["theta_grading"]
+        return out
 
     def key(self) -> str:
         """Stable hex digest of all fields (16 chars)."""

@@ -73,8 +73,24 @@ class CrossSection:
     core: np.ndarray
 
 
-def cross_section(n_theta: int, n_wall: int) -> CrossSection:
-    """The unit cross-section with ``n_theta`` sectors and ``n_wall`` wall layers."""
+def graded_angles(theta: np.ndarray, grading: float) -> np.ndarray:
+    """Node angles moved towards the gauge side: ``θ' = θ − β sin θ`` (θ from +y, β = ``grading``).
+
+    The map is monotone and odd for 0 <= β < 1, keeps the node lines at θ = 0 (the gauge's generator) and
+    θ = π, and scales the angular spacing by ``dθ'/dθ = 1 − β cos θ``: sectors (1 − β) times the uniform ones
+    at the gauge and (1 + β) times on the far side, with their number unchanged.
+    """
+    return theta - grading * np.sin(theta)
+
+
+def cross_section(n_theta: int, n_wall: int, grading: float = 0.0) -> CrossSection:
+    """The unit cross-section with ``n_theta`` sectors and ``n_wall`` wall layers.
+
+    ``grading`` (β in [0, 0.9]) narrows the sectors at the gauge side (θ = 0) by the factor 1 − β
+    (:func:`graded_angles`); 0 gives equal sectors.
+    """
+    if not 0.0 <= grading <= 0.9:
+        raise ValueError(f"cross_section: grading={grading!r} outside the allowed range [0, 0.9]")
     if n_theta < 6 or n_theta % 2:
         raise ValueError(f"cross_section: n_theta={n_theta} must be even and >= 6")
     if n_wall < 1:
@@ -130,7 +146,7 @@ def cross_section(n_theta: int, n_wall: int) -> CrossSection:
             core.extend([False, False])
         prev = ring
     return CrossSection(
-        np.asarray(theta, float), np.asarray(a, float), np.asarray(b, float),
+        graded_angles(np.asarray(theta, float), grading), np.asarray(a, float), np.asarray(b, float),
         np.asarray(tris, np.int64), np.asarray(core, bool),
     )
 
@@ -222,6 +238,7 @@ def swept_mesh(
     n_theta: int,
     n_wall: int,
     stations: np.ndarray,
+    grading: float = 0.0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Linear swept tet mesh (vertices on the exact surfaces, polygonal in theta).
 
@@ -232,6 +249,8 @@ def swept_mesh(
         Sectors and wall layers of the cross-section.
     stations : ndarray, shape (n_z + 1,)
         Axial node positions from 0 to ``design.length`` (must contain c and l).
+    grading : float
+        Sectors narrowed towards the gauge side (:func:`cross_section`).
 
     Returns
     -------
@@ -239,7 +258,7 @@ def swept_mesh(
     tets : ndarray, shape (m, 4) int64, positively oriented
     """
     d = design
-    cs = cross_section(n_theta, n_wall)
+    cs = cross_section(n_theta, n_wall, grading)
     xs = np.asarray(stations, float)
     n2, nz = len(cs.theta), len(xs) - 1
     # points: station-major
@@ -293,7 +312,7 @@ def build_swept(design: WhiskerDesign, sizing) -> tuple[np.ndarray, np.ndarray]:
     absolute ``h_wall``), ``n_theta`` sectors, axial layers from ``h_cap``,
     ``axial_pitch_fraction * fibre_pitch``, ``h_body``, ``grading`` and
     ``radius_factor = min(1.5, 3 / n_wall)``
-    (module docstring).
+    (module docstring), the sectors graded towards the gauge by ``theta_grading``.
     """
     hw = sizing.wall_size(design)
     n_wall = max(1, round(design.t / hw))
@@ -301,4 +320,4 @@ def build_swept(design: WhiskerDesign, sizing) -> tuple[np.ndarray, np.ndarray]:
         design, sizing.cap_size(design), sizing.axial_pitch_fraction * design.fibre_pitch, sizing.h_body, sizing.grading,
         radius_factor=min(1.5, 3.0 / n_wall), contact_fractions=tuple(sizing.contact_fractions),
     )
-    return swept_mesh(design, int(sizing.n_theta), n_wall, st)
+    return swept_mesh(design, int(sizing.n_theta), n_wall, st, float(sizing.theta_grading))

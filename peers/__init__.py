@@ -1,1 +1,1 @@
-"""Independent codes the solver is checked against."""
+"""Independent codes the solver and the wall cell are checked against (tests and benchmarks only)."""

@@ -242,7 +242,7 @@ def test_n1_bending_of_a_pressurised_tube_matches_the_3d_solver():
     """A rubber tube of the chamber wall's size under Q = 0.05 MPa and its closed-end thrust, bent by rotating
     its end plane: EI from the n = 1 harmonic against the 3-D P2 solver's central difference of the moment
     work-conjugate to the rotation (the 3-D mesh's own error is about 0.1 %, measured by refining it)."""
-    from benchmarks import wall_cell3d as fc
+    from peers import wall_cell3d as fc
 
     cell = fc.Cell.default()
     Q = 0.05

@@ -147,3 +147,52 @@ def test_swept_counts_scale_with_the_section():
     nz = len(st) - 1
     for n, cs in ((n12, cs12), (n16, cs16)):
         assert n == 3 * (len(cs.tris) * nz - cs.core.sum() * n_cav)
+
+
+@pytest.mark.parametrize("beta", [0.3, 0.7])
+def test_graded_section_narrows_the_sectors_at_the_gauge_and_tiles_the_disc(beta):
+    """Grading moves the nodes towards θ = 0 by θ' = θ − β sin θ: the sector at the gauge is (1 − β)·2π/n
+    to first order, the far one (1 + β)·2π/n, the node lines at θ = 0 and π stay, and the triangles still tile
+    the polygon through the moved outer nodes."""
+    n = 16
+    cs, cs0 = cross_section(n, 2, grading=beta), cross_section(n, 2)
+    assert np.array_equal(cs.tris, cs0.tris) and np.array_equal(cs.a, cs0.a)
+    outer = np.flatnonzero(cs.b == 1.0)
+    th = np.sort(np.mod(cs.theta[outer], 2 * math.pi))
+    assert th[0] == 0.0 and th[n // 2] == pytest.approx(math.pi, abs=1e-15)
+    h = 2 * math.pi / n
+    assert th[1] == pytest.approx(h - beta * math.sin(h), rel=1e-14)  # exact map of the first node
+    assert th[1] / h == pytest.approx(1 - beta, abs=0.02)
+    far = th[n // 2 + 1] - th[n // 2]
+    assert far / h == pytest.approx(1 + beta, abs=0.02)
+    r = cs.a * 1.0 + cs.b * 2.0
+    P = np.stack([r * np.cos(cs.theta), r * np.sin(cs.theta)], axis=1)
+    a, b, c = (P[cs.tris[:, k]] for k in range(3))
+    area2 = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    assert (area2 > 0).all()
+    ring = np.sort(np.mod(cs.theta[outer], 2 * math.pi))
+    poly = 0.5 * 4.0 * np.sum(np.sin(np.diff(np.append(ring, 2 * math.pi))))  # polygon through the outer nodes
+    assert 0.5 * area2.sum() == pytest.approx(poly, rel=1e-12)
+
+
+def test_graded_swept_mesh_is_valid_and_equal_sectors_keep_their_keys():
+    d = WhiskerDesign()
+    graded = MeshSizing(n_theta=8, theta_grading=0.5, name="graded")
+    pts, tets = build_swept(d, graded)
+    pts0, tets0 = build_swept(d, MeshSizing(n_theta=8))
+    assert pts.shape == pts0.shape and np.array_equal(tets, tets0)
+    assert (signed_volumes_linear(pts, tets) > 0).all()
+    # the gauge generator (θ = 0: +y, z = 0) keeps its node line on the outer surface
+    on_gen = (np.abs(pts[:, 2]) < 1e-12) & (pts[:, 1] > 0)
+    assert np.allclose(pts[on_gen & (pts[:, 1] > 0.99 * d.r_outer(pts[:, 0]))][:, 1],
+                       d.r_outer(pts[on_gen & (pts[:, 1] > 0.99 * d.r_outer(pts[:, 0]))][:, 0]))
+    # the quadratic arcs' volume error per sector grows as its width^5: Σ w_k^5 / (n h^5) times the equal sectors'
+    r, r0 = (build_mesh(d, sz, method="swept").report for sz in (graded, MeshSizing(n_theta=8)))
+    th = 2 * math.pi * np.arange(9) / 8
+    w = np.diff(th - 0.5 * np.sin(th))
+    assert r.volume_error / r0.volume_error == pytest.approx(np.sum(w**5) / (8 * (2 * math.pi / 8) ** 5), rel=0.05)
+    assert r.jacobian_ratio_min > 0.4
+    assert MeshSizing(n_theta=8).key() == MeshSizing(n_theta=8, theta_grading=0.0).key()
+    assert "theta_grading" not in MeshSizing().as_dict() and graded.key() != MeshSizing(n_theta=8, name="graded").key()
+    with pytest.raises(ValueError, match="theta_grading"):
+        MeshSizing(theta_grading=0.95)

@@ -63,7 +63,7 @@ def test_each_measure_against_the_scenes(evaluated):
     assert 0.0 < peak < 10.0  # MPa: a soft rubber deflected by 5 mm
     for v in GAUGE_VARIANTS:
         for s, letter in (("intact", "i"), ("trimmed", "c")):
-            solved = {"line": scenes[s].eps_line, "centroid": scenes[s].eps_centroid}[v]
+            solved = scenes[s].eps[v]
             assert measure(f"eps_{letter}_{v}")(out) == pytest.approx(solved[-1], rel=1e-9)
     assert measure("eps_c_line")(out) == pytest.approx(eps_c[-1], rel=1e-9)  # the run's gauge_variant is line
 

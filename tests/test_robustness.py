@@ -206,13 +206,29 @@ class _Analytic:
 def _robust(method: str, k: float, n: int = 16):
     from whisker_opt import wiring
     from whisker_opt.config.model import WhiskerConfig
+    from whisker_opt.optimise.aggregate import AggregateEvaluator, FabricationVariants
 
     cfg = WhiskerConfig.model_validate({"optimiser": {"robust": {"k": k, "method": method}},
                                         "robustness": {"sample": {"n": n, "seed": 4}}, "fidelity": {"preset": "coarse"}})
     real = wiring.evaluator(cfg)
-    assert isinstance(real, wiring.RobustEvaluator)
+    assert isinstance(real, AggregateEvaluator) and isinstance(real.variants, FabricationVariants)
+    assert (real.reduction, real.label, real.k) == ("mean_plus_k_std", "robust", k)
     assert real.samples().shape == (500,)  # the wrapped evaluator's, as finish_best reads them
-    return cfg, replace(real, inner=_Analytic(real.base_spec))
+    return cfg, replace(real, nominal=_Analytic(real.base_spec))
+
+
+def _sample_f1(ev, genes):
+    """f1 of the stand-in at each point of the sample, each design deviated independently here."""
+    values = []
+    for x in ev.variants.points:
+        dev = dict(zip(("alpha", "l", "t", "fibre_radius", "C10", "calibration"), x))
+        g = {**genes, "alpha": genes["alpha"] + dev["alpha"], "l": genes["l"] + dev["l"], "t": genes["t"] + dev["t"]}
+        spec = ev.base_spec
+        d = replace(spec.design, fibre_radius_frac=spec.design.fibre_radius_frac + dev["fibre_radius"] / genes["t"])
+        spec = replace(spec, design=d, c10=spec.c10 * (1 + dev["C10"] / 100),
+                       calibration=spec.calibration + dev["calibration"])
+        values.append(_Analytic(spec)(g).f1)
+    return np.array(values)
 
 
 def test_robust_objective_of_the_expansion_is_the_closed_form():
@@ -225,30 +241,25 @@ def test_robust_objective_of_the_expansion_is_the_closed_form():
     # d f1 / d deviation, in the deviation's unit: genes direct, fibre mm -> frac / t, C10 % -> C10/100, ξ: f1/ξ
     slopes = np.array([2e-3, -1e-3, 4e-3, 3e-3 / 2.6, 0.02 * c10 / 100.0, f0 / ev.base_spec.calibration])
     std = math.sqrt(np.sum((slopes * sigma) ** 2))
-    assert out.ok and out.extra["f1_nominal"] == pytest.approx(f0, rel=1e-12)
-    assert out.extra["f1_std"] == pytest.approx(std, rel=1e-9)
-    assert out.f1 == pytest.approx(f0 + 1.5 * std, rel=1e-9)
-    assert out.extra["robust_objective"] == out.f1
-    assert "robust objective" in out.reason and "nominal f1" in out.reason
-    assert out.extra["robust_evaluations"] == 11  # nominal + 2 per parameter but ξ, which needs no solve
+    assert out.ok and out.f1 == f0  # f1 is the nominal design's
+    assert out.measures["f1_std"] == pytest.approx(std, rel=1e-9)
+    assert out.measures["f1_mean"] == f0  # the expansion's mean is f(x0)
+    assert out.measures["f1_robust"] == pytest.approx(f0 + 1.5 * std, rel=1e-9)
+    assert out.measures["delta_l_robust"] == 1.0  # every measure is aggregated: Δl is 1 at every variant
+    assert out.reason.startswith("f1_robust = mean_plus_k_std of f1") and f"f1 (nominal) = {f0:.6g}" in out.reason
+    assert out.extra["variant_evaluations"] == 11  # nominal + 2 per parameter but ξ, which needs no solve
 
 
 def test_robust_objective_of_the_sample_is_mean_plus_k_std_of_the_wrapped_function():
     _, ev = _robust("sample", 2.0, n=12)
     genes = {"alpha": 3.0, "l": 12.0, "t": 3.0, "Q_i": 0.1}
-    values = []
-    for x in ev.points:  # the wrapped function at each point, deviated independently here
-        dev = dict(zip(("alpha", "l", "t", "fibre_radius", "C10", "calibration"), x))
-        g = {**genes, "alpha": genes["alpha"] + dev["alpha"], "l": genes["l"] + dev["l"], "t": genes["t"] + dev["t"]}
-        spec = ev.base_spec
-        d = replace(spec.design, fibre_radius_frac=spec.design.fibre_radius_frac + dev["fibre_radius"] / 3.0)
-        spec = replace(spec, design=d, c10=spec.c10 * (1 + dev["C10"] / 100),
-                              calibration=spec.calibration + dev["calibration"])
-        values.append(_Analytic(spec)(g).f1)
+    values = _sample_f1(ev, genes)
     out = ev(genes)
-    assert len(ev.points) == 12
-    assert out.f1 == pytest.approx(np.mean(values) + 2.0 * np.std(values, ddof=1), rel=1e-9)
-    assert out.extra["f1_mean"] == pytest.approx(np.mean(values), rel=1e-9)
+    assert len(values) == 12
+    assert out.f1 == _Analytic(ev.base_spec)(genes).f1
+    assert out.measures["f1_robust"] == pytest.approx(np.mean(values) + 2.0 * np.std(values, ddof=1), rel=1e-9)
+    assert out.measures["f1_mean"] == pytest.approx(np.mean(values), rel=1e-9)
+    np.testing.assert_allclose(out.extra["variant_f1"], values, rtol=1e-12)
 
 
 def test_the_robust_evaluator_pickles_for_the_process_executors():
@@ -257,29 +268,40 @@ def test_the_robust_evaluator_pickles_for_the_process_executors():
     _, ev = _robust("sample", 1.0, n=4)
     back = pickle.loads(pickle.dumps(ev))
     genes = {"alpha": 3.5, "l": 12.0, "t": 3.0, "Q_i": 0.1}
-    assert back == ev and back(genes).f1 == ev(genes).f1
+    assert back == ev
+    np.testing.assert_equal(back(genes).measures, ev(genes).measures)  # NaN where the stand-in has no reading
 
 
-def test_a_ga_run_records_the_robust_objective_and_the_nominal_f1(tmp_path):
+def test_a_ga_run_records_the_nominal_f1_and_the_robust_objective_beside_it(tmp_path):
+    from whisker_opt.optimise.penalty import dynamic_penalty, penalty_terms
     from whisker_opt.optimise.runner import run_optimisation
+    from whisker_opt.report import report
     from whisker_opt.output.storage import read_csv
 
-    cfg, ev = _robust("expansion", 1.0)
+    cfg, ev = _robust("sample", 1.0, n=6)
     opt = cfg.optimiser.model_copy(update={"ga": cfg.optimiser.ga.model_copy(update={"population": 4, "n_elite": 1}),
                                            "stopping": cfg.optimiser.stopping.model_copy(update={"max_generations": 1})})
     run_optimisation(opt, tmp_path / "run", ev, seed=1, progress=False)
     rows = [r for r in read_csv(tmp_path / "run" / "evaluations.csv") if r["status"] == "ok"]
-    assert rows
-    for r in rows:  # the f1 column holds the robust objective; the reason labels it and gives the nominal f1
+    assert rows and "f1_nominal" not in rows[0]
+    for r in rows:  # f1 is the nominal design's; f1_robust, the GA's objective, is mean + k·std of the variants' f1
         genes = {k: float(r[k]) for k in ("alpha", "l", "t", "Q_i")}
-        out = ev(genes)
-        assert float(r["f1"]) == out.f1 == out.extra["robust_objective"]
-        assert r["reason"].startswith("robust objective (expansion, k=1) in column f1")
-        assert f"nominal f1 = {out.extra['f1_nominal']:.6g}" in r["reason"]
-        assert float(r["f1"]) > out.extra["f1_nominal"]
-        # the nominal f1 and the moments have their own columns: f1 = mean + k·std
-        assert float(r["f1_nominal"]) == out.extra["f1_nominal"]
-        assert float(r["f1"]) == pytest.approx(float(r["f1_mean"]) + 1.0 * float(r["f1_std"]), rel=1e-12)
+        values = _sample_f1(ev, genes)
+        assert float(r["f1"]) == _Analytic(ev.base_spec)(genes).f1
+        assert float(r["f1_robust"]) == pytest.approx(np.mean(values) + 1.0 * np.std(values, ddof=1), rel=1e-9)
+        assert float(r["f1_mean"]) == pytest.approx(np.mean(values), rel=1e-9)
+        assert float(r["f1_std"]) == pytest.approx(np.std(values, ddof=1), rel=1e-9)
+        assert float(r["F_p"]) == pytest.approx(dynamic_penalty(float(r["f1_robust"]), genes, penalty_terms(opt))[1],
+                                                rel=1e-12)
+    best = json.loads((tmp_path / "run" / "best.json").read_text())
+    assert best["objective"] == "f1_robust"
+    first = best["best_designs"][0]
+    assert list(first)[list(first).index("f1") + 1] == "f1_robust"
+    assert best["f1_robust"] == first["f1_robust"] and best["f1"] == first["f1"]
+    gens = read_csv(tmp_path / "run" / "generations.csv")
+    assert float(gens[-1]["best_f1_robust"]) == best["f1_robust"] and float(gens[-1]["best_f1"]) == best["f1"]
+    text = report(tmp_path / "run")
+    assert f"  f1_robust  {best['f1_robust']:.6g} calibrated  (minimised; f1 is the nominal design's)" in text
 
 
 def test_without_the_robust_option_the_evaluator_is_the_plain_one():

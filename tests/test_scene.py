@@ -45,17 +45,17 @@ def test_gauge_zero_at_onset_and_sensitivity_rises_with_pressure(runner):
     """ε(0) = 0; at δ = 2 mm the reading at Q = 0.2 MPa exceeds that at Q = 0 (a = 1)."""
     e0 = runner.run(spec(Q=0.0, deflection=2.0))
     e2 = runner.run(spec(Q=0.2, deflection=2.0))
-    assert e0.eps_line[0] == 0.0 and e2.eps_line[0] == 0.0
-    print("eps(2 mm): Q=0", e0.eps_line[-1], "Q=0.2", e2.eps_line[-1])
-    assert e2.eps_line[-1] > e0.eps_line[-1] > 0
+    assert e0.eps["line"][0] == 0.0 and e2.eps["line"][0] == 0.0
+    print("eps(2 mm): Q=0", e0.eps["line"][-1], "Q=0.2", e2.eps["line"][-1])
+    assert e2.eps["line"][-1] > e0.eps["line"][-1] > 0
 
 
 def test_trimmed_whisker_reads_more_strain(runner):
     """At the same tip deflection, a 5 mm shorter whisker reads more strain (Q = 0)."""
     intact = runner.run(spec(Q=0.0, deflection=2.0))
     trimmed = runner.run(spec(design=WhiskerDesign(trim=5.0), Q=0.0, deflection=2.0))
-    print("eps(2 mm): intact", intact.eps_line[-1], "trimmed", trimmed.eps_line[-1])
-    assert trimmed.eps_line[-1] > 1.05 * intact.eps_line[-1]
+    print("eps(2 mm): intact", intact.eps["line"][-1], "trimmed", trimmed.eps["line"][-1])
+    assert trimmed.eps["line"][-1] > 1.05 * intact.eps["line"][-1]
 
 
 def test_small_deflection_against_beam_model(runner):
@@ -79,7 +79,7 @@ def test_small_deflection_against_beam_model(runner):
     force = R[: 3 * r.mesh.mesh.n_nodes].reshape(-1, 3)[r.mesh.node_sets["base"], 1].sum()
     model = BeamModel(E=6 * 0.14, calibration=3.9, soften_unpressurised=False)
     beam_force = 0.5 / deflection_at_contact(d, 1.0, 1.0, 0.0, model=model)
-    fe = r.eps_line[-1] / 0.5
+    fe = r.eps["line"][-1] / 0.5
     beam = sensitivity(d, a=1.0, Q=0.0, model=model)
     print(f"tip force FE {force:.5g} N, beam {beam_force:.5g} N (ratio {force / beam_force:.4f}); "
           f"gauge eps/delta FE {fe:.5g}, beam {beam:.5g} (ratio {fe / beam:.4f})")
@@ -90,7 +90,7 @@ def test_small_deflection_against_beam_model(runner):
 def test_curve_interpolation_and_input_errors(runner):
     """The curve passes through the solved points; out-of-range deflections are refused."""
     r = runner.run(spec(Q=0.0, deflection=2.0))
-    assert np.allclose(r.curve(r.delta), r.eps_line, atol=1e-14)
+    assert np.allclose(r.curve(r.delta), r.eps["line"], atol=1e-14)
     with pytest.raises(ValueError, match="deflections must lie"):
         r.curve(np.array([3.0]))
     with pytest.raises(ValueError, match="contact_ratio"):
@@ -145,7 +145,7 @@ def test_reading_rises_with_pressure_at_every_contact_ratio(runner):
     see the README for that measurement and why the thesis' device differs.
     """
     for a in (0.5, 0.75, 1.0):
-        e = [runner.run(spec(Q=Q, contact_ratio=a, deflection=1.0, n_deflection_steps=1)).eps_line[-1]
+        e = [runner.run(spec(Q=Q, contact_ratio=a, deflection=1.0, n_deflection_steps=1)).eps["line"][-1]
              for Q in (0.0, 0.1)]
         print(f"a = {a}: eps(1 mm) at Q = 0, 0.1: {e}, ratio {e[1] / e[0]:.4f}")
         assert e[1] > 1.02 * e[0]
@@ -159,7 +159,7 @@ def test_reference_contact_reads_monotonically_more_with_pressure(runner):
 
     res = [runner.run(spec(Q=Q, contact_ratio=0.5, contact_at="reference", deflection=1.0, n_deflection_steps=1))
            for Q in (0.0, 0.1, 0.2)]
-    e = [r.eps_line[-1] for r in res]
+    e = [r.eps["line"][-1] for r in res]
     print("reference contact, a = 0.5: eps(1 mm) at Q = 0, 0.1, 0.2:", e, [r.contact_x for r in res])
     assert all(abs(r.contact_x - 35.0) <= CONTACT_TOL for r in res)
     assert e[2] > e[1] > 1.04 * e[0]

@@ -190,7 +190,7 @@ def test_axial_strain_under_the_gauge_follows_the_reading(solved):
     sel = (np.asarray(end.point_data["in_gauge"], bool) & np.asarray(end.point_data["on_outer"], bool)
            & (end.points[:, 1] > 0))
     change = float(np.mean(end.point_data["log_strain_axial"][sel] - onset.point_data["log_strain_axial"][sel]))
-    reading = res.eps_line[-1] / spec.calibration
+    reading = res.eps["line"][-1] / spec.calibration
     assert reading > 0 and change == pytest.approx(reading, rel=0.25)
 
 

@@ -2,8 +2,8 @@
 
 * :func:`whisker_opt.analysis.law_spread.law_spread` on a small FE case: one row per law, the own law
   first, f1 equal to the evaluator's, a verdict line per design.
-* :class:`whisker_opt.wiring.LawSetEvaluator`: the mean or the worst f1 of its laws, a failure under any
-  law names it, picklable (process and dask executors send it to workers).
+* ``optimiser.wall_laws``: an evaluation whose every measure is the mean over the laws at coarse, its f1 the
+  run's own law's; picklable (process and dask executors send it to workers).
 * ``whisker-opt calibrate`` recovers the calibrated law's slope from readings made with a known slope
   (the beam model stand-in, whose chamber softening is the calibrated law's k(Q) = 1 + s·Q).
 """
@@ -18,8 +18,7 @@ import yaml
 
 from whisker_opt.analysis.law_spread import available_laws, format_spread, law_spread, survives
 from whisker_opt.config.model import ConfigError, WhiskerConfig, load_config
-from whisker_opt.experiment.outcome import EvalOutcome
-from whisker_opt.wiring import LawSetEvaluator, evaluator
+from whisker_opt.wiring import evaluator
 
 GENES = {"alpha": 4.0515, "l": 11.069, "t": 2.6521, "Q_i": 0.19986}
 
@@ -74,37 +73,44 @@ def test_a_trim_effect_below_the_resolution_reads_as_gaps_in_table_verdict_and_r
     assert "recovery 60.0 %" in "\n".join(report_lines(tmp_path))
 
 
-class _Fixed:
-    """A stand-in evaluator returning a fixed outcome."""
+def test_a_law_set_evaluation_reduces_every_measure_over_the_laws():
+    """At coarse: f1 is the run's own law's (embedded), every aggregate the mean over the laws' own evaluations."""
+    from fem.linsolve import mkl_threads
+    from whisker_opt.experiment.measures import MEASURE_NAMES, measure_values
+    from whisker_opt.optimise.aggregate import AggregateEvaluator, LawVariants
+    from whisker_opt.wiring import with_wall_law
 
-    def __init__(self, out):
-        self.out = out
-
-    def __call__(self, genes):
-        return self.out
-
-
-def test_law_set_objective_mean_worst_and_failure():
-    a = EvalOutcome.success(1e-3, {"total": 1.0}, {"delta_l": 2.0})
-    b = EvalOutcome.success(3e-3, {"total": 1.0}, {"delta_l": 2.0})
-    mean = LawSetEvaluator((_Fixed(a), _Fixed(b)), ("embedded", "sliding"), "mean")(GENES)
-    worst = LawSetEvaluator((_Fixed(a), _Fixed(b)), ("embedded", "sliding"), "worst")(GENES)
-    assert mean.f1 == pytest.approx(2e-3) and worst.f1 == pytest.approx(3e-3)
-    assert mean.extra["f1_sliding"] == 3e-3 and "sliding 0.003" in mean.reason
-    bad = EvalOutcome.failure("solve_failed", "intact: no convergence", {"total": 1.0})
-    out = LawSetEvaluator((_Fixed(a), _Fixed(bad)), ("embedded", "sliding"))(GENES)
-    assert not out.ok and out.reason.startswith("wall law sliding:")
+    cfg = WhiskerConfig.model_validate({"fidelity": {"preset": "coarse"}, "scene": {"deflection": 1.0, "delta_step": 0.1},
+                                        "optimiser": {"wall_laws": {"laws": ["sliding", "embedded"]}}})
+    ev = evaluator(cfg)
+    assert isinstance(ev, AggregateEvaluator) and isinstance(ev.variants, LawVariants)
+    assert [e.base_spec.wall_law for e in ev.variants.evaluators] == ["sliding", "embedded"]
+    with mkl_threads(1):  # the solves of a scene bit-identical, whichever evaluator makes them
+        out = ev(dict(GENES))
+        per_law = {law: evaluator(with_wall_law(cfg, law), robust=False)(dict(GENES))
+                   for law in ("sliding", "embedded")}
+    assert out.ok and all(o.ok for o in per_law.values())
+    assert out.f1 == per_law["embedded"].f1  # f1 is the nominal design's, under material.wall_law
+    values = {law: measure_values(o, MEASURE_NAMES) for law, o in per_law.items()}
+    for n in MEASURE_NAMES:  # every measure is the mean over the laws, none the first law's
+        assert out.measures[f"{n}_mean_over_laws"] == pytest.approx(
+            (values["sliding"][n] + values["embedded"][n]) / 2, rel=1e-12), n
+    assert out.measures["f1_mean_over_laws"] != pytest.approx(values["sliding"]["f1"], rel=1e-3)
+    assert out.measures["sensitivity_mean_over_laws"] != pytest.approx(values["sliding"]["sensitivity"], rel=1e-3)
+    assert out.extra["variant_evaluations"] == 2  # the embedded law's evaluation is the nominal one
 
 
 def test_law_set_evaluator_from_config_is_picklable_and_has_the_inner_attributes():
+    from whisker_opt.optimise.aggregate import AggregateEvaluator
+
     cfg = WhiskerConfig.model_validate({"optimiser": {"wall_laws": {"laws": ["embedded", "sliding"],
                                                                     "objective": "worst"}}})
     ev = evaluator(cfg)
-    assert isinstance(ev, LawSetEvaluator)
-    assert [e.base_spec.wall_law for e in ev.inners] == ["embedded", "sliding"]
+    assert isinstance(ev, AggregateEvaluator) and (ev.reduction, ev.label) == ("worst", "worst_over_laws")
+    assert [e.base_spec.wall_law for e in ev.variants.evaluators] == ["embedded", "sliding"]
     assert ev.trim == cfg.optimiser.trim and len(ev.samples()) == 500
     back = pickle.loads(pickle.dumps(ev))
-    assert back.laws == ev.laws and back.inners[1].base_spec == ev.inners[1].base_spec
+    assert back == ev and back.variants.evaluators[1].base_spec == ev.variants.evaluators[1].base_spec
 
 
 @pytest.mark.parametrize("optimiser, words", [
@@ -112,6 +118,8 @@ def test_law_set_evaluator_from_config_is_picklable_and_has_the_inner_attributes
     ({"wall_laws": {"laws": ["embedded", "embedded"]}}, "repeated"),
     ({"wall_laws": {"laws": ["embedded", "glued"]}}, "glued"),
     ({"wall_laws": {}, "robust": {}}, "choose one robust objective"),
+    ({"wall_laws": {}, "algorithm": "nsga2", "objectives": [{"name": "f1"}, {"name": "Q_i"}]},
+     "algorithm 'nsga2' with wall_laws set"),
 ])
 def test_law_set_config_errors_are_one_line(optimiser, words):
     from whisker_opt.api import load_config as load_mapping

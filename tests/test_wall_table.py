@@ -91,3 +91,25 @@ def test_inferred_k_inverts_the_thesis_model():
     base = BeamModel(softening=lambda q: 1.0).sensitivity(d, 1.0, 0.0)
     ratio = BeamModel(softening=lambda q: 0.8).sensitivity(d, 1.0, 0.15) / base
     assert inferred_k(d, ratio, 0.15, model=model) == pytest.approx(0.8, rel=1e-8)
+
+
+def test_the_gauge_transfer_is_the_cells_g_times_its_extension():
+    """G(Q) = g(Q)(1 + ε_z(Q)) of the law's table variant at the design's mid-chamber wall: 1 at Q = 0 (plane
+    sections of the unpressurised cell), the stored product at a table pressure, a smooth cubic between them."""
+    from geometry.design import WhiskerDesign
+    from whisker_opt.wall.law import WallLaw, mid_chamber_wall
+    from whisker_opt.wall.table import WallTable
+
+    d = WhiskerDesign()
+    table = WallTable.load()
+    r_i, t = mid_chamber_wall(d)
+    for law, variant in (("embedded", "bonded"), ("calibrated", "bonded"), ("sliding", "sliding")):
+        g, ez = table.lookup(variant, "g", r_i, t), table.lookup(variant, "ez", r_i, t)
+        G = WallLaw(law).gauge_transfer
+        assert G(0.0, d) == pytest.approx(1.0, abs=1e-9)
+        for k, q in enumerate(table.pressures):
+            assert G(q, d) == pytest.approx(g[k] * (1 + ez[k]), rel=1e-12)
+        mid = G(0.125, d)
+        assert min(G(0.1, d), G(0.15, d)) < mid < max(G(0.1, d), G(0.15, d))
+    with pytest.raises(ValueError, match=r"Q = 0.3 MPa outside the wall table's \[0, 0.2\] MPa"):
+        WallLaw().gauge_transfer(0.3, d)

@@ -144,7 +144,7 @@ def simulate(cfg: WhiskerConfig, out: str | Path | None = None) -> Simulation:
     -------
     whisker_opt.workflows.Simulation
         ``results[name]`` (a :class:`~whisker_opt.experiment.scene.SceneResult`: ``delta_l``
-        [mm], ``delta``, ``eps_line``, ``contact_force`` [N] and ``base_reaction`` [N] at each
+        [mm], ``delta``, ``eps`` (the readings by name), ``contact_force`` [N] and ``base_reaction`` [N] at each
         solved δ, ``contact_stiffness`` = F(δ₁)/δ₁ [N/mm] over the first solved step ...),
         ``columns`` (the ``curve.csv`` columns ``delta_mm``, ``eps_<scene>``,
         ``force_<scene>_N`` and ``base_reaction_y_<scene>_N``), ``f1`` and ``f1_uncompensated``

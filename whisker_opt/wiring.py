@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import logging
 import re
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import Any, Mapping
 
 from whisker_opt.config.model import FidelityConfig, WhiskerConfig
@@ -207,10 +207,11 @@ def evaluator(cfg: WhiskerConfig, keep_curves: bool = False, validate: bool = Tr
     """The GA's :class:`whisker_opt.optimise.evaluator.SceneEvaluator` for a config (its base
     design validated unless ``validate`` is False).
 
-    With ``optimiser.robust`` set (and ``robust`` True) it is wrapped in a :class:`RobustEvaluator`,
-    whose f1 is mean + k·std of f1 over the tolerances of the ``robustness`` section; with
-    ``optimiser.wall_laws`` in a :class:`LawSetEvaluator`, whose f1 is the mean or the worst over
-    the wall laws; ``robust=False`` gives the nominal evaluator whatever the config says.
+    With ``optimiser.robust`` set (and ``robust`` True) it is evaluated over the tolerances of the
+    ``robustness`` section (:func:`robust_evaluator`, the GA minimising ``f1_robust`` = mean + k·std of f1);
+    with ``optimiser.wall_laws`` over the wall laws (:func:`law_set_evaluator`, ``f1_mean_over_laws`` or
+    ``f1_worst_over_laws``); either outcome's ``f1`` is the nominal design's. ``robust=False`` gives the
+    nominal evaluator whatever the config says.
     """
     from whisker_opt.optimise.evaluator import SceneEvaluator
 
@@ -397,8 +398,15 @@ def deviated(ev, genes: Mapping[str, float], deviation) -> tuple:
     return replace(ev, base_spec=spec), g, (base.calibration + dev["calibration"]) / base.calibration
 
 
-def robust_evaluator(cfg: WhiskerConfig, ev) -> "RobustEvaluator":
-    """``ev`` wrapped by the robust objective of ``optimiser.robust`` and the ``robustness`` section."""
+def robust_evaluator(cfg: WhiskerConfig, ev):
+    """``ev`` evaluated over the fabrication tolerances of the ``robustness`` section, every measure reduced to
+    mean + k·std (``optimiser.robust``; :class:`whisker_opt.optimise.aggregate.AggregateEvaluator`, ``f1_robust``).
+
+    The variants are the deviations of :func:`deviated`: the first-order expansion (``expansion``: the nominal
+    design and two per toleranced parameter; the calibration's cost nothing) or the seeded sample
+    (``sample``: one per point, the same points for every genome).
+    """
+    from whisker_opt.optimise.aggregate import AggregateEvaluator, FabricationVariants, aggregate_label
     from whisker_opt.optimise.robust import draw  # a leaf module: numpy only
 
     rob, opt = cfg.robustness, optimiser_of(cfg)
@@ -407,108 +415,9 @@ def robust_evaluator(cfg: WhiskerConfig, ev) -> "RobustEvaluator":
     if opt.robust.method == "sample":
         pts = draw(rob.sample.n, half, rob.distribution, rob.sample.design, rob.sample_seed(cfg.seed), rob.normal_sigmas)
         points = tuple(tuple(float(v) for v in row) for row in pts)
-    return RobustEvaluator(ev, half, float(opt.robust.k), opt.robust.method, rob.distribution, rob.normal_sigmas,
-                           rob.fd_step, points)
-
-
-@dataclass(frozen=True)
-class RobustEvaluator:
-    """Picklable evaluator ``genes -> EvalOutcome`` whose f1 is the robust objective mean + k·std of f1.
-
-    mean and std come from :mod:`whisker_opt.optimise.robust` over the deviations of
-    :func:`deviated`: the first-order expansion (``expansion``: the nominal design and two per
-    toleranced parameter; the calibration's cost nothing, see :func:`deviated`) or the seeded
-    sample ``points`` (``sample``: the nominal design and one per point, the same points for every
-    genome). The outcome's ``extra`` holds ``f1_nominal``, ``f1_mean``, ``f1_std`` and
-    ``robust_objective`` and its ``reason`` says what the f1 it carries is, so that a run's
-    ``evaluations.csv`` records both. A deviated design that fails fails the genome, with the
-    deviation named. Every other attribute (``specs``, ``samples``, ``base_spec``, ...) is the
-    wrapped evaluator's.
-    """
-
-    inner: Any
-    half_widths: tuple[float, ...]
-    k: float = 1.0
-    method: str = "expansion"
-    distribution: str = "uniform"
-    sigmas: float = 3.0
-    fd_step: float = 1.0
-    points: tuple = ()
-
-    @property
-    def base_spec(self):
-        return self.inner.base_spec
-
-    @property
-    def trim(self) -> float:
-        return self.inner.trim
-
-    @property
-    def delta_step(self) -> float:
-        return self.inner.delta_step
-
-    @property
-    def gauge_variant(self) -> str:
-        return self.inner.gauge_variant
-
-    @property
-    def keep_curves(self) -> bool:
-        return self.inner.keep_curves
-
-    def specs(self, genes: dict, validate: bool = True) -> tuple:
-        """The nominal genome's (intact, trimmed) scene specs."""
-        return self.inner.specs(genes, validate)
-
-    def samples(self):
-        return self.inner.samples()
-
-    def __call__(self, genes: dict):
-        import math
-        import time
-
-        import numpy as np
-
-        from whisker_opt.optimise.robust import expansion_estimate, robust_objective, sample_estimate
-        from whisker_opt.config.robustness import TOLERANCE_KEYS
-        from whisker_opt.experiment.outcome import EvalOutcome
-
-        t0 = time.perf_counter()
-        nominal = self.inner(genes)
-        if not nominal.ok:
-            return nominal
-        outcomes = {(0.0,) * (len(TOLERANCE_KEYS) - 1): nominal}
-        failed: list = []
-
-        def f1_at(x) -> list[float]:
-            key = tuple(float(v) for v in x[:-1])
-            ev, g, scale = deviated(self.inner, genes, x)
-            if key not in outcomes:
-                outcomes[key] = ev(g)
-            out = outcomes[key]
-            if not out.ok:
-                failed.append((x, out))
-                return [math.nan]
-            return [out.f1 * scale]
-
-        if self.method == "sample":
-            est = sample_estimate(f1_at, np.asarray(self.points, dtype=float))
-        else:
-            est = expansion_estimate(f1_at, self.half_widths, self.distribution, self.sigmas, self.fd_step,
-                                     corners=False)
-        elapsed = time.perf_counter() - t0
-        if failed:
-            x, out = failed[0]
-            where = ", ".join(f"{n}{v:+.4g}" for n, v in zip(TOLERANCE_KEYS, x) if v != 0.0)
-            return EvalOutcome.failure(out.status, f"robust: deviated design ({where}): {out.reason}",
-                                       {"total": elapsed}, dict(out.extra))
-        mean, std = float(est.mean[0]), float(est.std[0])
-        value = float(robust_objective(mean, std, self.k))
-        extra = {**nominal.extra, "f1_nominal": float(nominal.f1), "f1_mean": mean, "f1_std": std,
-                 "robust_objective": value, "robust_evaluations": len(outcomes)}
-        label = (f"robust objective ({self.method}, k={self.k:g}) in column f1: mean + k*std of f1 = {value:.6g} "
-                 f"(mean {mean:.6g}, std {std:.6g}); nominal f1 = {float(nominal.f1):.6g}")
-        return EvalOutcome("ok", value, label, {"total": elapsed, "nominal": nominal.timings.get("total", 0.0)},
-                           extra)
+    variants = FabricationVariants(deviated, half, opt.robust.method, rob.distribution, rob.normal_sigmas,
+                                   rob.fd_step, points)
+    return AggregateEvaluator(ev, variants, "mean_plus_k_std", aggregate_label(opt), float(opt.robust.k))
 
 
 def with_wall_law(cfg: WhiskerConfig, law: str) -> WhiskerConfig:
@@ -517,54 +426,20 @@ def with_wall_law(cfg: WhiskerConfig, law: str) -> WhiskerConfig:
     return cfg.model_copy(update={"material": cfg.material.model_copy(update={"wall_law": law, "wall_slope": slope})})
 
 
-def law_set_evaluator(cfg: WhiskerConfig, ev) -> "LawSetEvaluator":
-    """``ev`` evaluated under each law of ``optimiser.wall_laws`` (:class:`LawSetEvaluator`)."""
-    spec = optimiser_of(cfg).wall_laws
+def law_set_evaluator(cfg: WhiskerConfig, ev):
+    """``ev`` evaluated under each law of ``optimiser.wall_laws``, every measure reduced to the mean or the worst
+    over the laws (:class:`whisker_opt.optimise.aggregate.AggregateEvaluator`, e.g. ``f1_mean_over_laws``).
+
+    The nominal design is ``ev``, under the run's own ``material.wall_law``: its evaluation is shared with the
+    law's variant when that law is in the set, else it costs one evaluation more.
+    """
+    from whisker_opt.optimise.aggregate import AggregateEvaluator, LawVariants, aggregate_label
+
+    opt = optimiser_of(cfg)
+    spec = opt.wall_laws
     inners = tuple(replace(ev, base_spec=scene_spec(with_wall_law(cfg, law), ev.base_spec.design, 0.0))
                    for law in spec.laws)
-    return LawSetEvaluator(inners, tuple(spec.laws), spec.objective)
-
-
-@dataclass(frozen=True)
-class LawSetEvaluator:
-    """Picklable evaluator ``genes -> EvalOutcome`` whose f1 is the mean or the worst f1 over wall laws.
-
-    ``inners`` are the nominal evaluators, one per law of ``laws`` (the same scenes, each with its
-    ``material.wall_law``); a genome that fails under any law fails, with the law named. The outcome's
-    ``extra`` holds ``f1_<law>`` per law and ``wall_law_objective``; its ``reason`` says what the f1 it
-    carries is. Every other attribute is the first law's evaluator's.
-    """
-
-    inners: tuple
-    laws: tuple[str, ...]
-    objective: str = "mean"
-
-    def __getattr__(self, name: str):
-        if name.startswith("__") or name in ("inners", "laws", "objective"):
-            raise AttributeError(name)
-        return getattr(self.inners[0], name)
-
-    def __call__(self, genes: dict):
-        import time
-
-        from whisker_opt.experiment.outcome import EvalOutcome
-
-        t0 = time.perf_counter()
-        f1s, extra, timings = {}, {}, {}
-        for law, inner in zip(self.laws, self.inners):
-            out = inner(genes)
-            if not out.ok:
-                return EvalOutcome.failure(out.status, f"wall law {law}: {out.reason}",
-                                           {"total": time.perf_counter() - t0}, dict(out.extra))
-            f1s[law] = float(out.f1)
-            timings[law] = out.timings.get("total", 0.0)
-            extra = extra or dict(out.extra)
-        values = list(f1s.values())
-        value = max(values) if self.objective == "worst" else sum(values) / len(values)
-        extra.update({f"f1_{law}": v for law, v in f1s.items()}, wall_law_objective=self.objective)
-        label = (f"wall-law objective ({self.objective} over {', '.join(self.laws)}) in column f1 = {value:.6g}; "
-                 + ", ".join(f"{law} {v:.6g}" for law, v in f1s.items()))
-        return EvalOutcome("ok", value, label, {"total": time.perf_counter() - t0, **timings}, extra)
+    return AggregateEvaluator(ev, LawVariants(inners, tuple(spec.laws)), spec.objective, aggregate_label(opt))
 
 
 def with_preset(cfg: WhiskerConfig, preset: str) -> WhiskerConfig:

@@ -206,7 +206,7 @@ def simulate(cfg: WhiskerConfig, out: Path, source: str = "config") -> Simulatio
     cols: dict[str, np.ndarray] = {"delta_mm": delta}
     for name, res in results.items():
         cols[f"eps_{name}"] = res.curve(delta, sc.gauge_variant)
-        cols[f"eps_{name}_solved_line"] = np.interp(delta, res.delta, res.eps_line)
+        cols[f"eps_{name}_solved_line"] = np.interp(delta, res.delta, res.eps["line"])
     for name, res in results.items():
         cols[f"force_{name}_N"] = res.force(delta)
         cols[f"base_reaction_y_{name}_N"] = res.force(delta, "base_y")

@@ -70,6 +70,9 @@ DIRECTIONS = {
 }
 FIELDS = ["design", "mesh", "level", "alpha", "l", "t", "Q_i", "elements", "time_s", "delta_l", "eps_i5", "eps_c5",
           "diff5", "f1"]
+#: the other readings recorded beside the line reading's columns: eps_i5_<name>, eps_c5_<name>, diff5_<name>, f1_<name>
+OTHER_READINGS = ("section",)
+READING_FIELDS = [f"{c}_{n}" for n in OTHER_READINGS for c in ("eps_i5", "eps_c5", "diff5", "f1")]
 
 
 def random_designs(n: int, seed: int = SEED) -> dict:
@@ -94,10 +97,16 @@ def evaluate(name: str, genes: tuple, label: str, sizing: MeshSizing, level: int
         res[scene] = run_scene(spec, wm)
     delta = ev.samples()
     f1 = objective.f1(res["intact"].curve(delta, ev.gauge_variant), res["trimmed"].curve(delta, ev.gauge_variant))
-    ei, ec = float(res["intact"].eps_line[-1]), float(res["trimmed"].eps_line[-1])
-    return {"design": name, "mesh": label, "level": level, "alpha": alpha, "l": l, "t": t, "Q_i": q_i,
-            "elements": n_el, "time_s": f"{time.perf_counter() - t0:.1f}", "delta_l": f"{res['intact'].delta_l:.5f}",
-            "eps_i5": f"{ei:.6f}", "eps_c5": f"{ec:.6f}", "diff5": f"{ei - ec:+.6f}", "f1": f"{f1:.5e}"}
+    ei, ec = float(res["intact"].eps["line"][-1]), float(res["trimmed"].eps["line"][-1])
+    row = {"design": name, "mesh": label, "level": level, "alpha": alpha, "l": l, "t": t, "Q_i": q_i,
+           "elements": n_el, "time_s": f"{time.perf_counter() - t0:.1f}", "delta_l": f"{res['intact'].delta_l:.5f}",
+           "eps_i5": f"{ei:.6f}", "eps_c5": f"{ec:.6f}", "diff5": f"{ei - ec:+.6f}", "f1": f"{f1:.5e}"}
+    for n in OTHER_READINGS:
+        ei, ec = float(res["intact"].eps[n][-1]), float(res["trimmed"].eps[n][-1])
+        f1n = objective.f1(res["intact"].curve(delta, n), res["trimmed"].curve(delta, n))
+        row.update({f"eps_i5_{n}": f"{ei:.6f}", f"eps_c5_{n}": f"{ec:.6f}", f"diff5_{n}": f"{ei - ec:+.6f}",
+                    f"f1_{n}": f"{f1n:.5e}"})
+    return row
 
 
 def spearman(a: list[float], b: list[float]) -> float:
@@ -106,9 +115,11 @@ def spearman(a: list[float], b: list[float]) -> float:
     return float(np.corrcoef(ra, rb)[0, 1])
 
 
-def report(rows: list[dict], prefix: str = "ladder") -> str:
-    """Per-design convergence table (rows whose mesh label starts with ``prefix``) and the rank correlation over
-    the random designs."""
+def report(rows: list[dict], prefix: str = "ladder", reading: str = "line") -> str:
+    """Per-design convergence table of ``reading``'s f1 (rows whose mesh label starts with ``prefix``) and the
+    rank correlation over the random designs."""
+    suffix = "" if reading == "line" else f"_{reading}"
+    rows = [{**r, "f1": r[f"f1{suffix}"], "diff5": r[f"diff5{suffix}"]} for r in rows if r.get(f"f1{suffix}")]
     out = []
     by = {}
     for r in rows:
@@ -144,8 +155,9 @@ def report(rows: list[dict], prefix: str = "ladder") -> str:
     return "\n".join(out)
 
 
-def plot(rows: list[dict], path: Path, prefix: str = "tpl-ladder") -> None:
-    """f1 against the ladder level per design (log scale), the GA's level marked; written to ``path``."""
+def plot(rows: list[dict], path: Path, prefix: str = "tpl-ladder", reading: str = "line") -> None:
+    """``reading``'s f1 against the ladder level per design (log scale), the GA's level marked; written to ``path``."""
+    col = "f1" if reading == "line" else f"f1_{reading}"
     import matplotlib
 
     matplotlib.use("Agg")
@@ -154,7 +166,8 @@ def plot(rows: list[dict], path: Path, prefix: str = "tpl-ladder") -> None:
     by: dict = {}
     for r in rows:
         if r["mesh"].startswith(prefix):
-            by.setdefault(r["design"], {})[int(r["level"])] = float(r["f1"])
+            if r.get(col):
+                by.setdefault(r["design"], {})[int(r["level"])] = float(r[col])
     fig, ax = plt.subplots(figsize=(7.5, 4.8), dpi=120)
     for name, lv in by.items():
         ks = sorted(lv)
@@ -165,7 +178,8 @@ def plot(rows: list[dict], path: Path, prefix: str = "tpl-ladder") -> None:
     ax.set_xticks([1, 2, 3, 4], ["1 (default,\nthe GA's)", "2", "3", "4"])
     ax.set_xlabel("mesh ladder level")
     ax.set_ylabel("f1 [calibrated strain]")
-    ax.set_title("f1 over the mesh ladder (templates as the GA meshes; dashed: seeded random designs)", fontsize=9)
+    ax.set_title(f"f1 of the {reading} reading over the mesh ladder (templates as the GA meshes; dashed: seeded "
+                 "random designs)", fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7, ncol=3, loc="lower right")
     fig.tight_layout()
@@ -182,6 +196,7 @@ def main(argv=None) -> int:
     ap.add_argument("--random", type=int, default=8, help="ladder: number of seeded random designs")
     ap.add_argument("--csv", default=None)
     ap.add_argument("--plot", default=None, help="report: also draw f1 over the ladder into this PNG")
+    ap.add_argument("--reading", choices=("line", *OTHER_READINGS), default="line", help="report: whose f1")
     ap.add_argument("--method", choices=("swept", "template"), default="swept",
                     help="ladder: swept meshes of each design, or the shipped templates mapped to it (the GA's path)")
     args = ap.parse_args(argv)
@@ -204,16 +219,16 @@ def main(argv=None) -> int:
         if (name, label) in done:
             continue
         row = evaluate(name, designs[name], label, sizing, k, method)
-        append_csv(csv, row, FIELDS)
+        append_csv(csv, row, FIELDS + READING_FIELDS)
         print("|".join(str(v) for v in row.values()), file=sys.stderr, flush=True)
     rows = read_csv(csv) if csv.exists() else []
     if args.study == "directions":
         print(markdown_table(rows, ["design", "mesh", "elements", "time_s", "delta_l", "eps_i5", "eps_c5", "diff5", "f1"]))
     else:
         prefix = "tpl-ladder" if args.method == "template" else "ladder"
-        print(report(rows, prefix))
+        print(report(rows, prefix, args.reading))
         if args.plot:
-            plot(rows, Path(args.plot), prefix)
+            plot(rows, Path(args.plot), prefix, args.reading)
     return 0
 
 

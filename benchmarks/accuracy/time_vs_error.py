@@ -140,18 +140,18 @@ def ccx_point() -> dict | None:
         res = run_ccx(case, threads=1, cleanup=True, timeout=1800)
     except Exception as exc:  # noqa: BLE001 - a CalculiX failure is reported, not fatal
         print(f"CalculiX failed: {exc}")
-        return {"t_ours": t_ours, "t_ccx": float("nan"), "eps_ours": float(ours.eps_line[-1]),
+        return {"t_ours": t_ours, "t_ccx": float("nan"), "eps_ours": float(ours.eps["line"][-1]),
                 "eps_ccx": float("nan"), "rel_diff": float("nan"), "n_elements": wm.mesh.n_elements}
     reader = GaugeReader(wm.mesh, locate_gauge(wm, design), spec.calibration)
     reader.zero(np.zeros_like(res.displacements))
-    eps_ccx = float(reader.read(res.displacements)[0])
-    eps = float(ours.eps_line[-1])
+    eps_ccx = float(reader.read(res.displacements)["line"])
+    eps = float(ours.eps["line"][-1])
     # the same (displacement, C3D10-like) formulation through our solver: separates the
     # solver's difference from the formulation's (C3D10 locks on this coarse mesh)
     t = time.perf_counter()
     disp = run_scene(replace(spec, formulation="displacement"), wm)
     t_disp = time.perf_counter() - t
-    eps_d = float(disp.eps_line[-1])
+    eps_d = float(disp.eps["line"][-1])
     return {"t_ours": t_ours, "t_ccx": res.wall_time, "eps_ours": eps, "eps_ccx": eps_ccx,
             "rel_diff": (eps - eps_ccx) / eps_ccx, "t_ours_displacement": t_disp, "eps_ours_displacement": eps_d,
             "rel_diff_same_formulation": (eps_d - eps_ccx) / eps_ccx, "n_elements": wm.mesh.n_elements}

@@ -43,7 +43,7 @@ ev()
 ts = []
 for _ in range(int(sys.argv[1])):
     t = time.perf_counter(); r1, r2 = ev(); ts.append(time.perf_counter() - t)
-print(statistics.median(ts), repr(float(r1.eps_line[-1])), repr(float(r2.eps_line[-1])))
+print(statistics.median(ts), repr(float(r1.eps["line"][-1])), repr(float(r2.eps["line"][-1])))
 """
 
 

@@ -77,7 +77,7 @@ def main() -> None:
             wall, br, r_i, r_c = evaluation(preset, d)
             walls.append(wall)
         n_el = build_mesh(d, PRESETS[preset].sizing).mesh.n_elements
-        rows[preset] = (r_i.eps_line[-1], r_c.eps_line[-1])
+        rows[preset] = (r_i.eps["line"][-1], r_c.eps["line"][-1])
         print(f"{preset:>8} {n_el:>8d} {statistics.median(walls):>9.2f} {br['mesh']:>6.2f} {br['pressurise']:>8.2f} "
               f"{br['deflect']:>8.2f} {br['assembly']:>8.2f} {br['factorize']:>7.2f} {rows[preset][0]:>10.6f} "
               f"{rows[preset][1]:>10.6f}")
@@ -102,7 +102,7 @@ def main() -> None:
     ref = run_scene(SceneSpec(d, Q=0.2, sizing=sizing, n_deflection_steps=20))
     few = run_scene(SceneSpec(d, Q=0.2, sizing=sizing, n_deflection_steps=PRESETS["default"].n_deflection_steps))
     dd = np.linspace(0.01, 5.0, 500)
-    err = np.abs(few.curve(dd) - ref.curve(dd)).max() / ref.eps_line[-1]
+    err = np.abs(few.curve(dd) - ref.curve(dd)).max() / ref.eps["line"][-1]
     print(f"curve interpolation ({PRESETS['default'].n_deflection_steps} vs 20 solved increments): "
           f"max error {err:.2e} of eps(5)")
     # template vs fresh mesh

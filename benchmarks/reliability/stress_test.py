@@ -232,8 +232,8 @@ def run_case(case: Case, preset: str = "default", timeout_s: float | None = 600.
         if isinstance(exc, SolveFailed):
             row.update(report_stats(exc.reports))
     else:
-        row.update(report_stats(res.reports), delta_l=res.delta_l, eps_max=float(res.eps_line[-1]))
-        readings = np.concatenate([res.eps_line, res.eps_centroid, [res.delta_l, res.length_q, res.radial_growth]])
+        row.update(report_stats(res.reports), delta_l=res.delta_l, eps_max=float(res.eps["line"][-1]))
+        readings = np.concatenate([*res.eps.values(), [res.delta_l, res.length_q, res.radial_growth]])
         if np.all(np.isfinite(readings)):
             row.update(status="ok", converged=True)
         else:
@@ -288,7 +288,7 @@ def perturbation_check(designs: list[dict], preset: str, h: float = PERTURBATION
     def eps(g: dict) -> float:
         case = Case("perturb", "perturb", g["alpha"], g["l"], g["t"], g["Q_i"], 0.0, g["Q_i"], 5.0, 1.0, 0.0)
         spec, wm = _scene(case, preset)
-        return float(run_scene(spec, wm).eps_line[-1])
+        return float(run_scene(spec, wm).eps["line"][-1])
 
     rows = []
     for k, g0 in enumerate(designs):

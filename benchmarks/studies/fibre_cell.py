@@ -1,6 +1,6 @@
 """Which fibre model does a wall with resolved fibres follow? A periodic cell of the chamber wall.
 
-The cell, its loads and the fibre models are described in :mod:`benchmarks.wall_cell3d`
+The cell, its loads and the fibre models are described in :mod:`peers.wall_cell3d`
 (``resolved``, ``resolved-rigid``, ``weak-ring``, ``band``, ``embedded``, ``smeared``, ``none``).
 
 Printed per model and mesh: the axial strain of the wall U/s at Q = 0.1 and 0.2 MPa (the chamber's
@@ -18,11 +18,16 @@ smeared up to 12 wall layers under 2.5 min each. Measured figures: ``benchmarks/
 from __future__ import annotations
 
 import argparse
+import logging
 import math
 import sys
 
 from benchmarks.common import markdown_table
-from benchmarks.wall_cell3d import PRESSURES, PROTOTYPE_K, Cell, measure
+from peers.wall_cell3d import PRESSURES, Cell, measure
+from whisker_opt.analysis.beam import LinearSoftening
+
+#: The thesis' prototypes' effective modulus of the chamber region, k(Q) of the beam model's softening law.
+PROTOTYPE_K = {Q: LinearSoftening()(Q) for Q in PRESSURES}
 
 
 def main(argv=None) -> int:
@@ -34,6 +39,7 @@ def main(argv=None) -> int:
     ap.add_argument("--smeared-scale", type=float, default=1.0,
                     help="factor on the smeared model's stiffness (1 = as in the product)")
     args = ap.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="  %(message)s", stream=sys.stderr)  # the cell's progress
     if not args.smeared_scale > 0:
         ap.error(f"--smeared-scale={args.smeared_scale}: must be > 0")
     if args.n_phi < 2 or args.n_phi % 2:

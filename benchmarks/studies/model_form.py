@@ -127,7 +127,7 @@ class Study:
         except Exception as exc:  # noqa: BLE001 - a failed scene is a result here
             raise Failed(_reached(exc, Q), f"{type(exc).__name__}: {str(exc)[:120]}") from exc
         self.n_scenes += 1
-        y = res.eps_line if reading == "line" else res.eps_centroid
+        y = res.eps[reading]
         return float(y[-1]), float(res.delta_l)
 
 

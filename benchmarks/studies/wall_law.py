@@ -8,7 +8,7 @@ Sub-commands (each prints markdown tables; progress on stderr):
   thrust on the reference cavity area, end plane rotated about reference positions) on the 3-D cell's own
   grid and refined, to set beside ``benchmarks/studies/fibre_cell.py --models resolved --levels 1``.
 * ``scenecheck``: the wall laws of the whisker scene (:mod:`whisker_opt.wall.law`) on the GA's mesh, checked
-  against their references. The 3-D periodic cell of ``benchmarks/studies/fibre_cell.py`` meshed as the ``default``
+  against their references. The 3-D periodic cell of :mod:`peers.wall_cell3d` meshed as the ``default``
   preset meshes the chamber (one element layer through the wall, 8 sectors around, one layer per ring period),
   the fibre an embedded truss ring, each law applied about the pressurised state as in the scene; the
   reference is the converged 2-D cell in the 3-D cell's own model conventions (``cross3d``), with the
@@ -34,6 +34,7 @@ from __future__ import annotations
 import argparse
 import datetime
 import json
+import logging
 import math
 import subprocess
 import sys
@@ -46,6 +47,8 @@ import numpy as np
 
 from benchmarks.numerics import observed_order
 from geometry.design import WhiskerDesign
+import peers.wall_cell3d as cell3d
+from whisker_opt.analysis.beam import LinearSoftening
 from whisker_opt.experiment.spec import rubber_law
 from whisker_opt.wallcell.cell import PRESSURES, Resolution, WallCell, WallGeometry
 from whisker_opt.wallcell.mechanisms import VARIANTS, WallMechanism
@@ -54,14 +57,13 @@ from whisker_opt.wall.law import mid_chamber_x
 from whisker_opt.wall.table import WallTable, default_path
 
 ROOT = Path(__file__).resolve().parents[2]
-#: The prototypes' modulus factor inferred from their gauge signals, k(Q) = −1.337 Q + 0.9958 (Q in MPa).
-PROTOTYPE_K = {q: -1.337 * q + 0.9958 for q in PRESSURES}
+#: The prototypes' modulus factor inferred from their gauge signals, k(Q) of the beam model's softening law.
+PROTOTYPE_K = {q: LinearSoftening()(q) for q in PRESSURES}
 CONTACT_RATIOS = (0.45, 0.55, 0.65, 0.75, 0.85, 1.0)
 #: The GA box: α ∈ [2.5°, 6°], l ∈ [10, 15], t ∈ [2, 6]; the chamber's outer radius spans 7.42 (x = l = 15 at
 #: α = 6°) to 8.91 mm (x = c = 2 at α = 2.5°).
 BOX_R_O = (7.42, 8.91)
 BOX_T = (2.0, 3.0, 4.0, 5.0, 6.0)
-CELL3D = WallMechanism(name="cell3d", section="square", fibre_law="hoop", thrust="reference", plane="reference")
 
 
 def log(msg: str) -> None:
@@ -97,7 +99,7 @@ def convergence(variants, levels, geo=None, grid=False) -> list[dict]:
     geo = geo or default_geometry()
     out = []
     for name in variants:
-        mech = CELL3D if name == "cell3d" else VARIANTS[name]
+        mech = cell3d.MECHANISM if name == "cell3d" else VARIANTS[name]
         rows = []
         for L in levels:
             s = sweep(geo, mech, Resolution(level=L, grid=grid))
@@ -126,7 +128,6 @@ CHECK_SLOPE = -2.0
 
 def scenecheck(laws, n_phi: int = 4, layers: int = 1) -> list[dict]:
     """The scene's wall laws on the GA mesh's cell against their references (see the module docstring)."""
-    from benchmarks import wall_cell3d as cell3d
     from whisker_opt.wall.law import WallLaw
 
     qs = tuple(q for q in PRESSURES if q > 0)
@@ -155,7 +156,7 @@ def scenecheck(laws, n_phi: int = 4, layers: int = 1) -> list[dict]:
                 ref = {"EI": [embedded["EI0"] * 2] + [embedded["EI0"] * 2 * embedded[f"EIw_{q}"] * law(q) for q in qs],
                        "ez": [0.0] + [embedded[f"ez_{q}"] for q in qs], "label": "c(Q) × embedded"}
             else:
-                mech = CELL3D.with_(name=f"cell3d-{'bonded' if name == 'embedded' else name}",
+                mech = cell3d.MECHANISM.with_(name=f"cell3d-{'bonded' if name == 'embedded' else name}",
                                     bond="bonded" if name == "embedded" else name)
                 r2 = sweep(geo, mech, Resolution(level=3))
                 ref = {"EI": r2["EI"], "ez": r2["ez"], "label": f"2-D {mech.bond}, 3-D conventions"}
@@ -322,6 +323,8 @@ def main(argv=None) -> int:
             ap.error(f"--variants: unknown {bad}; allowed {', '.join(VARIANTS)}, cell3d")
         convergence(names, [int(v) for v in args.levels.split(",")])
     elif args.cmd == "scenecheck":
+        logging.getLogger("peers.wall_cell3d").setLevel(logging.INFO)  # the 3-D cell's progress, on stderr
+        logging.getLogger("peers.wall_cell3d").addHandler(logging.StreamHandler(sys.stderr))
         scenecheck(args.laws.split(","), args.n_phi, args.layers)
     elif args.cmd == "cross3d":
         print("3-D cell's grid (square fibre 2 × 2 cells, 12 across the wall, 8 along):")

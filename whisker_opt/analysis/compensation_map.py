@@ -16,8 +16,8 @@ Cost (:func:`solve_map`)
     Every cell runs the same search as its independent solve (both ends of [0, Q_i], then Brent),
     so the cell's decision (root or bound) is the same. A warm start that brackets each cell's
     search from its neighbours' Q (linear extrapolation in Δ) was measured on the beam model and
-    dropped: 213 responses for the 11 × 5 map against 195 for Brent on [0, Q_i] (Brent's first
-    secant step from the two ends already lands close on a near-linear s(Q)). What makes the map
+    dropped: it took more responses than Brent on [0, Q_i] (``benchmarks/results/compensation_map.md``;
+    Brent's first secant step from the two ends already lands close on a near-linear s(Q)). What makes the map
     cheap is on the response's side: the grid is solved trim by trim, so an FE response shares
     the pressurised state of one (Δ, Q) across contact ratios and starts Newton from a
     neighbouring pressure (:class:`whisker_opt.compensation.WarmPressurise`).

@@ -1,8 +1,8 @@
 """Re-evaluate a finished run's best designs at another fidelity: is the optimum real?
 
 A run ranks designs at its own fidelity preset (usually ``default``). That preset's mesh
-error in f1 depends on the design: −16 % at the thesis design, +1 % at a thin-walled corner
-and −35 % at a thick-walled one (``benchmarks/results/time_vs_error.md``). So
+error in f1 depends on the design, in size and in sign, and is largest at thick walls
+(``benchmarks/results/time_vs_error.md``). So
 the absolute f1 of a GA optimum, and its rank against designs of a different wall
 thickness, should be confirmed at a finer preset before they are reported. This module
 re-runs the run's ``top`` best feasible designs, pairwise distinct by ``optimiser.distinct_distance``
@@ -11,8 +11,8 @@ through the same evaluator at the verification preset, recomputes F_p with the r
 (:func:`whisker_opt.optimise.penalty.dynamic_penalty`: F_p = f1 + Σ_j C_j κ_j, κ_j = f1 · distance_j)
 and writes ``verify_<preset>.csv`` into the run directory (atomically).
 
-Each design takes one evaluation at the verification preset (about 2 minutes at ``fine``), two
-scenes: a bar over the scenes shows on a terminal (``progress=False`` hides it) and a progress
+Each design takes one evaluation at the verification preset (its time per preset:
+``benchmarks/results/bench_scene.md``), two scenes: a bar over the scenes shows on a terminal (``progress=False`` hides it) and a progress
 line per scene, with elapsed time and ETA, is logged either way
 (:class:`whisker_opt.output.progress.Progress`). Verifying at the run's own preset reproduces the run's f1 and verifies
 nothing: that is logged as a warning and said in the printed table.
@@ -87,8 +87,9 @@ def verify_run(run_dir: Path, preset: str = "fine", top: int = 3, progress: bool
     """
     import whisker_opt.wiring as wiring
     from whisker_opt.experiment.fidelity import f1_resolution
+    from whisker_opt.optimise.aggregate import objective_column
     from whisker_opt.optimise.best import describe_distance
-    from whisker_opt.optimise.penalty import dynamic_penalty, penalty_terms
+    from whisker_opt.optimise.penalty import penalise, penalty_terms
     from whisker_opt.optimise.evaluator import SceneEvaluator
     from whisker_opt.output.progress import Progress, format_duration
 
@@ -129,7 +130,7 @@ def verify_run(run_dir: Path, preset: str = "fine", top: int = 3, progress: bool
                    "status": out.status, "reason": out.reason,
                    "time_s": float(out.timings.get("total", float("nan"))), **resolution}
             if out.ok:
-                _, fp = dynamic_penalty(out.f1, genes, terms)
+                fp = penalise(out, genes, terms, opt.failure_penalty, objective_column(opt)).fp  # F_p as the run's
                 row.update(f1_verify=out.f1, F_p_verify=fp,
                            f1_change=out.f1 / f1_run - 1.0 if f1_run else float("nan"))
             else:

@@ -168,7 +168,7 @@ def _simulate_run(args: argparse.Namespace) -> int:
         spec = sim.specs[name]
         print(
             f"{name:8s} Q={spec.Q:.4g} MPa  L={spec.design.length:.4g} mm  dl(Q)={res.delta_l:.5g} mm  "
-            f"eps(deflection)={res.eps_line[-1]:.6g} (centroid {res.eps_centroid[-1]:.6g})  "
+            f"eps(deflection)={res.eps['line'][-1]:.6g} (centroid {res.eps['centroid'][-1]:.6g})  "
             f"F(deflection)={res.contact_force[-1]:.5g} N  k=F(d1)/d1={res.contact_stiffness:.5g} N/mm  "
             f"{sim.summary[name]['wall_s']:.2f} s"
         )

@@ -37,6 +37,7 @@ from whisker_opt.config.messages import describe_errors, show
 from whisker_opt.config.optimiser import OptimiserConfig
 from whisker_opt.config.robustness import RobustnessConfig
 from whisker_opt.experiment.fidelity import PRESET_NAMES
+from whisker_opt.experiment.gauge_variants import GAUGE_VARIANTS
 from whisker_opt.experiment.spec import SceneSpec
 
 
@@ -101,9 +102,9 @@ _SCENE_OWN: dict[str, Any] = {
                           "`mesh` (the GA and `compensate` use optimiser.trim)", json_schema_extra={"unit": "mm"})),
     "delta_step": (float, Field(0.01, gt=0, le=1, description="deflection sampling Δδ of the curves and of f1",
                                 json_schema_extra={"unit": "mm"})),
-    "gauge_variant": (Literal["line", "centroid"], Field(
-        "line", description="'line': mean log strain along the gauge line; 'centroid': the thesis' axial log "
-        "strain at the centroid of the element under the gauge")),
+    "gauge_variant": (Literal[tuple(GAUGE_VARIANTS)], Field(
+        "line", description="the gauge reading of the curves and of f1: "
+        + "; ".join(f"'{name}': {doc}" for name, doc in GAUGE_VARIANTS.items()))),
     "pair": (bool, Field(
         True, description="`simulate` runs the intact (at Q_i) / trimmed (vented) pair instead of one scene")),
 }

@@ -410,16 +410,17 @@ class OptimiserConfig(StrictModel):
     executor: ExecutorConfig = ExecutorConfig()
     cache: CacheConfig = CacheConfig()
     robust: RobustObjectiveConfig | None = Field(
-        None, description="minimise mean + k·std of f1 over the tolerances of the robustness section instead of f1 "
-        "(docs/physics.md §10); null = f1 itself")
+        None, description="minimise f1_robust, mean + k·std of f1 over the tolerances of the robustness section, "
+        "instead of f1 (docs/physics.md §10; algorithm ga only); null = f1 itself")
     law_spread_top: int = Field(
         1, ge=0, le=1000,
         description="at the end of a run, the best this many distinct designs are solved again under every available "
         "chamber-wall law and their f1 and recovery rate reported (law_spread.csv); 0 = not done",
         json_schema_extra={"unit": "-"})
     wall_laws: WallLawSetConfig | None = Field(
-        None, description="minimise the mean or the worst f1 over several chamber-wall laws instead of f1 under "
-        "material.wall_law alone (a model-form-robust optimum); null = the one law")
+        None, description="minimise the mean or the worst f1 over several chamber-wall laws (f1_mean_over_laws, "
+        "f1_worst_over_laws) instead of f1 under material.wall_law alone (a model-form-robust optimum; algorithm ga "
+        "only); null = the one law")
     seed: int | None = Field(
         None, ge=0, le=2**32 - 1, description="GA seed; null = the run file's top-level seed",
         json_schema_extra={"unit": "-"},
@@ -461,6 +462,10 @@ class OptimiserConfig(StrictModel):
     def _one_robust_mode(self) -> "OptimiserConfig":
         if self.robust is not None and self.wall_laws is not None:
             raise ValueError("robust and wall_laws are both set: choose one robust objective (tolerances or wall laws)")
+        if self.algorithm == "nsga2" and (self.robust is not None or self.wall_laws is not None):
+            which = "robust" if self.robust is not None else "wall_laws"
+            raise ValueError(f"algorithm 'nsga2' with {which} set: an aggregate over variants is an objective of "
+                             f"algorithm 'ga' only; set algorithm: ga or {which}: null")
         return self
 
     def resolve_seed(self, top_level_seed: int) -> int:

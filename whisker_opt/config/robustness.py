@@ -87,7 +87,8 @@ class RobustnessConfig(StrictModel):
 
 
 class RobustObjectiveConfig(StrictModel):
-    """The GA minimises mean + k·std of f1 over the tolerances of the ``robustness`` section instead of f1."""
+    """The GA minimises ``f1_robust`` = mean + k·std of f1 over the tolerances of the ``robustness`` section instead
+    of f1 (which stays the nominal design's)."""
 
     k: float = Field(1.0, ge=0, le=10, description="weight of the standard deviation in mean + k·std",
                      json_schema_extra={"unit": "-"})

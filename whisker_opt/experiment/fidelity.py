@@ -6,28 +6,26 @@ steps. Chosen by measurement (default design, intact at Q = 0.2 MPa, gauge line 
 δ = 5 mm against a 21 600-element swept mesh of 4 layers, 16 sectors, dz = pitch/8; one
 evaluation = intact + trimmed scene on one core)::
 
-    preset    layers, sectors, dz/pitch  elements  eval [s]   gauge err
-    coarse    1, 8, 0.75                 ~1 000    ~2.5       −2.0 %
-    default   1, 8, 0.5                  ~1 100    2.7        −0.8 %
-    fine      3, 12, 0.17                ~8 900    ~100       −0.3 %
+    preset    layers, sectors, dz/pitch
+    coarse    1, 8, 0.75
+    default   1, 8, 0.5
+    fine      3, 12, 0.17
 
 The mesh ladder refines every direction together (:func:`ladder_sizing`; level 1 = ``default``)::
 
-    preset    layers, sectors, dz/pitch, body  elements   eval [s], one core with 2 other jobs
-    level2    2, 10, 0.25, 5 mm                 ~4 300     15–30
-    level3    3, 12, 0.17, 3.3 mm               ~10 500    65–220
-    level4    4, 16, 0.125, 2.5 mm              ~24 000    370–410
+    preset    layers, sectors, dz/pitch, body
+    level2    2, 10, 0.25, 5 mm
+    level3    3, 12, 0.17, 3.3 mm
+    level4    4, 16, 0.125, 2.5 mm
 
-The gauge reading scatters by ±0.5 % between mesh families without a trend in the wall layers
-(one P2 layer through the wall reads within 0.7 % of three), so ``default``, the GA's, is the
-cheapest mesh within 1 % of the gauge reference; ``fine`` keeps three wall layers. f1, a
-difference of two close curves, carries larger errors at every preset (``README.md``, "Fidelity
-and how far to trust f1"). Figures: ``benchmarks/performance/bench_scene.py``, ``benchmarks/accuracy/time_vs_error.py``
-and ``benchmarks/results/bench_scene.md``, ``benchmarks/results/time_vs_error.md``.
-
-Three solved deflection increments suffice for the cubic-spline curve: against 20 increments
-its error over δ ∈ [0.01, 5] mm is 6.5e-6 (intact, Q = 0.2) and 1.0e-5 (trimmed, Q = 0) of
-ε(5 mm), against 1.1e-3 with two increments (coarse mesh, default design).
+The gauge reading scatters between mesh families without a trend in the wall layers, so
+``default``, the GA's, is the cheapest mesh within 1 % of the gauge reference; ``fine`` keeps three
+wall layers. f1, a difference of two close curves, carries larger errors at every preset
+(``README.md``, "Fidelity and how far to trust f1"). Three solved deflection increments suffice
+for the cubic-spline curve. Figures (elements, time per evaluation, gauge and curve errors):
+``benchmarks/performance/bench_scene.py``, ``benchmarks/accuracy/time_vs_error.py`` and
+``benchmarks/results/bench_scene.md`` (with the figures this docstring used to state: "The presets'
+cost and gauge error as the preset module stated them"), ``benchmarks/results/time_vs_error.md``.
 
 The shipped template meshes (:mod:`geometry.template`) are made for these presets' sizings:
 regenerate them with ``python3 -m whisker_opt.experiment.fidelity`` after changing a sizing.
@@ -35,50 +33,14 @@ regenerate them with ``python3 -m whisker_opt.experiment.fidelity`` after changi
 f1 resolution
     Each preset carries ``f1_resolution``: the absolute f1 (mean |ε_i − ε_c|, in calibrated
     strain at the default ξ = 3.9, docs/physics.md §4) below which a preset's f1 is mesh error
-    rather than a difference between the two responses. Figures from ``benchmarks/results/time_vs_error.md``
-    (2026-11-23) and the README's "Fidelity and how far to trust f1"::
-
-        preset    f1_resolution  derived from
-        coarse    2e-3           default's 1e-3 × 2 (below)
-        default   1e-3           f1(fine) − f1(default) at a GA optimum: 9.3e-4
-        fine      7e-4           default's 1e-3 × 0.69 (below)
-
-    ``default``: the 50-generation case-1 run ended at f1 = 5.7e-6, which ``verify`` found to
-    be 9.40e-4 at ``fine`` (a gap of 9.3e-4); a Q_i scan of the same geometry gave gaps of
-    6.5e-4 to 9.3e-4. Against the mesh-converged references of ``time_vs_error.py`` the
-    default preset's absolute f1 errors are 5.7e-4 (thesis design, −16 % of 3.54e-3),
-    1.7e-5 (slim-thin, +0.8 % of 2.19e-3) and 1.7e-3 (stout-thick, −35 % of 4.84e-3).
-
-    ``coarse``: its f1 errors against the same references are default's within 6 %
-    (ratios coarse/default 0.94, 1.00, 1.03; 0.94 for the gap to ``fine`` at the case-1
-    optimum: 8.7e-4 against 9.3e-4), but its gauge reading error is 2.7 times default's
-    (−2.2 % against −0.81 % of ε(5 mm), ``bench_scene.py``), so its f1 error between the
-    measured designs is less certain. The factor on default's 1e-3 is taken between those
-    two ratios, 1 and 2.7, as their geometric mean 1.6, rounded up to 2; coarse's largest
-    measured f1 error, 1.74e-3 (stout-thick, 36 % of 4.84e-3), lies just below.
-
-    ``fine``: its absolute f1 errors against the same references are 3.9e-4 (thesis design,
-    11 %), 1.2e-4 (slim-thin, 5.4 %) and 6.3e-4 (stout-thick, 13 %), i.e. 0.69 and 0.37 of
-    default's at the two designs where default's error is material (at slim-thin both are
-    below 2e-4). The larger ratio, 0.69, times default's 1e-3 gives 7e-4; fine's largest
-    measured error, 6.3e-4, lies below. No finer reference exists at a GA optimum, so an
-    optimised f1 below this is not resolved by any shipped preset.
-
-    The mesh ladder (``default`` = level 1, ``level2`` … ``level4``, :func:`ladder_sizing`; the GA's
-    increments at every level, so only the mesh differs) was measured on the template path at twelve
-    designs (``python3 -m benchmarks.accuracy.f1_convergence ladder --method template``,
-    ``benchmarks/results/f1_convergence.md``, "f1 over the mesh ladder"); the finest level is not converged
-    either, so each figure is the largest distance to the next finer levels measured::
-
-        preset    f1_resolution  derived from
-        level2    6e-4           largest |f1(level2) − f1(level4)| over the four designs with a level 4:
-                                 5.3e-4 at the case-1 optimum (1.9e-4, 7.5e-5, 2.5e-4 at the other three), rounded up
-        level3    4e-4           largest |f1(level3) − f1(level4)|: 3.1e-4 at the stout thick-walled design
-                                 (2.3e-4, 7.7e-5, 3.0e-4 at the others), rounded up
-        level4    not measured   no finer reference (NaN: no resolution is claimed)
-
-    Against level 4 the ``default`` preset's gap is 4.3e-4 at the default design and 1.24e-3 at the
-    case-1 optimum (f1 5.7e-6 against 1.25e-3), above its 1e-3.
+    rather than a difference between the two responses. For ``coarse``, ``default`` and ``fine`` it
+    comes from their f1 errors against the mesh-converged references of
+    ``benchmarks/accuracy/time_vs_error.py`` and from the gap between ``default`` and ``fine`` at
+    the case-1 optimum; for the mesh ladder (``level2``, ``level3``) from the largest distance to
+    the next finer levels measured by ``python3 -m benchmarks.accuracy.f1_convergence ladder
+    --method template``; ``level4`` has no finer reference and claims none (NaN). The figures and
+    the derivation of each value: ``benchmarks/results/f1_convergence.md``, "The presets' f1
+    resolution: how each value was derived".
 
     f1 scales with the calibration ξ (``scene.calibration``): :func:`f1_resolution` converts.
     Overrides of a preset's sizing or increments (``fidelity.h_wall`` …) leave the figure of
@@ -106,7 +68,8 @@ class Preset:
         Solved (reported) load levels of the pressurise and deflect steps.
     f1_resolution : float
         Measured absolute f1 [calibrated strain, ξ = :data:`RESOLUTION_CALIBRATION`] below
-        which f1 is not resolved at this preset (see the module docstring for the figures).
+        which f1 is not resolved at this preset (see the module docstring; the figures:
+        ``benchmarks/results/f1_convergence.md``).
     """
 
     name: str

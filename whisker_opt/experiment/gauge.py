@@ -1,20 +1,10 @@
 """The strain gauge: where it sits on the whisker and in its mesh, and how it is read.
 
-Two readings are offered.
-
-``line`` (default)
-    The gauge is a material line of length ``e`` on the +y generator of the outer cone,
-    from x = x_ss to x = x_ss + e. Its unit tangent in the reference configuration is
-    ``T = (1, -tan α, 0) / sqrt(1 + tan² α)``. At ``n`` Gauss-Legendre points along it the
-    local stretch is ``λ = |F T|``; the reading is the length-weighted mean of the
-    logarithmic strain relative to contact onset,
-    ``ε = ξ · Σ_k w_k ln(λ_k(δ) / λ_k(0))``, with ``Σ w_k = 1`` and ξ the calibration
-    factor. Relative to onset, because the gauge is zeroed when contact begins.
-
-``centroid`` (the thesis' variant)
-    The axial component of the Eulerian logarithmic strain ``ln V = ½ ln(F Fᵀ)`` at the
-    centroid of the element under the gauge centre, relative to onset, times ξ. That is
-    what Abaqus reports as LE11 for the element under the gauge.
+The readings are registered by name in :mod:`whisker_opt.experiment.gauge_variants`, one module each in
+:mod:`whisker_opt.experiment.readings`: ``line`` (default), the mean logarithmic strain along the gauge line,
+and ``centroid`` (the thesis' variant), the axial Eulerian log strain at the centroid of the element under the
+gauge centre. :class:`GaugeReader` zeroes every one at contact onset and returns them relative to it, times
+the calibration factor ξ (the gauge is zeroed when contact begins).
 
 The gauge's host elements depend on the mesh only: they are located once per mesh
 (:func:`locate_gauge`) and travel with it as a :class:`GaugedMesh`.
@@ -26,10 +16,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fem.query import deformation_gradient_at
 from geometry.design import WhiskerDesign
 from geometry.locate import PointLocator
 from geometry.mesh import WhiskerMesh
+from whisker_opt.experiment.gauge_variants import GAUGE_READINGS
+
 
 @dataclass(frozen=True)
 class GaugeGeometry:
@@ -46,6 +37,14 @@ class GaugeGeometry:
         Unit reference tangent of the line.
     centroid_element : int
         Element under the gauge centre (the thesis' readout).
+    section_elements : ndarray, shape (2, m)
+        Host elements of the sampling points of the wall's cross-sections at the gauge's two ends
+        (:func:`section_points`; the ``section`` reading).
+    section_coords : ndarray, shape (2, m, 3)
+    section_weights : ndarray, shape (m,)
+        Area weights of those points, normalised to sum 1.
+    radius : float
+        Reference outer radius at the gauge centre [mm].
     """
 
     host_elements: np.ndarray
@@ -53,6 +52,37 @@ class GaugeGeometry:
     weights: np.ndarray
     tangent: np.ndarray
     centroid_element: int
+    section_elements: np.ndarray
+    section_coords: np.ndarray
+    section_weights: np.ndarray
+    radius: float
+
+
+@dataclass(frozen=True)
+class ReadingContext:
+    """What a reading may know of its scene beyond the mesh and the gauge.
+
+    Attributes
+    ----------
+    wall_transfer : float
+        G(Q) = g(Q) (1 + ε_z(Q)) of the stored wall cell at the scene's chamber pressure and wall
+        (:meth:`whisker_opt.wall.law.WallLaw.gauge_transfer`; NaN when the wall lies outside the table).
+    """
+
+    wall_transfer: float = 1.0
+
+
+def section_points(design: WhiskerDesign, x: float, n_r: int = 4, n_theta: int = 16) -> tuple[np.ndarray, np.ndarray]:
+    """Sampling points of the wall's cross-section at ``x`` (r_i … r_o, Gauss–Legendre in r, equal angles
+    offset by half a step) and their area weights r w_r (normalised to sum 1), shapes (n_r n_theta, 3), (n_r n_theta,)."""
+    s, w = np.polynomial.legendre.leggauss(n_r)
+    ri, ro = design.r_inner(x), design.r_outer(x)
+    r = ri + 0.5 * (ro - ri) * (s + 1.0)  # (n_r,)
+    th = 2.0 * np.pi * (np.arange(n_theta) + 0.5) / n_theta  # (n_theta,)
+    R, T = np.meshgrid(r, th, indexing="ij")  # (n_r, n_theta)
+    pts = np.stack([np.full(R.size, float(x)), (R * np.cos(T)).ravel(), (R * np.sin(T)).ravel()], axis=1)
+    wt = np.repeat(w * r, n_theta)
+    return pts, wt / wt.sum()
 
 
 def gauge_points(x_ss: float, e: float, r_outer, alpha: float, n: int = 4) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -82,20 +112,24 @@ def locate_gauge(wm: WhiskerMesh, design: WhiskerDesign, n: int = 16) -> GaugeGe
 
     ``n`` Gauss–Legendre points along the gauge: the axial strain is piecewise
     polynomial and discontinuous across the elements the gauge crosses, so few points
-    integrate it poorly. Measured on the default design (Q = 0, δ = 5 mm, swept meshes
-    of 1128–9648 elements): 4 points differ from 64 by up to 0.46 % of the reading,
-    16 points by at most 0.05 %.
+    integrate it poorly; 16 points read as 64 do to a small fraction of the mesh's own error
+    (``benchmarks/results/gauge_readings.md``, "Gauss points along the gauge").
     """
     pts, w, tangent = gauge_points(design.x_ss, design.e, design.r_outer, design.alpha, n)
     centre = np.array([[design.x_ss + 0.5 * design.e, design.r_outer(design.x_ss + 0.5 * design.e), 0.0]])
+    sec = [section_points(design, x) for x in (design.x_ss, design.x_ss + design.e)]
+    m = len(sec[0][1])
     # Points on the exact cone lie up to the P2 surface-interpolation error outside the
     # mesh; a host whose local coordinates are slightly outside (barycentric >= -0.05)
     # with an exact inverse map is the right host (the field extends smoothly).
-    loc = PointLocator(wm.mesh.points, wm.mesh.cells).locate(np.vstack([pts, centre]), tol=0.05)
+    loc = PointLocator(wm.mesh.points, wm.mesh.cells).locate(np.vstack([pts, centre, sec[0][0], sec[1][0]]), tol=0.05)
     if not np.all(loc.inside) or np.any(loc.residual > 1e-8 * (1.0 + design.D)):
-        raise ValueError(f"gauge points not located in the mesh (inside {loc.inside}, residuals {loc.residual})")
+        bad = int(np.sum(~np.asarray(loc.inside)) + np.sum(np.asarray(loc.residual) > 1e-8 * (1.0 + design.D)))
+        raise ValueError(f"gauge points not located in the mesh: {bad} of {len(loc.inside)} sampling points "
+                         f"(gauge line, centre, the wall sections at its ends)")
     elems, xi = loc.host_elements, loc.local_coords
-    return GaugeGeometry(elems[:n], xi[:n], w, tangent, int(elems[n]))
+    return GaugeGeometry(elems[:n], xi[:n], w, tangent, int(elems[n]), elems[n + 1:].reshape(2, m),
+                         xi[n + 1:].reshape(2, m, 3), sec[0][1], float(centre[0, 1]))
 
 
 @dataclass(frozen=True, eq=False)
@@ -118,23 +152,6 @@ class GaugedMesh:
         return cls(wm, locate_gauge(wm, design))
 
 
-def line_stretch(mesh, u: np.ndarray, gauge: GaugeGeometry) -> np.ndarray:
-    """Local stretches ``λ_k = |F_k T|`` at the gauge points, shape (n,)."""
-    F = deformation_gradient_at(mesh, u, gauge.host_elements, gauge.local_coords)  # (n, 3, 3)
-    return np.linalg.norm(F @ gauge.tangent, axis=1)  # (n,)
-
-
-def centroid_log_strain_xx(mesh, u: np.ndarray, gauge: GaugeGeometry) -> float:
-    """Axial Eulerian log strain ``(½ ln F Fᵀ)_xx`` at the centroid of the gauge's element."""
-    F = deformation_gradient_at(
-        mesh, u, np.array([gauge.centroid_element]), np.full((1, 3), 0.25)
-    )[0]  # (3, 3)
-    b = F @ F.T
-    lam2, vec = np.linalg.eigh(b)
-    ln_v = 0.5 * (vec * np.log(lam2)) @ vec.T
-    return float(ln_v[0, 0])
-
-
 @dataclass
 class GaugeReader:
     """Stateful reader: remembers the onset state and returns calibrated readings.
@@ -145,15 +162,15 @@ class GaugeReader:
     mesh: object
     gauge: GaugeGeometry
     calibration: float
+    context: ReadingContext = ReadingContext()
 
     def zero(self, u: np.ndarray) -> None:
-        self._lam0 = line_stretch(self.mesh, u, self.gauge)
-        self._c0 = centroid_log_strain_xx(self.mesh, u, self.gauge)
+        """Keep what every registered reading needs of the onset state ``u``."""
+        self._onset = {n: r.state(self.mesh, u, self.gauge) for n, r in GAUGE_READINGS.items()}
 
-    def read(self, u: np.ndarray) -> tuple[float, float]:
-        """Return ``(line reading, centroid reading)`` (the order of :data:`GAUGE_VARIANTS`), both times the
+    def read(self, u: np.ndarray) -> dict[str, float]:
+        """Every registered reading (:data:`GAUGE_READINGS`, in its order) of ``u`` relative to onset, times the
         calibration factor."""
-        lam = line_stretch(self.mesh, u, self.gauge)
-        line = float(self.gauge.weights @ np.log(lam / self._lam0))
-        cen = centroid_log_strain_xx(self.mesh, u, self.gauge) - self._c0
-        return self.calibration * line, self.calibration * cen
+        return {n: self.calibration * r.relative(r.state(self.mesh, u, self.gauge), self._onset[n], self.gauge,
+                                                 self.context)
+                for n, r in GAUGE_READINGS.items()}

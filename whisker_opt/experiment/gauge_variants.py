@@ -1,21 +1,41 @@
-"""The names of the gauge readings: the one registry of the variants, a leaf module.
+"""The gauge readings by name: the one registry of the variants.
 
-:class:`whisker_opt.experiment.gauge.GaugeReader` returns the readings in this order; the scene's result
+Each reading is a module of :mod:`whisker_opt.experiment.readings` with a ``NAME``, a one-line
+``DESCRIPTION``, ``state(mesh, u, gauge)`` (what it needs of one displacement: stretches, a strain) and
+``relative(now, onset, gauge, context) -> float`` (the uncalibrated reading of a state relative to contact onset;
+``context`` a :class:`whisker_opt.experiment.gauge.ReadingContext`, what the reading may know of its scene).
+:class:`whisker_opt.experiment.gauge.GaugeReader` reads every registered reading; the scene's result
 (:attr:`whisker_opt.experiment.scene.SceneResult.eps`), the evaluation's outcome and its measures
-(:mod:`whisker_opt.experiment.measures`) follow it. It imports nothing, so the run-file models may list the
-measures' names without loading the FE code.
+(:mod:`whisker_opt.experiment.measures`) and ``scene.gauge_variant`` follow this registry. The reading modules
+load the finite-element code only when they read, so the run-file models may list the names without it.
+
+Adding a reading: one module in ``whisker_opt/experiment/readings/``, its line in :func:`_registry`, and a test.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from types import MappingProxyType
-from typing import Mapping
+from typing import Any, Callable, Mapping
 
-#: The gauge readings, by name, in the order a reader returns them (the one registry of the variants:
-#: :class:`GaugeReader`, the scene's result (:attr:`whisker_opt.experiment.scene.SceneResult.eps`), the
-#: evaluation's outcome and its measures (:mod:`whisker_opt.experiment.measures`) all follow it).
-GAUGE_VARIANTS: Mapping[str, str] = MappingProxyType({
-    "line": "mean logarithmic strain along the gauge line, relative to contact onset, times ξ",
-    "centroid": "axial Eulerian log strain at the centroid of the element under the gauge centre, relative to "
-                "contact onset, times ξ (the thesis' readout)",
-})
+
+@dataclass(frozen=True)
+class GaugeReading:
+    """One registered gauge reading (see the module docstring for ``state`` and ``relative``)."""
+
+    name: str
+    description: str
+    state: Callable[..., Any]
+    relative: Callable[..., float]
+
+
+def _registry() -> dict[str, GaugeReading]:
+    from whisker_opt.experiment.readings import centroid, line, section
+
+    return {m.NAME: GaugeReading(m.NAME, m.DESCRIPTION, m.state, m.relative) for m in (line, centroid, section)}
+
+
+#: The gauge readings, by name, in the order a reader returns them (read-only).
+GAUGE_READINGS: Mapping[str, GaugeReading] = MappingProxyType(_registry())
+#: Their one-line descriptions, by name (the names ``scene.gauge_variant`` allows).
+GAUGE_VARIANTS: Mapping[str, str] = MappingProxyType({n: r.description for n, r in GAUGE_READINGS.items()})

@@ -20,7 +20,7 @@ them from :data:`MEASURES` by name. The measures:
     vented, both at δ_max; :func:`whisker_opt.experiment.scene.peak_von_mises`):
     max of ``extra["von_mises_max"]``.
 ``eps_i_<variant>``, ``eps_c_<variant>``
-    For every gauge variant of :data:`whisker_opt.experiment.gauge.GAUGE_VARIANTS`, the reading of the
+    For every gauge reading of :data:`whisker_opt.experiment.gauge_variants.GAUGE_VARIANTS`, the reading of the
     intact (i) or the trimmed (c) scene at δ_max: ``extra["readings"][variant]["intact" | "trimmed"]``.
 
 Adding a measure: one entry of :func:`_registry` (and a test of its value against the outcome).
@@ -51,12 +51,20 @@ class Measure:
         One line: what it is.
     read : callable
         ``read(outcome) -> float`` of a successful outcome.
+    calibrated : bool
+        Proportional to the gauge factor ξ (a gauge reading or a number built from readings, docs/physics.md
+        §4): a design whose only deviation is ξ has this measure times ξ'/ξ without another solve.
+    worse : float
+        +1 where a larger value is worse, −1 where a smaller one is (the ``worst`` reduction over variants,
+        :mod:`whisker_opt.optimise.aggregate`).
     """
 
     name: str
     unit: str
     description: str
     read: Callable[[EvalOutcome], float]
+    calibrated: bool = False
+    worse: float = 1.0
 
     def __call__(self, outcome: EvalOutcome) -> float:
         """The measure of a successful ``outcome``.
@@ -95,9 +103,10 @@ def _reading(variant: str, scene: str) -> Callable[[EvalOutcome], float]:
 
 def _registry() -> dict[str, Measure]:
     fixed = (
-        Measure("f1", "-", "compensation error mean |eps_i - eps_c| over the deflection samples", lambda o: o.f1),
+        Measure("f1", "-", "compensation error mean |eps_i - eps_c| over the deflection samples", lambda o: o.f1,
+                calibrated=True),
         Measure("sensitivity", "1/mm", "gauge reading of the trimmed, vented scene at the largest deflection per "
-                "mm of that deflection, eps_c(delta_max) / delta_max", _sensitivity),
+                "mm of that deflection, eps_c(delta_max) / delta_max", _sensitivity, calibrated=True, worse=-1.0),
         Measure("delta_l", "mm", "axial tip extension of the intact whisker after pressurisation to Q_i",
                 lambda o: o.extra["delta_l"]),
         Measure("von_mises_max", "MPa", "largest nodal von Mises stress of the intact and the trimmed scene at "
@@ -105,7 +114,7 @@ def _registry() -> dict[str, Measure]:
     )
     readings = tuple(
         Measure(f"eps_{SCENE_LETTER[s]}_{v}", "-", f"{v} gauge reading of the {s} scene at the largest deflection: {doc}",
-                _reading(v, s))
+                _reading(v, s), calibrated=True)
         for v, doc in GAUGE_VARIANTS.items() for s in SCENE_LETTER)
     return {m.name: m for m in (*fixed, *readings)}
 
@@ -131,9 +140,16 @@ def measure(name: str) -> Measure:
 
 def measure_values(outcome: EvalOutcome, names) -> dict[str, float | None]:
     """``{name: value}`` of the measures ``names`` of ``outcome`` (None for a failed one; NaN where the
-    outcome lacks what a measure reads)."""
+    outcome lacks what a measure reads).
+
+    A name the outcome holds in its ``measures`` (an aggregate over variants such as ``f1_robust``,
+    :mod:`whisker_opt.optimise.aggregate`) is read from there; any other must be a registered measure.
+    """
     out: dict[str, float | None] = {}
     for n in names:
+        if n in outcome.measures:
+            out[n] = float(outcome.measures[n]) if outcome.ok else None
+            continue
         m = measure(n)
         if not outcome.ok:
             out[n] = None

@@ -52,6 +52,10 @@ class EvalOutcome:
         Seconds per stage; see the module docstring.
     extra : dict
         Additional small picklable data; see the module docstring.
+    measures : dict
+        Named numbers the evaluator computed beyond those the measures read from ``f1`` and ``extra``
+        (:mod:`whisker_opt.experiment.measures`): the aggregates over variants of an evaluation
+        (:mod:`whisker_opt.optimise.aggregate`), e.g. ``f1_robust``. Empty for a single evaluation.
     """
 
     status: str
@@ -59,6 +63,7 @@ class EvalOutcome:
     reason: str = ""
     timings: dict[str, float] = field(default_factory=dict)
     extra: dict[str, Any] = field(default_factory=dict)
+    measures: dict[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.status not in STATUSES:
@@ -91,7 +96,8 @@ class EvalOutcome:
 
     def with_timing(self, **seconds: float) -> "EvalOutcome":
         """A copy with extra entries in ``timings``."""
-        return EvalOutcome(self.status, self.f1, self.reason, {**self.timings, **seconds}, dict(self.extra))
+        return EvalOutcome(self.status, self.f1, self.reason, {**self.timings, **seconds}, dict(self.extra),
+                           dict(self.measures))
 
     def validated(self) -> "EvalOutcome":
         """This outcome, or an ``"error"`` outcome when it claims success without a usable f1.

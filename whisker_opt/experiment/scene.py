@@ -35,6 +35,7 @@ Only gauge quantities are evaluated per increment; full states are kept only whe
 
 from __future__ import annotations
 
+import math
 import contextlib
 import logging
 import time
@@ -53,7 +54,7 @@ from geometry.design import WhiskerDesign
 from geometry.fibre_field import smeared_fibres
 from geometry.mesh import MeshSizing, WhiskerMesh, build_mesh
 from whisker_opt.experiment.contact import Contact, contact_band, place_contact_ring
-from whisker_opt.experiment.gauge import GaugedMesh, GaugeReader
+from whisker_opt.experiment.gauge import GaugedMesh, GaugeReader, ReadingContext
 from whisker_opt.experiment.gauge_variants import GAUGE_VARIANTS
 from whisker_opt.experiment.spec import SceneSpec, cap_elements, rubber_material
 from whisker_opt.wall.law import apply_law, chamber_elements, mid_chamber_x
@@ -69,8 +70,9 @@ class SceneResult:
     ----------
     delta : ndarray, shape (k + 1,)
         Solved deflections [mm], starting at 0.
-    eps_line, eps_centroid : ndarray, shape (k + 1,)
-        Calibrated gauge readings (line and thesis-centroid variants) [-].
+    eps : dict of str -> ndarray, shape (k + 1,)
+        Calibrated gauge readings [-] by name, one per registered reading
+        (:data:`whisker_opt.experiment.gauge_variants.GAUGE_READINGS`: ``line``, ``centroid``).
     delta_l : float
         Axial extension of the tip after pressurisation [mm].
     length_q : float
@@ -110,8 +112,7 @@ class SceneResult:
 
     spec: SceneSpec
     delta: np.ndarray
-    eps_line: np.ndarray
-    eps_centroid: np.ndarray
+    eps: dict[str, np.ndarray]
     delta_l: float
     length_q: float
     radial_growth: float
@@ -132,11 +133,6 @@ class SceneResult:
         if self.problems is None:
             return None
         return self.problems["pressurised" if state == "pressurised" else "deflection"]
-
-    @property
-    def eps(self) -> dict[str, np.ndarray]:
-        """The readings at the solved deflections by gauge variant (:data:`GAUGE_VARIANTS`)."""
-        return dict(zip(GAUGE_VARIANTS, (self.eps_line, self.eps_centroid)))
 
     @property
     def contact_stiffness(self) -> float:
@@ -389,8 +385,9 @@ class Deflection:
     ----------
     fractions : tuple of float
         Solved fractions of ``spec.deflection``.
-    readings : ndarray, shape (k + 1, 2)
-        Calibrated (line, centroid) readings, the first row at onset (0, 0).
+    readings : ndarray, shape (k + 1, n_readings)
+        Calibrated readings, one column per registered reading in :data:`GAUGE_VARIANTS` order, the first
+        row at onset (0, ...).
     states : list of State
         The state at each fraction.
     reports : list of fem.loadpath.StepReport
@@ -451,6 +448,17 @@ def contact_reactions(problem: Problem, state: State, pressures: tuple, band: np
     return np.concatenate([[-Ru[band, 1].sum()], Ru[base].sum(axis=0)])
 
 
+def reading_context(spec: SceneSpec) -> ReadingContext:
+    """What the gauge readings know of ``spec``: the wall cell's transfer G(Q) at its pressure and wall
+    (:meth:`whisker_opt.wall.law.WallLaw.gauge_transfer`; NaN outside the wall table, where the ``section``
+    reading is then NaN)."""
+    try:
+        return ReadingContext(spec.law.gauge_transfer(spec.Q, spec.design))
+    except ValueError as exc:
+        logger.debug("section reading unavailable: %s", exc)
+        return ReadingContext(math.nan)
+
+
 def deflect_and_read(spec: SceneSpec, gm: GaugedMesh, pre: Pressurised, contact: Contact) -> Deflection:
     """Step 2: push the contact band by ``spec.deflection`` in −y, reading the gauge.
 
@@ -461,7 +469,7 @@ def deflect_and_read(spec: SceneSpec, gm: GaugedMesh, pre: Pressurised, contact:
     stiffness about the pressurised state (:func:`whisker_opt.wall.law.apply_law`).
     """
     wm, u1 = gm.wm, pre.state.u
-    reader = GaugeReader(wm.mesh, gm.gauge, spec.calibration)
+    reader = GaugeReader(wm.mesh, gm.gauge, spec.calibration, reading_context(spec))
     band = contact_band(wm, u1, contact.x(wm, u1), spec.band_width, contact.at_tip)
     # same mesh, faces and fibres: replace() shares the topology cache (sparsity
     # pattern, PARDISO analysis) with the pressurise problem
@@ -475,7 +483,7 @@ def deflect_and_read(spec: SceneSpec, gm: GaugedMesh, pre: Pressurised, contact:
     load1 = LoadState(pq, (pre.zeros_base, *pre.extra_base, uy0 - spec.deflection))
     reader.zero(u1)
     fractions = tuple(np.linspace(0, 1, spec.n_deflection_steps + 1)[1:])
-    readings = [(0.0, 0.0)]
+    readings = [(0.0,) * len(GAUGE_VARIANTS)]
     t_read = [0.0]
     base = np.asarray(wm.node_sets["base"], dtype=np.int64)
     forces = [contact_reactions(prob2, pre.state, pq, band, base)]
@@ -483,7 +491,7 @@ def deflect_and_read(spec: SceneSpec, gm: GaugedMesh, pre: Pressurised, contact:
 
     def _read(fraction: float, st: State) -> None:
         tr = time.perf_counter()
-        readings.append(reader.read(st.u))
+        readings.append(tuple(reader.read(st.u).values()))
         forces.append(contact_reactions(prob2, st, pq, band, base, st.residual))  # R of prob2's solve
         t_read[0] += time.perf_counter() - tr
 
@@ -599,8 +607,7 @@ def run_scene(spec: SceneSpec, wm: WhiskerMesh | GaugedMesh | None = None, keep_
     return SceneResult(
         spec=spec,
         delta=delta,
-        eps_line=dfl.readings[:, 0],
-        eps_centroid=dfl.readings[:, 1],
+        eps={name: dfl.readings[:, j] for j, name in enumerate(GAUGE_VARIANTS)},
         delta_l=delta_l,
         length_q=design.length + delta_l,
         radial_growth=radial,

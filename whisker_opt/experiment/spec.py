@@ -184,9 +184,9 @@ class SceneSpec:
         'pressurised': x = a·L_Q, the contact moves out with the extension
         (a = 1 is the tip face). 'reference': x = a·L, the pusher stays where it stood
         before pressurisation (for Q > 0 and a = 1 that is a section short of the tip).
-        The two differ in the pressure trend of off-tip readings; see
-        benchmarks/results/compensation.md (default design, a = 0.5: ε(1 mm) at 0.2 MPa +0.1 % of the
-        vented value with 'pressurised', +10 % with 'reference').
+        The two differ in the pressure trend of off-tip readings, which rise monotonically with Q
+        with 'reference' and peak and fall again with 'pressurised' (benchmarks/results/compensation.md,
+        the default design at a = 0.5 and 0.75).
     deflection : float
         Final deflection [mm].
     c10, d1 : float
@@ -204,8 +204,8 @@ class SceneSpec:
     formulation : {'mixed', 'displacement'}
         :class:`fem.problem.Problem` formulation: 'mixed' (P2/P0 u–p, locking-free, the
         default) or 'displacement' (C3D10-like, needs D1 > 0; for cross-checks with
-        CalculiX; it locks on coarse meshes: +12 % on ε(5 mm) of the default preset mesh
-        at K/μ = 1000, benchmarks/results/time_vs_error.md).
+        CalculiX; it locks on coarse meshes such as the default preset's at K/μ = 1000:
+        benchmarks/results/time_vs_error.md, "CalculiX point").
     rubber : str
         Rubber law of the body (every element, or every element outside the cap when
         ``cap_rubber`` differs): one of :data:`RUBBERS`, 'neo_hookean' (C10 = ``c10``, the

@@ -62,7 +62,7 @@ def _number(v: Any) -> float | None:
 
 def best_designs(records: Iterable[Mapping[str, Any]], bounds: Sequence[tuple[float, float]], n: int,
                  distance: float, calibration: float | None = None,
-                 names: Sequence[str] = GENE_NAMES) -> list[dict[str, Any]]:
+                 names: Sequence[str] = GENE_NAMES, objective: str = "f1") -> list[dict[str, Any]]:
     """The ``n`` best feasible designs of a run, pairwise distinct by ``distance`` (module docstring).
 
     Parameters
@@ -81,6 +81,9 @@ def best_designs(records: Iterable[Mapping[str, Any]], bounds: Sequence[tuple[fl
         (``f1_uncalibrated``, ``F_p_uncalibrated``); None leaves those None.
     names : sequence of str
         The genome (``optimiser.genes.names()``; default :data:`GENE_NAMES`).
+    objective : str
+        What the run minimises (:func:`whisker_opt.optimise.aggregate.objective_column`): an aggregate over
+        variants such as ``f1_robust`` is added to each entry after ``f1`` (the nominal design's).
 
     Returns
     -------
@@ -127,6 +130,7 @@ def best_designs(records: Iterable[Mapping[str, Any]], bounds: Sequence[tuple[fl
             "generation": int(generation) if generation is not None else None,
             "genes": dict(zip(names, genome)),
             "f1": f1,
+            **({objective: _number(r.get(objective))} if objective != "f1" else {}),
             "F_p": fp,
             "f1_uncalibrated": f1 / xi if xi else None,
             "F_p_uncalibrated": fp / xi if xi else None,
@@ -152,9 +156,11 @@ def run_best_designs(state, cfg, n: int | None = None) -> list[dict[str, Any]]:
     -------
     list of dict
     """
+    from whisker_opt.optimise.aggregate import objective_column
+
     xi = ((state.extra or {}).get("fidelity") or {}).get("calibration")
     return best_designs(state.records, cfg.genes.bounds(), cfg.ga.hall_of_fame if n is None else n,
-                        cfg.distinct_distance, xi, cfg.genes.names())
+                        cfg.distinct_distance, xi, cfg.genes.names(), objective_column(cfg))
 
 
 def describe_distance(distance: float) -> str:

@@ -10,6 +10,7 @@ returned as :class:`whisker_opt.experiment.outcome.EvalOutcome`; nothing raises 
 from __future__ import annotations
 
 import logging
+import math
 import time
 from dataclasses import dataclass, replace
 
@@ -105,6 +106,9 @@ class SceneEvaluator:
         eps_i = results["intact"].curve(delta, self.gauge_variant)
         eps_c = results["trimmed"].curve(delta, self.gauge_variant)
         f1 = objective.f1(eps_i, eps_c)
+        if not math.isfinite(f1):  # a reading undefined for this design (the section reading off its wall table)
+            return EvalOutcome.failure("error", f"gauge reading {self.gauge_variant!r} is not defined for this "
+                                       "design (its wall lies outside the wall table)", {"total": time.perf_counter() - t0})
         timings["total"] = time.perf_counter() - t0
         extra = {
             "delta_l": results["intact"].delta_l,

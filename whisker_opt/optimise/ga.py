@@ -76,7 +76,7 @@ from whisker_opt.experiment.measures import measure_values
 from whisker_opt.experiment.outcome import EvalOutcome
 from whisker_opt.optimise.penalty import PenaltyTerm, dynamic_penalty, fitness_values, penalise, penalty_terms
 from whisker_opt.numfmt import short_float
-from whisker_opt.optimise.robust import ROBUST_COLUMNS
+from whisker_opt.optimise.aggregate import aggregate_columns, objective_column
 
 logger = logging.getLogger(__name__)
 
@@ -232,11 +232,12 @@ def in_strain(value: float | None, strain: str, xi: float | None) -> str:
     return f"{uncal} ({cal})" if strain == "uncalibrated" else f"{cal} ({uncal})"
 
 
-def below_resolution_for(logbook: Sequence[dict], resolution: float) -> int:
-    """How many of the last generations in a row had a feasible best design with f1 < ``resolution``."""
+def below_resolution_for(logbook: Sequence[dict], resolution: float, objective: str = "f1") -> int:
+    """How many of the last generations in a row had a feasible best design with f1 (or the aggregate
+    ``objective`` the run minimises, e.g. ``f1_robust``) < ``resolution``."""
     k = 0
     for row in reversed(logbook):
-        f1 = row.get("best_f1")
+        f1 = row.get(f"best_{objective}")
         if not (row.get("best_feasible") and f1 is not None and float(f1) < resolution):
             break
         k += 1
@@ -290,6 +291,8 @@ class GeneticAlgorithm:
         self.names: tuple[str, ...] = cfg.genes.names()
         #: Measures (:mod:`whisker_opt.experiment.measures`) recorded beside f1 and handed to :meth:`fitness_of`.
         self.measure_columns: tuple[str, ...] = ()
+        #: What the run minimises: f1, or its aggregate over variants (``f1_robust``, ...; optimise/aggregate.py).
+        self.objective: str = objective_column(cfg)
         bounds = cfg.genes.bounds()
         self.low = [float(lo) for lo, _ in bounds]
         self.up = [float(hi) for _, hi in bounds]
@@ -451,7 +454,9 @@ class GeneticAlgorithm:
             progress.start_generation(state, generation, len(run_keys), len(invalid) - len(run_keys))
 
             def on_result(i: int, out: EvalOutcome) -> None:
-                fp = dynamic_penalty(float(out.f1), batch[i], self.terms)[1] if out.ok else None
+                fp = None
+                if out.ok:  # F_p of f1 or of its aggregate over variants
+                    fp = dynamic_penalty(measure_values(out, (self.objective,))[self.objective], batch[i], self.terms)[1]
                 progress.result(state, generation, batch[i], out, fp)
 
             outcomes = executor.map(batch, seeds, on_result=on_result) if run_keys else []
@@ -470,7 +475,8 @@ class GeneticAlgorithm:
                 hit = True
                 n_hits += 1
             genes = self.genes_of(ind)
-            pen = penalise(out, genes, self.terms, self.cfg.failure_penalty)
+            pen = penalise(out, genes, self.terms, self.cfg.failure_penalty, self.objective)
+            f1 = measure_values(out, ("f1",))["f1"]
             measures = measure_values(out, self.measure_columns)
             ind.fitness.values = self.fitness_of(pen, {**genes, **measures})
             eval_id = len(state.records)
@@ -479,23 +485,25 @@ class GeneticAlgorithm:
             ind.info = {
                 "eval_id": eval_id,
                 "generation": generation,
-                "f1": pen.f1,
+                "f1": f1,
                 "kappas": dict(pen.kappas),
                 "fp": pen.fp,
                 "status": out.status,
                 "reason": out.reason,
             }
+            if self.objective != "f1":  # the aggregate the run minimises, beside the nominal f1
+                ind.info.update({"objective": self.objective, self.objective: pen.f1})
             if measures:
                 ind.info["measures"] = measures
-            rec: dict[str, Any] = {"eval_id": eval_id, "generation": generation, **genes, "f1": pen.f1}
-            if self.cfg.robust is not None:  # f1 is mean + k·std; the nominal f1 and the moments beside it
-                rec.update({k: out.extra.get(k) for k in ROBUST_COLUMNS})
+            rec: dict[str, Any] = {"eval_id": eval_id, "generation": generation, **genes, "f1": f1}
+            aggregates = aggregate_columns(self.cfg)  # empty for a failed evaluation
+            rec.update(measure_values(out, aggregates) if out.ok else dict.fromkeys(aggregates))
             rec.update(measures)
             for t in self.terms:
                 rec[t.column] = pen.kappas.get(t.gene)
             rec.update(
                 F_p=pen.fp,
-                f1_uncalibrated=uncalibrated(pen.f1, xi) if pen.feasible else None,
+                f1_uncalibrated=uncalibrated(f1, xi) if pen.feasible else None,
                 F_p_uncalibrated=uncalibrated(pen.fp, xi) if pen.feasible else None,
                 status=out.status,
                 reason=out.reason,
@@ -529,6 +537,8 @@ class GeneticAlgorithm:
                                      if best.fitness.values[0] == 0.0 else None),
             "best_feasible": best.fitness.values[0] == 0.0,
             "best_f1": best.info["f1"] if best.info else None,
+            **({f"best_{self.objective}": best.info.get(self.objective) if best.info else None}
+               if self.objective != "f1" else {}),
             "min_fp": min(feas) if feas else min(all_fp),
             "mean_fp": float(np.mean(feas)) if feas else math.nan,
             "total_evals": state.n_evaluations,
@@ -545,7 +555,7 @@ class GeneticAlgorithm:
             return "target_fp"
         res = run_resolution(state)
         if st.resolution_generations and res is not None \
-                and below_resolution_for(state.logbook, res) >= st.resolution_generations:
+                and below_resolution_for(state.logbook, res, self.objective) >= st.resolution_generations:
             return "resolution"
         if stalled([row["best_fp"] for row in state.logbook], st.stall_generations, st.stall_tol):
             return "stall"
@@ -569,10 +579,10 @@ class GeneticAlgorithm:
         if rule == "resolution":
             res, n = run_resolution(state), st.resolution_generations
             preset = (state.extra.get("fidelity") or {}).get("preset", "?")
-            return (f"resolution: the best design's f1 has stayed below the f1 resolution "
+            return (f"resolution: the best design's {self.objective} has stayed below the f1 resolution "
                     f"~{in_strain(res, st.target_strain, xi)} of preset {preset} for {n} generations "
                     f"({g - n + 1}..{g}; stopping.resolution_generations = {n}), at generation {g} "
-                    f"{in_strain(last['best_f1'], st.target_strain, xi)}: further generations would rank mesh "
+                    f"{in_strain(last[f'best_{self.objective}'], st.target_strain, xi)}: further generations would rank mesh "
                     f"error; verify the best designs at a finer preset")
         if rule == "stall":
             return (f"stall: the mean relative improvement of the best F_p over the last {st.stall_generations} "
@@ -638,16 +648,20 @@ def gene_names(state: GAState) -> tuple[str, ...]:
 
 
 def best_design(state: GAState) -> dict[str, Any]:
-    """The best design so far: genes, f1, κ_j, F_p (calibrated, and divided by ξ when the run knows
-    its gauge factor), status and where it was found."""
+    """The best design so far: genes, f1 (and the aggregate over variants the run minimises, e.g.
+    ``f1_robust``, when it has one), κ_j, F_p (calibrated, and divided by ξ when the run knows its gauge
+    factor), status and where it was found."""
     best = state.hof[0]
     info = dict(best.info or {})
     feasible = best.fitness.values[0] == 0.0
+    name = info.get("objective")  # set by an aggregated run only
+    objective = {"objective": name, name: info.get(name)} if name else {}
     return {
         "genes": genes_dict(best, gene_names(state)),
         "feasible": feasible,
         "F_p": best.fitness.values[1],
         "f1": info.get("f1"),
+        **objective,
         "F_p_uncalibrated": uncalibrated(best.fitness.values[1], gauge_factor(state)) if feasible else None,
         "f1_uncalibrated": uncalibrated(info.get("f1"), gauge_factor(state)),
         "kappas": info.get("kappas", {}),

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 from typing import Mapping
 
 from whisker_opt.config.optimiser import GenesConfig, OptimiserConfig
-from whisker_opt.experiment.measures import measure
+from whisker_opt.experiment.measures import measure_values
 from whisker_opt.experiment.outcome import FAILURE_STATUSES, EvalOutcome
 
 logger = logging.getLogger(__name__)
@@ -144,11 +144,16 @@ def failure_penalty(status: str, violation: float, base: float) -> float:
 
 
 def penalise(
-    outcome: EvalOutcome, genes: Mapping[str, float], terms: tuple[PenaltyTerm, ...], failure_base: float
+    outcome: EvalOutcome, genes: Mapping[str, float], terms: tuple[PenaltyTerm, ...], failure_base: float,
+    objective: str = "f1",
 ) -> Penalised:
-    """Turn an outcome into fitness (dynamic penalty or graded failure penalty)."""
+    """Turn an outcome into fitness (dynamic penalty or graded failure penalty).
+
+    ``objective`` names the measure the dynamic penalty is built on: f1, or its aggregate over variants
+    (``f1_robust``, ...; :mod:`whisker_opt.optimise.aggregate`), which ``Penalised.f1`` then holds.
+    """
     if outcome.ok:
-        f1 = measure("f1")(outcome)
+        f1 = measure_values(outcome, (objective,))[objective]
         kappas, fp = dynamic_penalty(f1, genes, terms)
         if fp >= failure_base:
             logger.warning(

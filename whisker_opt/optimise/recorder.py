@@ -25,7 +25,7 @@ from whisker_opt.optimise.checkpoint import save_checkpoint
 from whisker_opt.optimise.ga import GAState, GeneticAlgorithm, Recorder, best_design
 from whisker_opt.optimise.nsga2 import NSGA2, finer_preset, hypervolume_basis, objective_terms
 from whisker_opt.optimise.resolution import run_fidelity
-from whisker_opt.optimise.robust import ROBUST_COLUMNS
+from whisker_opt.optimise.aggregate import aggregate_columns, objective_column
 from whisker_opt.output import pareto_plots, storage
 from whisker_opt.output.plots import design_label, plot_convergence, plot_curves, write_best_curves
 
@@ -49,7 +49,8 @@ class Outputs:
             title=f"GA convergence ({stop}, generation {state.generation}, {state.n_evaluations} evaluations)",
             fidelity=fidelity,
             target_strain=cfg.stopping.target_strain,
-            best_f1=[r.get("best_f1") for r in lb],
+            best_f1=[r.get(f"best_{objective_column(cfg)}") for r in lb],
+            f1_label=objective_column(cfg),
         )
 
     def write(self, run_dir: Path, algo: GeneticAlgorithm, state: GAState) -> list[Path]:
@@ -118,9 +119,10 @@ class RunRecorder(Recorder):
         self.algo = algo
         self.config = config
         self.eval_cols = storage.evaluation_columns(algo.names, [t.column for t in algo.terms],
-                                                    ROBUST_COLUMNS if algo.cfg.robust is not None else (),
+                                                    aggregate_columns(algo.cfg),
                                                     algo.measure_columns)
-        self.gen_cols = storage.generation_columns(algo.names) + list(algo.EXTRA_GENERATION_COLUMNS)
+        self.gen_cols = (storage.generation_columns(algo.names) + list(algo.EXTRA_GENERATION_COLUMNS)
+                         + ([f"best_{algo.objective}"] if algo.objective != "f1" else []))
 
     def generation(self, state: GAState, row: dict) -> None:
         """The checkpoint, then the tables."""

@@ -91,13 +91,14 @@ def resolution_warning(state: GAState, fidelity: Mapping[str, Any] | None, run_d
     if not state.hof or res is None:
         return None
     b = best_design(state)
-    if not b["feasible"] or b["f1"] is None or not float(b["f1"]) < res:
+    objective = b.get("objective") or "f1"  # what the run minimises: f1 or its aggregate (f1_robust, ...)
+    if not b["feasible"] or b[objective] is None or not float(b[objective]) < res:
         return None
     xi = (fidelity or {}).get("calibration")
     preset = fidelity["preset"]  # type: ignore[index]
     fp = b["F_p"] / xi if target_strain == "uncalibrated" and xi else b["F_p"]
     unit = f" {target_strain}" if xi else ""
-    msg = (f"best f1 {in_strain(b['f1'], target_strain, xi)} is below the f1 resolution "
+    msg = (f"best {objective} {in_strain(b[objective], target_strain, xi)} is below the f1 resolution "
            f"~{in_strain(res, target_strain, xi)} of preset {preset} (its F_p {short_float(fp, 2)}{unit})")
     msg += _finer(preset, run_dir)
     if state.stop_reason == "target_fp":

@@ -53,9 +53,6 @@ PointFunction = Callable[[np.ndarray], Sequence[float]]
 
 DISTRIBUTIONS: tuple[str, ...] = ("uniform", "normal")
 SAMPLINGS: tuple[str, ...] = ("lhs", "monte_carlo")
-#: What a robust evaluation reports beside its objective (``EvalOutcome.extra``, columns of ``evaluations.csv``
-#: after ``f1``, which then holds mean + k·std of f1 under the tolerances): the nominal f1 and the two moments.
-ROBUST_COLUMNS: tuple[str, ...] = ("f1_nominal", "f1_mean", "f1_std")
 
 
 def _check_half_widths(half_widths: Sequence[float]) -> np.ndarray:
@@ -219,6 +216,16 @@ def linear_fit_slopes(points: np.ndarray, values: np.ndarray) -> np.ndarray:
     return out
 
 
+def column_moments(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and standard deviation (ddof = 1) of each column of ``values`` (n, m), NaN left out (NaN for a column
+    with no finite value, std NaN with fewer than two)."""
+    y = np.asarray(values, dtype=float)  # (n, m)
+    with np.errstate(invalid="ignore"):
+        mean = np.array([np.nanmean(c) if np.isfinite(c).any() else np.nan for c in y.T])
+        std = np.array([np.nanstd(c, ddof=1) if np.isfinite(c).sum() > 1 else np.nan for c in y.T])
+    return mean, std
+
+
 def sample_estimate(f: PointFunction, points: np.ndarray, worse: Sequence[float] | None = None) -> SampleEstimate:
     """Estimator (a): evaluate ``f`` at every point of a sample and summarise.
 
@@ -238,9 +245,7 @@ def sample_estimate(f: PointFunction, points: np.ndarray, worse: Sequence[float]
     x = np.atleast_2d(np.asarray(points, dtype=float))  # (n, d)
     y = np.array([np.asarray(f(p), dtype=float).ravel() for p in x])  # (n, m)
     w = _worse_signs(worse, y.shape[1])
-    with np.errstate(invalid="ignore"):
-        mean = np.array([np.nanmean(c) if np.isfinite(c).any() else np.nan for c in y.T])
-        std = np.array([np.nanstd(c, ddof=1) if np.isfinite(c).sum() > 1 else np.nan for c in y.T])
+    mean, std = column_moments(y)
     idx = [_worst_index(y[:, i], w[i]) for i in range(y.shape[1])]
     worst = np.array([y[j, i] if j >= 0 else np.nan for i, j in enumerate(idx)])
     worst_point = np.array([x[j] if j >= 0 else np.full(x.shape[1], np.nan) for j in idx])

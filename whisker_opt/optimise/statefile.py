@@ -169,9 +169,12 @@ def _hall_of_fame(d: Any) -> Any:
 
 
 def _outcome_data(out: EvalOutcome, where: str) -> dict[str, Any]:
-    return {"status": out.status, "f1": to_data(out.f1, where), "reason": out.reason,
-            "timings": to_data(dict(out.timings), f"{where}.timings"),
-            "extra": to_data(dict(out.extra), f"{where}.extra")}
+    d = {"status": out.status, "f1": to_data(out.f1, where), "reason": out.reason,
+         "timings": to_data(dict(out.timings), f"{where}.timings"),
+         "extra": to_data(dict(out.extra), f"{where}.extra")}
+    if out.measures:  # an aggregated evaluation's named aggregates (absent otherwise, as in older files)
+        d["measures"] = to_data(dict(out.measures), f"{where}.measures")
+    return d
 
 
 def _outcome(d: Any) -> EvalOutcome:
@@ -180,7 +183,10 @@ def _outcome(d: Any) -> EvalOutcome:
     timings, extra = from_data(d.get("timings", {})), from_data(d.get("extra", {}))
     if not isinstance(timings, dict) or not isinstance(extra, dict) or not isinstance(d.get("reason", ""), str):
         raise StateFormatError("a malformed evaluation outcome")
-    return EvalOutcome(d["status"], from_data(d.get("f1")), d.get("reason", ""), timings, extra)
+    measures = from_data(d.get("measures", {}))
+    if not isinstance(measures, dict):
+        raise StateFormatError("a malformed evaluation outcome")
+    return EvalOutcome(d["status"], from_data(d.get("f1")), d.get("reason", ""), timings, extra, measures)
 
 
 def _cache_data(cache: EvalCache) -> dict[str, Any]:

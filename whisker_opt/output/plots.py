@@ -85,6 +85,7 @@ def convergence_figure(
     fidelity: Mapping[str, Any] | None = None,
     target_strain: str = "calibrated",
     best_f1: Sequence[float | None] | None = None,
+    f1_label: str = "f1",
 ) -> Figure:
     """The convergence figure of :func:`plot_convergence` (integer generation ticks)."""
     g = np.asarray(generations, dtype=float)
@@ -98,7 +99,7 @@ def convergence_figure(
     if best_f1 is not None:  # the f1 of the best design: the number the f1 resolution applies to
         f1 = np.asarray([math.nan if v is None else float(v) for v in best_f1], dtype=float)
         if np.isfinite(f1).any():
-            ax.plot(g, f1, "^:", ms=3, color="C4", label="f1 of the best design")
+            ax.plot(g, f1, "^:", ms=3, color="C4", label=f"{f1_label} of the best design")
     if best_feasible is not None:
         bad = ~np.asarray(best_feasible, dtype=bool)
         if bad.any():
@@ -146,6 +147,7 @@ def plot_convergence(
     fidelity: Mapping[str, Any] | None = None,
     target_strain: str = "calibrated",
     best_f1: Sequence[float | None] | None = None,
+    f1_label: str = "f1",
 ) -> Path:
     """Best and mean F_p per generation, log y (non-positive values are not drawn).
 
@@ -172,13 +174,15 @@ def plot_convergence(
     best_f1 : sequence of float or None, optional
         The f1 of each generation's best design, drawn beside its F_p: the f1 resolution (and
         the ``resolution`` stopping rule) applies to it.
+    f1_label : str
+        Its name: ``f1``, or the aggregate over variants a run minimises (``f1_robust``, ...).
 
     Returns
     -------
     Path
     """
     fig = convergence_figure(generations, best_fp, mean_fp, best_feasible, target_fp, title, fidelity,
-                             target_strain, best_f1)
+                             target_strain, best_f1, f1_label)
     return _save(fig, path)
 
 

@@ -425,8 +425,7 @@ def scene_entry(spec, res, gauge_variant: str = "line", **extra) -> dict:
         "wall_slope_per_MPa": spec.wall_slope,
         "radial_growth_mm": res.radial_growth,
         "solved_delta_mm": res.delta.tolist(),
-        "eps_line": res.eps_line.tolist(),
-        "eps_centroid": res.eps_centroid.tolist(),
+        **{f"eps_{reading}": eps.tolist() for reading, eps in res.eps.items()},  # eps_line, eps_centroid, ...
         "gauge_variant": gauge_variant,
     }
     if getattr(res, "contact_force", None) is not None:
@@ -508,6 +507,6 @@ def solve_scenes(out: Path, specs: dict, gauge_variant: str = "line", **extra) -
         results[name] = res
         entries[name] = scene_entry(spec, res, gauge_variant, wall_s=round(wall, 3), **extra)
         logger.info("scene %s: Q=%.4g MPa, trim=%.4g mm, eps(deflection)=%.6g, %.2f s", name, spec.Q,
-                    spec.design.trim, res.eps_line[-1], wall)
+                    spec.design.trim, res.eps["line"][-1], wall)
     write_result_collection(out, files)
     return results, entries

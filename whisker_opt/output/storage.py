@@ -246,11 +246,12 @@ def read_csv(path: Path) -> list[dict[str, str]]:
 
 
 def evaluation_columns(gene_names: Sequence[str], kappa_columns: Sequence[str],
-                       robust_columns: Sequence[str] = (), measure_columns: Sequence[str] = ()) -> list[str]:
-    """Columns of ``evaluations.csv`` (``robust_columns`` after ``f1``: what a robust objective reports beside
-    it; then the measures an optimiser reads besides f1, e.g. NSGA-II's ``sensitivity``)."""
+                       aggregate_columns: Sequence[str] = (), measure_columns: Sequence[str] = ()) -> list[str]:
+    """Columns of ``evaluations.csv`` (``aggregate_columns`` after ``f1``: the aggregate over variants a run
+    minimises and the spread of f1 beside it, e.g. ``f1_robust``, ``f1_mean``, ``f1_std``; then the measures an
+    optimiser reads besides f1, e.g. NSGA-II's ``sensitivity``)."""
     return (
-        ["eval_id", "generation", *gene_names, "f1", *robust_columns, *measure_columns, *kappa_columns, "F_p",
+        ["eval_id", "generation", *gene_names, "f1", *aggregate_columns, *measure_columns, *kappa_columns, "F_p",
          "f1_uncalibrated", "F_p_uncalibrated", "status", "reason", "time_s", "cache_hit"]
     )
 

@@ -133,8 +133,8 @@ def scene_info_from_dict(name: str, d: Mapping[str, Any], defaults: Mapping[str,
     """Build a :class:`SceneInfo` from one ``scenes.json`` entry (tolerant of missing keys).
 
     Recognised keys: ``design`` (dict), ``Q`` or ``Q_MPa``, ``trim``, ``contact_x``,
-    ``gauge`` ({x_ss, e, half_angle_deg}), ``solved_delta_mm`` or ``delta``, ``eps_line`` (or
-    ``eps_centroid`` when ``gauge_variant`` is ``centroid``) or ``eps``, ``delta_l_mm``,
+    ``gauge`` ({x_ss, e, half_angle_deg}), ``solved_delta_mm`` or ``delta``, ``eps_<gauge_variant>``
+    (e.g. ``eps_centroid``; ``eps_line`` when the entry has no such key) or ``eps``, ``delta_l_mm``,
     ``length_q_mm``; ``defaults`` may give ``contact_ratio``.
 
     Parameters
@@ -162,7 +162,8 @@ def scene_info_from_dict(name: str, d: Mapping[str, Any], defaults: Mapping[str,
         gauge = GaugeSpot(float(design["x_ss"]), float(design["e"]),
                           finite_float(design.get("gauge_half_angle_deg")) or 20.0)
     delta = d.get("solved_delta_mm", d.get("delta")) or ()
-    eps_key = "eps_centroid" if d.get("gauge_variant") == "centroid" and "eps_centroid" in d else "eps_line"
+    chosen = f"eps_{d.get('gauge_variant')}"  # the run's reading, e.g. eps_centroid; eps_line otherwise
+    eps_key = chosen if chosen in d else "eps_line"
     eps = d.get(eps_key, d.get("eps")) or ()
     try:
         delta = tuple(float(x) for x in delta)

@@ -143,6 +143,32 @@ class WallLaw:
         """True when the law changes nothing (c ≡ 1)."""
         return self.name == "embedded" or (self.name == "calibrated" and self.slope == 0.0)
 
+    def gauge_transfer(self, Q: float, design: WhiskerDesign) -> float:
+        """G(Q) = g(Q) (1 + ε_z(Q)) of the stored wall cell: the outer surface's strain per unit section
+        curvature (curvature per current length) of ``design``'s wall at mid-chamber under pressure Q.
+
+        g is the cell's gauge transfer per reference length, the mean over the gauge's positions relative to
+        the fibre rings, and ε_z its axial strain (docs/physics.md §14), of the law's own table variant
+        (``bonded`` for ``embedded`` and ``calibrated``, whose scaling changes the wall's stiffness and not the
+        kinematics of its surface), interpolated over (r_i, t) and by a not-a-knot cubic in Q. G(0) = 1.
+
+        Raises
+        ------
+        ValueError
+            A wall or a pressure outside the table, naming the range.
+        """
+        from scipy.interpolate import CubicSpline
+
+        table = _table()
+        qs = np.asarray(table.pressures, float)
+        if not (qs[0] - 1e-12 <= Q <= qs[-1] + 1e-12):
+            raise ValueError(f"the gauge's wall transfer: Q = {Q:g} MPa outside the wall table's "
+                             f"[{qs[0]:g}, {qs[-1]:g}] MPa")
+        variant = WALL_LAWS[self.name].table_variant or "bonded"
+        r_i, t = mid_chamber_wall(design)
+        G = table.lookup(variant, "g", r_i, t) * (1.0 + table.lookup(variant, "ez", r_i, t))
+        return float(CubicSpline(qs, G)(min(max(Q, qs[0]), qs[-1])))
+
     def factor(self, Q: float, design: WhiskerDesign) -> float:
         """c(Q) for ``design``'s wall (see the module docstring).
 

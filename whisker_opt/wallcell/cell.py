@@ -9,7 +9,7 @@ inflation and under pure bending alike:
 1. **Pressurisation** (axisymmetric, :class:`fem.axisym.harmonic.HarmonicSolid`): follower pressure Q on the
    cavity, u_z = 0 on Z = 0, a uniform axial displacement U of Z = s carrying the closed-end thrust
    N = Q π a², a the cavity radius at that plane (current: the wall's force across any section of a
-   closed chamber; ``thrust='reference'`` uses r_i, as the 3-D reference cell did).
+   closed chamber; ``thrust='reference'`` uses r_i, as the 3-D reference cell :mod:`peers.wall_cell3d` does).
 2. **Bending** (harmonic n = 1 about the pressurised state): the plane Z = s rotated by θ about an axis
    through the tube's centre (δu_z = θ x, x its current or reference distance from the axis), Z = 0 held,
    one hoop pin against the rigid translation. EI = s M/θ with M the moment work-conjugate to θ: the
@@ -90,7 +90,7 @@ class WallGeometry:
 class Resolution:
     """Mesh of the cell at refinement ``level`` (every count below times level).
 
-    ``grid``: the 3-D reference cell's uniform grid (square section only): 5, 2, 5 cells across the wall
+    ``grid``: the 3-D reference cell's grid (:mod:`peers.wall_cell3d`, square section only): 5, 2, 5 cells across the wall
     and 3, 2, 3 along it at level 1.
     """
 

@@ -1,6 +1,13 @@
-"""The 3-D periodic cell of the chamber wall with its fibre models (the cell of
-``benchmarks.studies.fibre_cell``, also checked by ``benchmarks.studies.wall_law cross3d`` and
-``scenecheck``).
+"""A 3-D periodic cell of the chamber wall: an independent formulation the 2-D wall cell is checked against.
+
+The project's model of the chamber wall is the axisymmetric cell of :mod:`whisker_opt.wallcell.cell` (the
+pressurised ring-periodic wall and its n = 1 bending on :mod:`fem.axisym`). This module builds the same wall
+as a 3-D solid of 10-node tets on :mod:`fem` (the solver of the whisker scene), so that the 2-D cell can be
+compared with a different discretisation and a different way of bending it, as the CalculiX peer
+(:mod:`peers.calculix`) checks the 3-D solver. It takes the wall's geometry from
+:class:`whisker_opt.wallcell.cell.WallGeometry` and the materials' constants from :mod:`geometry.materials`.
+Users: ``tests/test_fibre_cell.py``, ``tests/test_fem_harmonic.py``, ``benchmarks/studies/fibre_cell.py`` and
+``benchmarks/studies/wall_law.py`` (``cross3d``, ``scenecheck``).
 
 The chamber wall of the default design (cavity radius 5.6 mm, wall 3 mm, fibres of 0.38 mm at mid-wall,
 1.5 mm apart) is modelled as a straight tube of fibre *rings* (the double helix of pitch 3 mm rises 4° from
@@ -12,7 +19,9 @@ Half the tube is modelled (y ≥ 0, mirror plane y = 0).
 Loads, as the chamber of a whisker carries them away from its ends: a follower pressure Q on the cavity
 and the closed-end thrust N = Q π r_i² (half of it on the half tube), applied by finding the uniform
 axial displacement U of the plane z = s that carries it (secant iterations); then a small rotation ±θ of
-that plane about the y axis gives the bending stiffness EI = s·dM/dθ about the pressurised state.
+that plane about the y axis gives the bending stiffness EI = s·dM/dθ about the pressurised state. In the
+2-D cell's terms these are ``thrust='reference'`` and ``plane='reference'`` of
+:class:`whisker_opt.wallcell.mechanisms.WallMechanism`.
 
 Fibre models on the same cell:
 
@@ -35,8 +44,8 @@ Fibre models on the same cell:
 
 from __future__ import annotations
 
+import logging
 import math
-import sys
 import time
 from dataclasses import dataclass
 
@@ -54,11 +63,18 @@ from fem.quadrature import tet_rule
 from fem.state import State
 from geometry.design import WhiskerDesign
 from geometry.locate import PointLocator
-from geometry.materials import RUBBER_C10
-from whisker_opt.wall.law import mid_chamber_x
+from geometry.materials import FIBRE_MODULUS, RUBBER_C10
+from whisker_opt.wallcell.cell import WallGeometry
+from whisker_opt.wallcell.mechanisms import WallMechanism
 
-#: The thesis' prototypes' effective modulus of the chamber region, k(Q) = −1.337 Q + 0.9958 (Q in MPa).
-PROTOTYPE_K = {0.1: -1.337 * 0.1 + 0.9958, 0.2: -1.337 * 0.2 + 0.9958}
+log = logging.getLogger(__name__)
+
+#: This cell's model as a mechanism of the 2-D cell: the ``resolved`` fibre (a square of the fibre's area,
+#: rubber carrying E_f along the hoop), the thrust on the reference cavity area, the end plane rotated about
+#: reference positions. The 2-D cell of it is the one to set beside this cell.
+MECHANISM = WallMechanism(name="cell3d", section="square", fibre_law="hoop", thrust="reference", plane="reference")
+
+#: Pressures of the fibre-model study [MPa].
 PRESSURES = (0.1, 0.2)
 THETA = 1e-3  # rad, rotation of the plane z = s for the bending stiffness
 TOL = 1e-9
@@ -66,34 +82,62 @@ TOL = 1e-9
 
 @dataclass(frozen=True)
 class Cell:
-    """The wall cell of the default design at mid-chamber."""
+    """The 3-D cell of one wall: its geometry and the materials' constants.
 
-    r_i: float
-    t: float
-    r_f: float
-    s: float
-    side: float  # square cross-section of the fibre's area
-    E_f: float
-    A_f: float
+    Parameters
+    ----------
+    geo : WallGeometry
+        Cavity radius, thickness, ring spacing, fibre diameter and radius [mm] (the 2-D cell's own).
+    E_f : float
+        Young's modulus of the fibre [MPa].
+    c10 : float
+        Neo-Hookean C10 of the rubber [MPa].
+    """
+
+    geo: WallGeometry
+    E_f: float = FIBRE_MODULUS
     c10: float = RUBBER_C10
 
     @classmethod
     def default(cls) -> "Cell":
+        """The default design's wall at mid-chamber."""
         d = WhiskerDesign()
-        x = mid_chamber_x(d)
-        A_f = math.pi * d.fibre_diameter**2 / 4
-        return cls(r_i=float(d.r_inner(x)), t=d.t, r_f=float(d.r_fibre(x)), s=d.fibre_pitch / d.n_fibres,
-                   side=math.sqrt(A_f), E_f=d.fibre_E, A_f=A_f)
+        return cls(WallGeometry.of_design(d), E_f=d.fibre_E)
 
     @classmethod
     def at(cls, r_i: float, t: float) -> "Cell":
         """The default cell's fibre, spacing and rubber on the wall (r_i, t), fibre at mid-wall."""
-        d = cls.default()
-        return cls(r_i=r_i, t=t, r_f=r_i + t / 2, s=d.s, side=d.side, E_f=d.E_f, A_f=d.A_f)
+        g = cls.default().geo
+        return cls(WallGeometry(r_i=r_i, t=t, s=g.s, fibre_diameter=g.fibre_diameter))
+
+    @property
+    def r_i(self) -> float:
+        return self.geo.r_i
+
+    @property
+    def t(self) -> float:
+        return self.geo.t
 
     @property
     def r_o(self) -> float:
-        return self.r_i + self.t
+        return self.geo.r_o
+
+    @property
+    def r_f(self) -> float:
+        return self.geo.fibre_r
+
+    @property
+    def s(self) -> float:
+        return self.geo.s
+
+    @property
+    def A_f(self) -> float:
+        return self.geo.fibre_area
+
+    @property
+    def side(self) -> float:
+        """Side of the square of the fibre's area, the section the resolved models mesh [mm]."""
+        return math.sqrt(self.A_f)
 
 
 def _segments(bounds: list[float], counts: list[int]) -> np.ndarray:
@@ -340,19 +384,19 @@ def measure(cell: Cell, model: str, level: int, n_phi: int, smeared_scale: float
     row = {"model": model, "level": level, "n_el": mesh.n_elements, "n_r": len(r_grid) - 1, "n_z": len(z_grid) - 1}
     ei0 = run.bending_stiffness(0.0, 0.0)[1]
     row["EI0"] = ei0
-    print(f"  {model} level {level}: {mesh.n_elements} tets, EI(0) = {ei0:.6g} N mm² "
-          f"({time.perf_counter() - t0:.0f} s)", file=sys.stderr, flush=True)
+    log.info("%s level %d: %d tets, EI(0) = %.6g N mm² (%.0f s)", model, level, mesh.n_elements, ei0,
+             time.perf_counter() - t0)
     U, Q0 = 0.0, 0.0
     for Q in pressures:
         try:
             U, Q0 = run.pressurise(Q, U, Q0), Q
         except SolveFailed as exc:  # the bare tube balloons (limit pressure ≈ μ ln(r_o/r_i) = 0.12 MPa)
-            print(f"{model} level {level}: Q = {Q} MPa not reached ({exc})", flush=True)
+            log.warning("%s level %d: Q = %s MPa not reached (%s)", model, level, Q, exc)
             break
         row[f"ez_{Q}"] = U / cell.s
         ei, ei_w = run.bending_stiffness(Q, U)
         row[f"EIr_{Q}"], row[f"EIw_{Q}"] = ei / ei0, ei_w / ei0
-        print(f"  {model} level {level}: Q = {Q} MPa, U/s = {U / cell.s:.6g}, EI(Q)/EI(0) = {row[f'EIr_{Q}']:.6g} "
-              f"({time.perf_counter() - t0:.0f} s)", file=sys.stderr, flush=True)
+        log.info("%s level %d: Q = %s MPa, U/s = %.6g, EI(Q)/EI(0) = %.6g (%.0f s)", model, level, Q, U / cell.s,
+                 row[f"EIr_{Q}"], time.perf_counter() - t0)
     row["t_s"] = time.perf_counter() - t0
     return row
