@@ -1,6 +1,6 @@
 """The benchmark suite as a package: every script is in the index with its command and results file,
 answers ``--help`` from a clean checkout, imports no other script and patches no ``sys.path``; every
-relative link of the docs resolves."""
+relative link of the docs resolves, and no doc holds a control character."""
 
 from __future__ import annotations
 
@@ -108,3 +108,28 @@ def test_relative_links_of_the_docs_resolve(path):
     broken = [t for t in re.findall(r"\]\(([^)\s]+)\)", text)
               if not re.match(r"[a-z]+:|#", t) and not (path.parent / t.split("#")[0]).exists()]
     assert broken == [], f"{path.relative_to(ROOT)}: broken links {broken}"
+
+
+#: Control characters other than the newline: a backspace or a tab where ``\bar`` or ``\tfrac`` was meant
+#: (a formula written through a string that read its backslashes as escapes).
+CONTROL = re.compile(r"[\x00-\x09\x0b-\x1f\x7f]")
+
+
+def test_no_doc_holds_a_control_character():
+    """README, CONTRIBUTING, docs/ and benchmarks/: every markdown file, line by line (a tab is refused too)."""
+    bad = [f"{p.relative_to(ROOT)}:{k}: {CONTROL.search(line).group()!r}"
+           for p in _markdown_files() for k, line in enumerate(p.read_text().splitlines(), start=1)
+           if CONTROL.search(line)]
+    assert bad == [], f"control characters in the docs: {bad}"
+    assert CONTROL.search("c\\,\x08ar W") and not CONTROL.search("c\\,\\bar W")
+
+
+def test_the_readme_names_every_fidelity_preset_in_order_of_cost():
+    """``--preset a|b|...`` and the fidelity section list :data:`PRESET_NAMES`, cheapest first."""
+    from whisker_opt.experiment.fidelity import PRESET_NAMES
+
+    readme = (ROOT / "README.md").read_text()
+    assert f"`--preset {'|'.join(PRESET_NAMES)}`" in readme
+    section = readme.split("## Fidelity and how far to trust f1", 1)[1].split("\n## ", 1)[0]
+    named = re.findall(r"`(\w+)`", section.split("One evaluation", 1)[0])
+    assert [n for n in named if n in PRESET_NAMES][:len(PRESET_NAMES)] == list(PRESET_NAMES)

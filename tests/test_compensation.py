@@ -66,6 +66,25 @@ def test_curve_measures_scalars():
         comp.curve_measures(o, b, c, "max")
 
 
+def test_recovery_below_the_resolution_shows_the_gaps_not_a_percentage():
+    o = np.array([1.0, 2.0, 3.0])
+    b = o + 0.001  # the trim moves the reading by 1e-3
+    c = o + 0.031  # the vent by 3.1e-2: a rate of (1 − 31)·100 = −3000 %
+    rec = comp.recovery(o, b, c, "mean", resolution=2e-3)
+    assert rec.trim_effect == pytest.approx(1e-3) and rec.vent_gap == pytest.approx(0.031)
+    assert rec.rate == pytest.approx(-3000.0) and not rec.resolved and np.isnan(rec.shown_rate)
+    assert rec.text() == "trim effect below resolution (0.001 < 0.002), vent gap 0.031"
+    assert not rec.restores(50.0)  # what venting leaves exceeds the resolution
+    assert comp.recovery(o, b, o + 0.0015, "mean", resolution=2e-3).restores(50.0)  # left within it
+    # at or above the resolution the rate is the measure, as curve_measures gives it
+    ok = comp.recovery(o, o + 0.004, o + 0.001, "mean", resolution=2e-3)
+    assert ok.resolved and ok.shown_rate == pytest.approx(75.0) and ok.text() == "recovery 75.0 %"
+    assert ok.rate == pytest.approx(comp.curve_measures(o, o + 0.004, o + 0.001, "mean")[0])
+    assert ok.restores(50.0) and not ok.restores(80.0)
+    # no resolution known: every rate is shown
+    assert comp.recovery(o, b, c, "gap").resolved and comp.recovery(o, b, c, "gap").text() == "recovery -3000.0 %"
+
+
 # ----------------------------------------------------------------------------- analytic
 def test_analytic_compensation_default_design():
     """Default design intact at Q_i = 0.2, trimmed by 5 mm: a root in (0, Q_i) matching the target."""
@@ -277,10 +296,26 @@ def test_compensate_command_writes_table_and_comparison(tmp_path, monkeypatch, c
         assert float(r["stiffness_o_N_per_mm"]) > 0 and len(c["force_o_N"]) == len(meta["deltas_mm"])
     cmp = list(csv.DictReader((out / "sensitivity_comparison.csv").open()))
     assert len(cmp) == 4 and max(abs(float(r["rel_diff"])) for r in cmp) < 1e-12
+    # the terminal shows a short table with units (the CSV's columns stay in the file): a line per trim
+    said = capsys.readouterr().out
+    printed = said.splitlines()
+    k = next(i for i, ln in enumerate(printed) if ln.split() and ln.split()[0] == "trim")
+    assert printed[k].split("  ")[0:1] == ["trim [mm]"] and "Q [MPa]" in printed[k] and "recovery [%]" in printed[k]
+    assert "(calibrated strain)" in printed[k + 1]
+    assert not any("stiffness_o_N_per_mm" in ln or "eps_o_mean" in ln for ln in printed)
+    for line, r in zip(printed[k + 2:k + 5], rows):
+        cells = line.split()
+        assert [float(cells[0]), float(cells[1]), float(cells[2])] == pytest.approx(
+            [float(r["trim_mm"]), float(r["Q_MPa"]), float(r["Q_analytic_MPa"])], abs=1e-4)
+        if float(r["trim_mm"]) > 0:  # the mean scalar's rate, as in the CSV (its trim effect is resolved here)
+            assert float(cells[3]) == pytest.approx(float(r["recovery_rate_pct"]), abs=0.06)
+            assert float(cells[4]) == pytest.approx(abs(float(r["eps_b_mean"]) - float(r["eps_o_mean"])), rel=1e-2)
+        else:
+            assert cells[3] == "-" and line.endswith("intact: nothing to recover")
     # off-tip contact: the scene is asked for a = 0.5 at each Q (it places the ring itself)
     off = [s for s in _FakeRunner.specs if s.contact_ratio < 1.0]
     assert {(s.contact_ratio, s.Q) for s in off} == {(0.5, 0.0), (0.5, 0.2)}
-    assert "max |relative difference| = 0.0%" in capsys.readouterr().out
+    assert "max |relative difference| = 0.0%" in said
 
 
 def test_scene_sensitivity_off_tip_contact_coarse_fe():

@@ -92,6 +92,24 @@ def test_report_prints_the_summary_and_rebuilds_plots(finished_run):
     for name in GENE_NAMES:
         assert f"{s.best['genes'][name]:.6g}" in text
     assert len([ln for ln in text.splitlines() if ln.strip().startswith(tuple("0123456789"))]) >= s.generations + 1
+    # every strain figure says which strain it is in: f1 and F_p calibrated, the target in its own strain
+    lines = [ln.strip() for ln in text.splitlines()]
+    f1_line = next(ln for ln in lines if ln.startswith("f1 "))
+    fp_line = next(ln for ln in lines if ln.startswith("F_p "))
+    assert f1_line.startswith(f"f1     {s.best['f1']:.6g} calibrated"), f1_line
+    assert fp_line.startswith(f"F_p    {s.best['F_p']:.6g} calibrated"), fp_line
+    assert fp_line.endswith("target_fp 0 uncalibrated")  # the fixture's target, no ξ known (analytic evaluator)
+    assert any(ln.startswith("rank ") and ln.endswith("(f1, F_p calibrated)") for ln in lines)
+    assert "generations (F_p calibrated)" in lines
+    from whisker_opt.config.optimiser import StoppingConfig
+    from whisker_opt.report import _fp_line
+
+    best = {"F_p": 3.9e-3, "F_p_uncalibrated": 1e-3, "status": "ok", "generation_found": 2, "eval_id": 7}
+    assert _fp_line(best, StoppingConfig(target_fp=1e-3), 3.9).strip() == (
+        "F_p    0.0039 calibrated (0.001 uncalibrated); ok, generation 2, eval 7; "
+        "target_fp 0.001 uncalibrated (0.0039 calibrated)")
+    assert _fp_line(best, StoppingConfig(target_fp=3.9e-3, target_strain="calibrated"), 3.9).endswith(
+        "target_fp 0.0039 calibrated (0.001 uncalibrated)")
 
 
 def test_plot_helpers_and_atomic_writers(tmp_path):

@@ -287,3 +287,49 @@ def test_sigkilled_run_resumes_to_the_uninterrupted_result(tmp_path):
     assert (resumed.population, resumed.fitness, resumed.best, resumed.n_evaluations) == (
         ref.population, ref.fitness, ref.best, ref.n_evaluations)
     assert _tables(tmp_path / "ref") == _tables(cut)
+
+
+class _WithSensitivity(AnalyticFitness):
+    """The analytic bowl with a sensitivity ε_c(δ_max)/δ_max = 0.002·l/t [1/mm] (a stand-in measure)."""
+
+    def __call__(self, genes):
+        from whisker_opt.experiment.outcome import EvalOutcome
+
+        out = super().__call__(genes)
+        if not out.ok:
+            return out
+        extra = dict(out.extra or {}, eps_c_max=0.01 * genes["l"] / genes["t"], deflection=5.0)
+        return EvalOutcome.success(out.f1, timings=out.timings, extra=extra)
+
+
+def test_the_front_lists_every_objective_and_the_hypervolume_says_what_it_is_measured_in(tmp_path):
+    from whisker_opt.optimise.nsga2 import hypervolume_basis, objective_terms
+
+    cfg = make_cfg(pop=8, gens=2, objectives=("f1", {"name": "sensitivity", "prefer": "high"}))
+    from whisker_opt.optimise.checkpoint import load_checkpoint
+
+    run_optimisation(cfg, tmp_path, _WithSensitivity(optimum=X_STAR), seed=3, progress=False)
+    state, _ = load_checkpoint(tmp_path)
+    f1_ref, s_ref = state.extra["f1_ref"], state.extra["measure_refs"]["sensitivity"]
+    basis = hypervolume_basis(objective_terms(cfg), state)
+    assert basis.startswith("z = (f1 / ") and ", −sensitivity / " in basis
+    assert basis.endswith("; reference point z = (1.1, 1.1)")
+    assert float(basis.split("f1 / ")[1].split(",")[0]) == pytest.approx(f1_ref, rel=0.01)
+    assert float(basis.split("sensitivity / ")[1].split(")")[0]) == pytest.approx(s_ref, rel=0.01)
+    # in those coordinates: z_f1 >= 0, z_s >= −(largest sensitivity)/s_ref, so the volume is at most the box's
+    s_max = max(float(r["sensitivity"]) for r in state.records if r["status"] == "ok")
+    hv = state.logbook[-1]["hypervolume"]
+    assert 0 < hv <= HV_REFERENCE * (HV_REFERENCE + s_max / s_ref) + 1e-12
+    # the report's front: genes, f1, the sensitivity it optimised (with its unit) and F_p, row by row
+    text = report(tmp_path).splitlines()
+    k = next(i for i, ln in enumerate(text) if ln.startswith("Pareto front"))
+    assert f"hypervolume {hv:.6g} ({basis})" in text[k]
+    assert text[k + 1] == "  f1 and F_p in calibrated strain; sensitivity [1/mm]"
+    head = next(ln for ln in text[k:] if ln.startswith("  rank "))
+    assert head.split()[1:] == [*GENE_NAMES, "f1", "sensitivity", "F_p", "note"]
+    front = read_csv(tmp_path / "pareto.csv")
+    rows = text[text.index(head) + 1:text.index(head) + 1 + len(front)]
+    for line, r in zip(rows, front):
+        cells = line.split()
+        assert float(cells[6]) == pytest.approx(float(r["sensitivity"]), rel=1e-3)
+        assert float(cells[6]) == pytest.approx(0.002 * float(r["l"]) / float(r["t"]), rel=1e-3)

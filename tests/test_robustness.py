@@ -301,7 +301,7 @@ def test_a_ga_run_records_the_nominal_f1_and_the_robust_objective_beside_it(tmp_
     gens = read_csv(tmp_path / "run" / "generations.csv")
     assert float(gens[-1]["best_f1_robust"]) == best["f1_robust"] and float(gens[-1]["best_f1"]) == best["f1"]
     text = report(tmp_path / "run")
-    assert f"  f1_robust  {best['f1_robust']:.6g}  (minimised; f1 is the nominal design's)" in text
+    assert f"  f1_robust  {best['f1_robust']:.6g} calibrated  (minimised; f1 is the nominal design's)" in text
 
 
 def test_without_the_robust_option_the_evaluator_is_the_plain_one():

@@ -75,6 +75,39 @@ def test_what_is_used_instead_is_named():
         wiring.unread_keys(cfg, "nope")
 
 
+def test_a_key_set_to_the_value_used_in_its_place_is_not_named():
+    """scene.trim equal to optimiser.trim changes nothing in run, nor optimiser.trim equal to scene.trim in
+    simulate, nor scene.Q_i = 0 in mesh; one step off, each is named again."""
+    for trim, named in ((3.0, []), (3.5, ["scene.trim"])):
+        cfg = wo.load_config({"scene": {"trim": trim}, "optimiser": {"trim": 3.0}})
+        assert _unread(wiring.unread_keys(cfg, "run")) == named
+        assert _unread(wiring.unread_keys(cfg, "compensate")) == named  # its largest trim is optimiser.trim
+        assert _unread(wiring.unread_keys(cfg, "simulate")) == ([] if trim == 3.0 else ["optimiser.trim"])
+    assert _unread(wiring.unread_keys(wo.load_config({"scene": {"trim": 2.0}}), "mesh", trim=2.0)) == []
+    assert _unread(wiring.unread_keys(wo.load_config({"scene": {"trim": 2.0}}), "mesh", trim=2.5)) == ["scene.trim"]
+    # Q_i from the gene has no single value: a set scene.Q_i is named whatever it is
+    assert _unread(wiring.unread_keys(wo.load_config({"scene": {"Q_i": 0.2}}), "run")) == ["scene.Q_i"]
+    assert _unread(wiring.unread_keys(wo.load_config({"scene": {"Q_i": 0.2}}), "calibrate")) == ["scene.Q_i"]
+
+
+@pytest.mark.parametrize("path", sorted((ROOT / "configs").glob("*.yaml")), ids=lambda p: p.name)
+def test_the_shipped_configs_are_warned_only_of_values_that_differ(path):
+    """Every line for a shipped run file names a value other than the one the command uses (the number after
+    ``= `` in what it uses instead, when it names one); simulate_default.yaml's scene.trim, equal to its
+    optimiser.trim, is never named by the GA's commands."""
+    cfg = load_config(path)
+    for command in COMMAND_READS:
+        for line in wiring.unread_keys(cfg, command):
+            value, instead = line.split(" = ", 1)[1].split(" has no effect in ", 1)
+            used = instead.split(" (docs/config.md")[0].rsplit(" = ", 1)
+            if len(used) == 2:
+                assert float(used[1].split()[0]) != float(value), line
+    if path.name == "simulate_default.yaml":
+        assert cfg.scene.trim == wiring.optimiser_of(cfg).trim
+        for command in ("run", "resume", "evaluate", "verify", "compensate", "robustness"):
+            assert "scene.trim" not in _unread(wiring.unread_keys(cfg, command)), command
+
+
 def _jobs(tmp_path, monkeypatch):
     """Each job entered with the all-set config: (command, call).
 
@@ -140,10 +173,10 @@ def test_the_command_line_warns_in_one_line_per_key_and_still_runs(tmp_path, cap
 
 
 def test_the_python_api_warns_where_evaluate_ignores_the_scene_keys(caplog):
-    cfg = wo.load_config({"fidelity": {"preset": "coarse"}, "scene": {"Q_i": 0.2, "trim": 5.0}})
+    cfg = wo.load_config({"fidelity": {"preset": "coarse"}, "scene": {"Q_i": 0.2, "trim": 4.0}})
     with caplog.at_level(logging.WARNING, logger="whisker_opt"):
         out = wo.evaluate(cfg, {"alpha": 4.0, "l": 12.0, "t": 3.0, "Q_i": 0.1})
     assert out.ok
     said = [r.getMessage() for r in caplog.records if "has no effect" in r.getMessage()]
-    assert [m.split(",")[0] for m in said] == ["scene.trim = 5 has no effect in evaluate",
+    assert [m.split(",")[0] for m in said] == ["scene.trim = 4 has no effect in evaluate",
                                                "scene.Q_i = 0.2 has no effect in evaluate"]

@@ -29,7 +29,14 @@ def test_spread_rows_and_verdict():
     assert available_laws(cfg) == ("embedded", "sliding")
     rows = law_spread(cfg, [GENES])
     assert [r["law"] for r in rows] == ["embedded", "sliding"]
-    assert all(r["status"] == "ok" and r["f1"] >= 0 and np.isfinite(r["recovery_rate"]) for r in rows)
+    assert all(r["status"] == "ok" and r["f1"] >= 0 and r["trim_effect"] > 0 for r in rows)
+    for r in rows:  # the rate is the ratio of the two gaps, shown only when the trim's effect is resolved
+        rate = (1 - r["vent_gap"] / r["trim_effect"]) * 100
+        assert r["resolution"] == pytest.approx(2e-3)  # coarse, ξ = 3.9
+        if r["trim_effect"] >= r["resolution"]:
+            assert r["recovery_rate"] == pytest.approx(rate)
+        else:
+            assert np.isnan(r["recovery_rate"])
     # the embedded row is the GA's own evaluation of the genome
     own = evaluator(cfg)(dict(GENES))
     assert rows[0]["f1"] == pytest.approx(own.f1, rel=1e-9)
@@ -37,6 +44,33 @@ def test_spread_rows_and_verdict():
     ok, line = survives(rows, 1)
     assert line.startswith("compensation survives" if ok else "compensation does not survive")
     assert "design 1:" in format_spread(rows, "coarse")
+
+
+def _row(law, rate, effect, res=2e-3):
+    return {"design": 1, "law": law, "f1": 1e-3, "recovery_rate": rate if effect >= res else float("nan"),
+            "trim_effect": effect, "vent_gap": effect * (1 - rate / 100), "resolution": res, "status": "ok",
+            "reason": "", "time_s": 1.0}
+
+
+def test_a_trim_effect_below_the_resolution_reads_as_gaps_in_table_verdict_and_report(tmp_path):
+    from whisker_opt.analysis.law_spread import report_lines, write_spread
+
+    rows = [_row("embedded", 82.6, 6.68e-3), _row("sliding", -2981.5, 1.3e-3)]
+    ok, line = survives(rows, 1)
+    assert not ok and "sliding: trim effect below resolution (0.0013 < 0.002), vent gap 0.04" in line
+    assert "-2981" not in line
+    table = format_spread(rows, "coarse")
+    assert "-2981" not in table and "trim effect below resolution" in table and "82.6" in table
+    write_spread(rows, tmp_path / "law_spread.csv")
+    report = "\n".join(report_lines(tmp_path))
+    assert "-2981" not in report and "vent gap 0.04" in report and "calibrated strain" in report
+    assert "recovery 82.6 %  (trim effect 0.0067, vent gap 0.0012)" in report
+    # unresolved, but venting leaves the reading within the resolution: the compensation survives that law
+    ok, line = survives([_row("embedded", 82.6, 6.68e-3), _row("sliding", 50.0 - 1e3, 1e-4)], 1)
+    assert ok and line.startswith("compensation survives every wall law (embedded, sliding)")
+    # an older file without the gaps reads its rate as stored
+    (tmp_path / "law_spread.csv").write_text("design,law,f1,recovery_rate,status,reason\n1,embedded,1e-3,60,ok,\n")
+    assert "recovery 60.0 %" in "\n".join(report_lines(tmp_path))
 
 
 def test_a_law_set_evaluation_reduces_every_measure_over_the_laws():

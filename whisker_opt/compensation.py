@@ -28,7 +28,8 @@ from whisker_opt.workflows import fidelity_of, record_config
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["CompensationMap", "MapRangeError", "WarmPressurise", "compensate", "compensate_map", "vent_pressure"]
+__all__ = ["CompensationMap", "MapRangeError", "WarmPressurise", "compensate", "compensate_map", "format_table",
+           "vent_pressure"]
 
 
 def scene_response(cfg: WhiskerConfig, runner):
@@ -70,6 +71,38 @@ class Compensation:
     comparison: Any = None
     comparison_seconds: float = float("nan")
     extra: dict = field(default_factory=dict)
+
+
+def format_table(table, resolution: float = float("nan")) -> str:
+    """The compensation table as the terminal shows it: per trim the vent pressure Q and the beam model's, the
+    recovery rate and the two gaps it is the ratio of, and a note (a Q at its bound, a trim effect below the
+    preset's f1 ``resolution`` [calibrated strain]: :func:`whisker_opt.analysis.compensation.recovery`, the
+    same rule as the wall-law spread). The file ``compensation_table.csv`` keeps every column.
+
+    Parameters
+    ----------
+    table : whisker_opt.analysis.compensation.CompensationTable
+    resolution : float
+        The preset's f1 resolution in the table's (calibrated) strain; NaN shows every rate.
+    """
+    from whisker_opt.analysis.compensation import recovery
+
+    head = (f"{'trim [mm]':>9} {'Q [MPa]':>9} {'Q beam [MPa]':>12} {'recovery [%]':>12} "
+            f"{'trim effect':>11} {'vent gap':>9}  note")
+    lines = [head, f"{'':>45}{'(calibrated strain)':>21}"]
+    for r in table.rows:
+        rec = recovery(r.eps_target, r.eps_broken, r.eps_compensated, table.scalar, resolution)
+        notes = []
+        if r.trim == 0.0:
+            notes.append("intact: nothing to recover")
+        elif not rec.resolved:
+            notes.append(f"trim effect below resolution {rec.resolution:.2g}")
+        if r.at_bound and r.trim > 0:
+            notes.append(f"Q at its bound ({'0, vented fully' if r.at_bound == 'lower' else 'Q_i, not vented'})")
+        rate = f"{rec.rate:.1f}" if rec.resolved and math.isfinite(rec.rate) and r.trim > 0 else "-"
+        lines.append(f"{r.trim:>9g} {r.Q:>9.4f} {r.Q_analytic:>12.4f} {rate:>12} {rec.trim_effect:>11.3g} "
+                     f"{rec.vent_gap:>9.3g}  {'; '.join(notes)}")
+    return "\n".join(lines)
 
 
 class _TableProgress:

@@ -31,6 +31,19 @@ def _fmt(x: Any, spec: str = ".6g") -> str:
     return str(x)
 
 
+def _fp_line(b: dict, stopping, xi: float | None) -> str:
+    """The best design's F_p and ``stopping.target_fp``, each with the strain it is written in: F_p calibrated
+    (and uncalibrated), the target in its ``target_strain`` (and the other, when ξ is known)."""
+    uncal = f" ({_fmt(b['F_p_uncalibrated'])} uncalibrated)" if b.get("F_p_uncalibrated") is not None else ""
+    target = f"{stopping.target_fp:g} {stopping.target_strain}"
+    if xi:
+        other, kind = ((stopping.target_fp * xi, "calibrated") if stopping.target_strain == "uncalibrated"
+                       else (stopping.target_fp / xi, "uncalibrated"))
+        target += f" ({other:.6g} {kind})"
+    return (f"  F_p    {_fmt(b['F_p'])} calibrated{uncal}; {b['status']}, generation {b['generation_found']}, "
+            f"eval {b['eval_id']}; target_fp {target}")
+
+
 def best_design_lines(designs: list[dict], cfg, names: tuple[str, ...], objective: str | None = None) -> list[str]:
     """The report's table of the best designs (:func:`whisker_opt.optimise.best.run_best_designs`), with the
     column of the aggregate over variants the run minimises (``objective``, e.g. ``f1_robust``) after f1."""
@@ -38,7 +51,8 @@ def best_design_lines(designs: list[dict], cfg, names: tuple[str, ...], objectiv
     lines = ["", f"best designs   {len(designs)} of at most {cfg.ga.hall_of_fame}, "
              f"{describe_distance(cfg.distinct_distance)}",
              "  rank " + "".join(f"{n:>{max(11, len(n) + 1)}}" for n in names) + f"{'f1':>13}"
-             + (f"{objective:>{width}}" if objective else "") + f"{'F_p':>13}{'eval':>7}{'gen':>5}{'apart':>7}"]
+             + (f"{objective:>{width}}" if objective else "") + f"{'F_p':>13}{'eval':>7}{'gen':>5}{'apart':>7}"
+             + f"   ({', '.join(['f1', *([objective] if objective else []), 'F_p'])} calibrated)"]
     for d in designs:
         gap = d["distance_to_better"]
         lines.append(f"  {d['rank']:>4} " + "".join(f"{d['genes'][n]:>{max(11, len(n) + 1)}.5g}" for n in names)
@@ -110,20 +124,18 @@ def report(run_dir: Path, max_rows: int = 60) -> str:
     for name in ga.names:
         lines.append(f"  {name:<6} {b['genes'][name]:.6g}")
     xi = (fidelity or {}).get("calibration")
-    uncal = f"  ({_fmt(b['f1_uncalibrated'])} uncalibrated, / ξ = {xi:g})" if b.get("f1_uncalibrated") is not None \
+    uncal = f" ({_fmt(b['f1_uncalibrated'])} uncalibrated, / ξ = {xi:g})" if b.get("f1_uncalibrated") is not None \
         and xi else ""
-    lines.append(f"  f1     {_fmt(b['f1'])}{uncal}")
+    lines.append(f"  f1     {_fmt(b['f1'])} calibrated{uncal}")
     objective = b.get("objective")  # an aggregated run's: what it minimises, F_p built from it
     if objective:
-        lines.append(f"  {objective}  {_fmt(b[objective])}  (minimised; f1 is the nominal design's)")
+        lines.append(f"  {objective}  {_fmt(b[objective])} calibrated  (minimised; f1 is the nominal design's)")
     for t in ga.terms:
         lines.append(f"  κ_{t.gene:<4} {_fmt(b['kappas'].get(t.gene))}  (C = {t.weight:g}, prefer {t.prefer})")
-    uncal = f", {_fmt(b['F_p_uncalibrated'])} uncalibrated" if b.get("F_p_uncalibrated") is not None else ""
-    lines.append(f"  F_p    {_fmt(b['F_p'])}  ({b['status']}{uncal}, generation {b['generation_found']}, "
-                 f"eval {b['eval_id']}; target_fp {cfg.stopping.target_fp:g} {cfg.stopping.target_strain})")
+    lines += [_fp_line(b, cfg.stopping, xi)]
     lines += [f"  WARNING {w}" for w in (warning, early) if w]
     lines += best_design_lines(run_best_designs(state, cfg), cfg, ga.names, objective)
-    lines += ["", "generations", f"  {'gen':>4}{'evals':>7}{'hits':>6}{'fail':>6}{'best F_p':>13}{'mean F_p':>13}{'time s':>9}"]
+    lines += ["", "generations (F_p calibrated)", f"  {'gen':>4}{'evals':>7}{'hits':>6}{'fail':>6}{'best F_p':>13}{'mean F_p':>13}{'time s':>9}"]
     rows = state.logbook
     if len(rows) > max_rows:
         half = max_rows // 2

@@ -238,6 +238,20 @@ def _set_value(cfg: WhiskerConfig, key: str) -> Any:
     return None if value == default else value
 
 
+def _used_value(cfg: WhiskerConfig, key: str, command: str, trim: float | None) -> float | None:
+    """The one value ``command`` uses in place of ``key`` (as :func:`_instead` says), None when it uses no
+    single value (Q_i from the gene Q_i, calibrate's measurement files)."""
+    if command == "calibrate" or (key == "scene.Q_i" and command != "mesh"):
+        return None
+    if key == "scene.Q_i":
+        return 0.0
+    if trim is not None:
+        return float(trim)
+    if command in ("mesh", "simulate", "export"):
+        return float(cfg.scene.trim)
+    return float(optimiser_of(cfg).trim)  # compensate: its largest trim
+
+
 def _instead(cfg: WhiskerConfig, key: str, command: str, trim: float | None) -> str:
     """What ``command`` uses in place of ``key``, as the end of the sentence of :func:`unread_keys`."""
     if command == "calibrate":
@@ -257,7 +271,8 @@ def unread_keys(cfg: WhiskerConfig, command: str, reads: tuple[str, ...] | None 
                 trim: float | None = None) -> list[str]:
     """One line per key of :data:`~whisker_opt.config.readers.TRIM_AND_Q_KEYS` that is set (to a value
     other than its default) and that ``command`` does not read, saying what it uses instead
-    (:mod:`whisker_opt.config.readers`).
+    (:mod:`whisker_opt.config.readers`). A key set to the value the command uses in its place (``scene.trim``
+    equal to ``optimiser.trim`` in ``run``) is not named: it changes nothing either way.
 
     Parameters
     ----------
@@ -289,7 +304,7 @@ def unread_keys(cfg: WhiskerConfig, command: str, reads: tuple[str, ...] | None 
     out = []
     for key in TRIM_AND_Q_KEYS:
         value = _set_value(cfg, key)
-        if value is None or key in reads:
+        if value is None or key in reads or value == _used_value(cfg, key, command, trim):
             continue
         out.append(f"{key} = {value:g} has no effect in {command}, {_instead(cfg, key, command, trim)} "
                    "(docs/config.md, \"Keys read by each command\")")

@@ -30,6 +30,17 @@ Measures
     last (largest) δ, 'gap' the mean absolute gap itself (recovery = 1 - g(Q)/g(Q_i)).
     With one scalar both measures are complementary: recovery = 100 - error
     whenever the error is <= 100 %.
+
+Resolution of the recovery rate
+    The rate is a ratio of two absolute gaps of the chosen scalar, the trim's effect
+    |ε_b − ε_o| and what is left after venting |ε_c − ε_o|: recovery = (1 − left/effect)·100.
+    When the trim's effect lies below the preset's f1 resolution (the smallest gap between two
+    curves the mesh resolves, :func:`whisker_opt.experiment.fidelity.f1_resolution`, in the
+    same calibrated strain) the ratio divides by mesh error: −2982 % then says only that the vent
+    moves the reading much more than the trim did. :func:`recovery` is the one rule: such a
+    rate is reported as "trim effect below resolution" with the two gaps instead of a
+    percentage, and the vent restores the reading when what is left is itself within the
+    resolution (:meth:`Recovery.restores`).
 """
 
 from __future__ import annotations
@@ -87,6 +98,22 @@ def compensation_error(eps_target: float, eps_before: float, eps_after: float) -
     return abs((float(eps_after) - float(eps_target)) / den) * 100.0
 
 
+def trim_and_vent_gaps(eps_o, eps_b, eps_c, scalar: Scalar = "mean") -> tuple[float, float]:
+    """The two absolute gaps the recovery rate is the ratio of: the trim's effect |ε_b − ε_o| and what
+    is left after venting |ε_c − ε_o|, of the scalar ``scalar`` of three curves (module docstring; for
+    'gap' the mean absolute gaps f1(ε_b, ε_o) and f1(ε_c, ε_o)), in the curves' strain."""
+    o, b, c = (np.asarray(v, dtype=float) for v in (eps_o, eps_b, eps_c))
+    if scalar == "mean":
+        so, sb, sc = o.mean(), b.mean(), c.mean()
+    elif scalar == "last":
+        so, sb, sc = o[-1], b[-1], c[-1]
+    elif scalar == "gap":
+        return float(f1(b, o)), float(f1(c, o))
+    else:
+        raise ValueError(f"scalar = {scalar!r}: allowed 'mean', 'last', 'gap'")
+    return abs(float(sb) - float(so)), abs(float(sc) - float(so))
+
+
 def curve_measures(eps_o, eps_b, eps_c, scalar: Scalar = "mean") -> tuple[float, float]:
     """(recovery rate %, compensation error %) of three response curves ε(δ).
 
@@ -97,19 +124,62 @@ def curve_measures(eps_o, eps_b, eps_c, scalar: Scalar = "mean") -> tuple[float,
     scalar : {'mean', 'last', 'gap'}
         How a curve becomes the scalar ε of the measures (see module docstring).
     """
-    o, b, c = (np.asarray(v, dtype=float) for v in (eps_o, eps_b, eps_c))
-    if scalar == "mean":
-        so, sb, sc = o.mean(), b.mean(), c.mean()
-    elif scalar == "last":
-        so, sb, sc = o[-1], b[-1], c[-1]
-    elif scalar == "gap":
-        g_b, g_c = f1(b, o), f1(c, o)
-        if g_b == 0.0:
-            return float("nan"), float("nan")
-        return (1.0 - g_c / g_b) * 100.0, g_c / g_b * 100.0
-    else:
-        raise ValueError(f"scalar = {scalar!r}: allowed 'mean', 'last', 'gap'")
-    return recovery_rate(so, sb, sc), compensation_error(so, sb, sc)
+    effect, left = trim_and_vent_gaps(eps_o, eps_b, eps_c, scalar)
+    if effect == 0.0:
+        return float("nan"), float("nan")
+    return (1.0 - left / effect) * 100.0, left / effect * 100.0
+
+
+@dataclass(frozen=True)
+class Recovery:
+    """The recovery rate of a vent with the two gaps it is the ratio of (module docstring, "Resolution").
+
+    Attributes
+    ----------
+    rate : float
+        (1 − vent_gap/trim_effect)·100 [%], NaN when the trim changes nothing.
+    trim_effect, vent_gap : float
+        |ε_b − ε_o| and |ε_c − ε_o| of the scalar [calibrated strain].
+    resolution : float
+        The smallest gap the mesh resolves [calibrated strain]; NaN when unknown (then every rate is shown).
+    """
+
+    rate: float
+    trim_effect: float
+    vent_gap: float
+    resolution: float = float("nan")
+
+    @property
+    def resolved(self) -> bool:
+        """Whether the trim's effect reaches the resolution, so that the percentage means something."""
+        return not (self.resolution > 0.0 and self.trim_effect < self.resolution)
+
+    @property
+    def shown_rate(self) -> float:
+        """The rate when :attr:`resolved`, else NaN (what a table or a CSV reports)."""
+        return self.rate if self.resolved else float("nan")
+
+    def restores(self, threshold: float) -> bool:
+        """The vent restores the reading: the rate is at least ``threshold`` [%] when resolved, else what is
+        left after venting lies within the resolution."""
+        if self.resolved:
+            return bool(self.rate >= threshold)
+        return bool(self.vent_gap <= self.resolution)
+
+    def text(self) -> str:
+        """``recovery 82.6 %``, or ``trim effect below resolution (1.3e-3 < 2e-3), vent gap 4.0e-2``."""
+        if self.resolved:
+            return f"recovery {self.rate:.1f} %"
+        return (f"trim effect below resolution ({self.trim_effect:.2g} < {self.resolution:.2g}), "
+                f"vent gap {self.vent_gap:.2g}")
+
+
+def recovery(eps_o, eps_b, eps_c, scalar: Scalar = "mean", resolution: float = float("nan")) -> Recovery:
+    """:class:`Recovery` of three response curves (intact at Q_i, trimmed at Q_i, trimmed and vented)
+    against the preset's f1 ``resolution`` in the curves' strain (the one rule of the module docstring)."""
+    effect, left = trim_and_vent_gaps(eps_o, eps_b, eps_c, scalar)
+    rate = (1.0 - left / effect) * 100.0 if effect > 0.0 else float("nan")
+    return Recovery(float(rate), effect, left, float(resolution))
 
 
 def _check_inputs(design: WhiskerDesign, Q_i: float, trim: float) -> tuple[WhiskerDesign, WhiskerDesign, float]:

@@ -428,6 +428,7 @@ def _compensate_run(args: argparse.Namespace) -> int:
     With ``--map`` (or ``--a``) the map Q(Δ, a) instead (:func:`_compensate_map_run`)."""
     import whisker_opt.compensation as compensation
     import whisker_opt.wiring as wiring
+    import whisker_opt.workflows as workflows
 
     cfg = _read(args)
     # the workflow checks these again; here before a directory is made
@@ -449,8 +450,9 @@ def _compensate_run(args: argparse.Namespace) -> int:
                                       progress=not args.no_progress)
     except computation_errors() as exc:
         raise _failed(exc, "compensate", out) from exc
-    print(f"compensation table of {res.design.describe()}, Q_i = {cfg.scene.Q_i:g} MPa ({res.table_seconds:.0f} s)")
-    print(res.paths["csv"].read_text())
+    print(f"compensation table of {res.design.describe()}, Q_i = {cfg.scene.Q_i:g} MPa ({res.table_seconds:.0f} s; "
+          f"recovery on the curve {res.table.scalar}s, every column in {res.paths['csv'].name})")
+    print(compensation.format_table(res.table, workflows.fidelity_of(cfg)["f1_resolution"]))
     print(f"monotone (Q non-increasing in Δ): {res.table.is_monotone()}")
     cmp = res.comparison
     if cmp is not None:

@@ -11,8 +11,8 @@ Two kinds of job take a trim and an initial pressure from a run file, each from 
 
 A key of :data:`TRIM_AND_Q_KEYS` that a run file sets (to a value other than its default) and the
 running job does not read is warned about in one line naming the key, its value and what the job
-uses instead (:func:`whisker_opt.wiring.unread_keys`); nothing is refused, so older run files load
-as before. ``docs/config.md`` shows :data:`COMMAND_READS` as a table (:mod:`whisker_opt.config.reference`).
+uses instead, unless the job uses that same value in its place (:func:`whisker_opt.wiring.unread_keys`);
+nothing is refused, so older run files load as before. ``docs/config.md`` shows :data:`COMMAND_READS` as a table (:mod:`whisker_opt.config.reference`).
 """
 
 from __future__ import annotations

@@ -214,7 +214,8 @@ def _readers() -> list[str]:
              "The trim and the initial pressure each have two keys, one per kind of job: `scene.trim` and "
              "`scene.Q_i` for the jobs of one given design, `optimiser.trim` (and the gene Q_i) for the GA's "
              "genomes. A key that is set (to a value other than its default) and that the running command does "
-             "not read is warned about in one line naming it and what the command uses instead; it is never "
+             "not read is warned about in one line naming it and what the command uses instead, unless the two "
+             "values are equal (`scene.trim: 5` beside `optimiser.trim: 5` in `run`); it is never "
              "refused. `evaluate` is the Python API's; `robustness` of a config's own design (not of a run "
              "directory) also reads `scene.Q_i`; `mesh --trim` reads no trim key.", "",
              "| command | " + " | ".join(f"`{k}`" for k in TRIM_AND_Q_KEYS) + " |",

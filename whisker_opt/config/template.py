@@ -42,9 +42,9 @@ CASES: dict[str, dict[str, Any]] = {
 SHIPPED: dict[str, str] = {"demo": "demo.yaml", "case1": "case1_trim5.yaml", "simulate": "simulate_default.yaml"}
 
 _INTRO = {
-    "demo": "A short GA over [alpha, l, t, Q_i] on the coarse preset (about 20 s on 2 cores): whisker-opt run FILE",
-    "case1": "Reference case 1 (docs/physics.md): the thesis' GA settings, trim 5 mm (40-50 min on 2 cores): "
-             "whisker-opt run FILE",
+    "demo": "A short GA over [alpha, l, t, Q_i] on the coarse preset (1-2 min on 2 cores): whisker-opt run FILE",
+    "case1": "Reference case 1 (docs/physics.md): the thesis' GA settings, trim 5 mm, preset default at ~1.1-1.2 s "
+             "per evaluation on one core (50 generations: about 20 min on 2 cores): whisker-opt run FILE",
     "simulate": "One intact/trimmed pair of the design below: whisker-opt simulate FILE",
 }
 

@@ -33,11 +33,13 @@ Loop (one generation; Deb et al. 2002)
 Archive and hypervolume
     The archive (``state.extra["archive"]``: eval ids) is the non-dominated subset of every
     feasible design evaluated so far, one per genome. Its hypervolume (:func:`pareto.hypervolume`)
-    is taken in normalised objectives z = (f1 / f1_ref, m / m_ref, d_j, ...) against the reference point
+    is taken in normalised objectives z = (f1 / f1_ref, ±m / m_ref, d_j, ...) against the reference point
     r = (1.1, ..., 1.1), with f1_ref the largest f1 of the feasible designs of generation 0
     (``state.extra["f1_ref"]``, fixed for the run) and m_ref likewise the largest |m| of another measure
-    objective (``state.extra["measure_refs"]``). Every d_j <= 1 < 1.1, so the archive's
-    hypervolume never decreases.
+    objective (``state.extra["measure_refs"]``; −m for a measure preferred high). Every d_j <= 1 < 1.1, so the
+    archive's hypervolume never decreases. Without a high-preferred measure it is at most 1.1^n; a
+    high-preferred measure's z reaches below −1, so the volume can exceed that (:func:`hypervolume_basis`, the
+    one line that says so on the plots and in the report).
 
 Stopping rules (after every generation, first match wins)
     ``stall``: with h_g the hypervolume after generation g and N = ``stall_generations``,
@@ -58,6 +60,7 @@ from deap import creator, tools
 
 from whisker_opt.config.optimiser import ExecutorConfig, OptimiserConfig
 from whisker_opt.experiment.measures import MEASURES
+from whisker_opt.numfmt import short_float
 from whisker_opt.optimise.ga import GAState, GeneticAlgorithm, Individual, stalled
 from whisker_opt.optimise.pareto import hypervolume, non_dominated
 from whisker_opt.optimise.penalty import PenaltyTerm, dynamic_penalty
@@ -107,6 +110,28 @@ class Objective:
     def label(self) -> str:
         """Axis / column label, e.g. ``f1`` or ``Q_i (prefer low)``."""
         return self.name if self.name == "f1" else f"{self.name} (prefer {self.prefer})"
+
+
+def hypervolume_basis(objectives: Sequence[Objective], state: GAState | None = None) -> str:
+    """What the hypervolume is measured in, in one line: the normalised coordinates z of each objective (with
+    the run's scales once generation 0 has set them) and the reference point, e.g.
+    ``z = (f1 / 4.8e-3, −sensitivity / 0.021, d(Q_i)); reference point z = (1.1, 1.1, 1.1)``.
+
+    A gene's d lies in [0, 1] and a low-preferred measure's z in [0, 1] over generation 0; a high-preferred
+    measure's z = −m/m_ref lies in [−1, 0] there and below −1 once a design passes generation 0's best, so the
+    volume may exceed 1.1^n (the box from the origin to the reference point)."""
+    refs = (state.extra or {}) if state is not None else {}
+    scales = {"f1": refs.get("f1_ref"), **refs.get("measure_refs", {})}
+    parts = []
+    for o in objectives:
+        if o.gene:
+            parts.append(f"d({o.name})")
+        else:
+            ref = scales.get(o.name)
+            parts.append(f"{'' if o.prefer == 'low' else '−'}{o.name} / "
+                         f"{short_float(ref, 2) if ref else o.name + '_ref'}")
+    corner = ", ".join(f"{HV_REFERENCE:g}" for _ in objectives)
+    return f"z = ({', '.join(parts)}); reference point z = ({corner})"
 
 
 def objective_terms(cfg: OptimiserConfig) -> tuple[Objective, ...]:

@@ -23,7 +23,7 @@ from whisker_opt.experiment.outcome import EvalOutcome
 from whisker_opt.optimise.best import run_best_designs
 from whisker_opt.optimise.checkpoint import save_checkpoint
 from whisker_opt.optimise.ga import GAState, GeneticAlgorithm, Recorder, best_design
-from whisker_opt.optimise.nsga2 import NSGA2, finer_preset, objective_terms
+from whisker_opt.optimise.nsga2 import NSGA2, finer_preset, hypervolume_basis, objective_terms
 from whisker_opt.optimise.resolution import run_fidelity
 from whisker_opt.optimise.aggregate import aggregate_columns, objective_column
 from whisker_opt.output import pareto_plots, storage
@@ -73,7 +73,7 @@ class FrontOutputs(Outputs):
             path, lb, smallest_f1(state.records, [r["generation"] for r in lb]),
             [o.label for o in objective_terms(cfg)],
             f"NSGA-II convergence ({stop}, generation {state.generation}, {state.n_evaluations} evaluations)",
-            fidelity)
+            fidelity, hypervolume_basis(objective_terms(cfg), state))
 
     def write(self, run_dir: Path, algo: NSGA2, state: GAState) -> list[Path]:
         """``pareto.csv`` (keeping verified values already in it), ``pareto.png`` and ``hypervolume.png``."""
@@ -88,7 +88,8 @@ class FrontOutputs(Outputs):
         rows = kept_front(run_dir, algo, state)
         algo.mark_verified_front(rows)
         hv = state.logbook[-1]["hypervolume"] if state.logbook else 0.0
-        return pareto_plots.front_table(rows, [o.label for o in algo.objectives], algo.names, hv)
+        return pareto_plots.front_table(rows, [o.label for o in algo.objectives], algo.names, hv,
+                                        algo.measure_columns, hypervolume_basis(algo.objectives, state))
 
 
 #: The result files of each ``optimiser.algorithm``.
@@ -224,7 +225,7 @@ def write_front(run_dir: Path, algo: NSGA2, state: GAState, rows: list[dict[str,
     fidelity = (state.extra or {}).get("fidelity") or {}
     return pareto_plots.write_front_outputs(
         run_dir, rows, algo.names, [o.name for o in algo.objectives], [o.label for o in algo.objectives],
-        algo.all_points(state), state.logbook, fidelity, state.stop_reason)
+        algo.all_points(state), state.logbook, fidelity, state.stop_reason, hypervolume_basis(algo.objectives, state))
 
 
 def verify_front(run_dir: Path, algo: NSGA2, state: GAState, evaluator: Callable, preset: str,

@@ -171,21 +171,26 @@ def _hypervolume_and_front_size(ax, g, logbook: Sequence[Mapping[str, Any]], lab
     ax.legend(h1 + h2, l1 + l2, fontsize=7, loc="lower right")
 
 
-def hypervolume_figure(logbook: Sequence[Mapping[str, Any]], title: str) -> Figure:
-    """Hypervolume and front size per generation."""
+#: The hypervolume axis's label; what z and the reference point are goes in the figure (``basis``).
+HV_LABEL = "hypervolume in z, up to the reference point"
+
+
+def hypervolume_figure(logbook: Sequence[Mapping[str, Any]], title: str, basis: str = "") -> Figure:
+    """Hypervolume and front size per generation; ``basis`` (:func:`whisker_opt.optimise.nsga2.hypervolume_basis`)
+    says under the title what it is measured in."""
     g = [r["generation"] for r in logbook]
-    fig = Figure(figsize=(6.4, 4.2))
+    fig = Figure(figsize=(6.4, 4.4))
     ax = fig.add_subplot(1, 1, 1)
-    _hypervolume_and_front_size(ax, g, logbook, "hypervolume of the archive",
-                                "hypervolume (normalised objectives, reference 1.1)")
+    _hypervolume_and_front_size(ax, g, logbook, "hypervolume of the archive", HV_LABEL)
     ax.set_xlabel("generation (0 = initial population)")
     ax.xaxis.set_major_locator(MaxNLocator(integer=True, min_n_ticks=1))
-    ax.set_title(title, fontsize=10)
+    ax.set_title(f"{title}\n{basis}" if basis else title, fontsize=9)
+    fig.set_layout_engine("constrained")
     return fig
 
 
 def mo_convergence_figure(logbook: Sequence[Mapping[str, Any]], smallest_f1: Sequence[float], labels: Sequence[str],
-                          title: str, fidelity: Mapping[str, Any] | None = None) -> Figure:
+                          title: str, fidelity: Mapping[str, Any] | None = None, basis: str = "") -> Figure:
     """What a multi-objective run optimises, per generation: the hypervolume of its front (with the
     front's size) above, and the smallest f1 found so far below (log y), against the f1 resolution.
 
@@ -201,12 +206,13 @@ def mo_convergence_figure(logbook: Sequence[Mapping[str, Any]], smallest_f1: Seq
         First title line.
     fidelity : mapping, optional
         ``{"preset", "f1_resolution"}``: named in the title, the resolution drawn on the f1 panel.
+    basis : str, optional
+        What the hypervolume is measured in (:func:`whisker_opt.optimise.nsga2.hypervolume_basis`), in the title.
     """
     g = np.asarray([r["generation"] for r in logbook], dtype=float)
     fig = Figure(figsize=(6.4, 6.4))
     ax, ax_f = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [1.3, 1]})
-    _hypervolume_and_front_size(ax, g, logbook, "hypervolume of the front (archive)",
-                                "hypervolume\n(normalised objectives, reference 1.1)")
+    _hypervolume_and_front_size(ax, g, logbook, "hypervolume of the front (archive)", HV_LABEL.replace(", ", ",\n"))
     f = np.asarray(smallest_f1, dtype=float)
     ax_f.plot(g, f, "o-", ms=3, color="C1", label="smallest f1 found (end of the front)")
     if np.any(np.isfinite(f) & (f > 0)):
@@ -225,21 +231,23 @@ def mo_convergence_figure(logbook: Sequence[Mapping[str, Any]], smallest_f1: Seq
         ax_f.set_xlim(float(g.min()) - 0.5, float(g.max()) + 0.5)
     ax_f.grid(True, which="both", alpha=0.3)
     ax_f.legend(fontsize=7, loc="best")
-    ax.set_title(f"{title}\nobjectives: {', '.join(labels)}\n{fidelity_label(fidelity)}", fontsize=10)
+    ax.set_title(f"{title}\nobjectives: {', '.join(labels)}\n" + (f"hypervolume: {basis}\n" if basis else "")
+                 + fidelity_label(fidelity), fontsize=9)
     fig.set_layout_engine("constrained")
     return fig
 
 
 def plot_mo_convergence(path: Path, logbook: Sequence[Mapping[str, Any]], smallest_f1: Sequence[float],
-                        labels: Sequence[str], title: str, fidelity: Mapping[str, Any] | None = None) -> Path:
+                        labels: Sequence[str], title: str, fidelity: Mapping[str, Any] | None = None,
+                        basis: str = "") -> Path:
     """Write :func:`mo_convergence_figure` (a multi-objective run's ``convergence.png``); returns ``path``."""
-    return _save(mo_convergence_figure(logbook, smallest_f1, labels, title, fidelity), Path(path))
+    return _save(mo_convergence_figure(logbook, smallest_f1, labels, title, fidelity, basis), Path(path))
 
 
 def write_front_outputs(run_dir: Path, rows: list[dict[str, Any]], gene_names: Sequence[str], objectives: Sequence[str],
                         labels: Sequence[str], all_points: Sequence[Mapping[str, float]],
                         logbook: Sequence[Mapping[str, Any]], fidelity: Mapping[str, Any] | None,
-                        stop_reason: str | None) -> list[Path]:
+                        stop_reason: str | None, basis: str = "") -> list[Path]:
     """Write ``pareto.csv``, ``pareto.png`` and ``hypervolume.png`` into ``run_dir``.
 
     Parameters
@@ -258,6 +266,8 @@ def write_front_outputs(run_dir: Path, rows: list[dict[str, Any]], gene_names: S
     fidelity : mapping or None
         ``{"preset", "f1_resolution"}`` of the run.
     stop_reason : str or None
+    basis : str, optional
+        What the hypervolume is measured in (:func:`whisker_opt.optimise.nsga2.hypervolume_basis`).
 
     Returns
     -------
@@ -277,30 +287,35 @@ def write_front_outputs(run_dir: Path, rows: list[dict[str, Any]], gene_names: S
                      run_dir / PARETO_PNG))
     if logbook:
         title = f"NSGA-II convergence ({state}, generation {logbook[-1]['generation']})"
-        out.append(_save(hypervolume_figure(logbook, title), run_dir / HYPERVOLUME_PNG))
+        out.append(_save(hypervolume_figure(logbook, title, basis), run_dir / HYPERVOLUME_PNG))
     return out
 
 
 def front_table(rows: list[dict[str, Any]], labels: Sequence[str], gene_names: Sequence[str],
-                hypervolume: float) -> list[str]:
-    """Lines of ``whisker-opt report`` for the front."""
+                hypervolume: float, measures: Sequence[str] = (), basis: str = "") -> list[str]:
+    """Lines of ``whisker-opt report`` for the front: the genes, f1, every other measure an objective reads
+    (``measures``, each with its unit) and F_p; ``basis`` says what the hypervolume is measured in."""
     front = [r for r in rows if r.get("on_front")]
     ver = [r for r in rows if r.get("status_verified") == "ok"]
     vpreset = next((r["verified_preset"] for r in ver), None)
     lines = ["", f"Pareto front   {len(front)} designs, objectives {', '.join(labels)}, "
-             f"hypervolume {hypervolume:.6g}"]
+             f"hypervolume {hypervolume:.6g}" + (f" ({basis})" if basis else ""),
+             "  f1 and F_p in calibrated strain" + "".join(f"; {m} [{_unit(m)}]" for m in measures)]
     if vpreset:
         n_on = sum(1 for r in ver if r.get("on_front_verified"))
         lines.append(f"  verified at preset {vpreset}: {len(ver)} designs, {n_on} non-dominated there")
     else:
         lines.append("  not verified at a finer preset yet")
-    head = "  rank " + "".join(f"{g:>10}" for g in gene_names) + f"{'f1':>12}{'F_p':>12}"
+    head = "  rank " + "".join(f"{g:>10}" for g in gene_names) + f"{'f1':>12}" + \
+        "".join(f"{m:>{max(12, len(m) + 2)}}" for m in measures) + f"{'F_p':>12}"
     if vpreset:
         head += f"{'f1 ' + vpreset:>14}{'front':>7}"
     lines.append(head + "  note")
     for k, r in enumerate(rows, start=1):
         line = f"  {k:>4} " + "".join(f"{float(r[g]):>10.4g}" for g in gene_names)
-        line += f"{_value(r, 'f1'):>12.4g}{float(r['F_p']):>12.4g}"
+        line += f"{_value(r, 'f1'):>12.4g}" + "".join(
+            f"{v:>{max(12, len(m) + 2)}.4g}" if (v := _num(r.get(m))) is not None else f"{'-':>{max(12, len(m) + 2)}}"
+            for m in measures) + f"{float(r['F_p']):>12.4g}"
         if vpreset:
             fv = _num(r.get("f1_verified"))
             onv = r.get("on_front_verified")
