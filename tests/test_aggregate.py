@@ -9,6 +9,7 @@ import math
 import pytest
 
 from whisker_opt.config.optimiser import OptimiserConfig
+from whisker_opt.experiment.gauge_variants import GAUGE_VARIANTS
 from whisker_opt.experiment.measures import MEASURE_NAMES, measure_values
 from whisker_opt.experiment.outcome import EvalOutcome
 from whisker_opt.optimise.aggregate import (REDUCTIONS, AggregateEvaluator, LawVariants, Spread, aggregate_columns,
@@ -37,6 +38,8 @@ def _outcome(f1, sens, dl, vm, line, centroid):
     """A successful outcome whose every measure reads: sensitivity = eps_c_max / deflection (deflection 1)."""
     readings = {"line": {"intact": line, "trimmed": line + 1e-4}, "centroid": {"intact": centroid,
                                                                              "trimmed": centroid - 1e-4}}
+    for k, name in enumerate(n for n in GAUGE_VARIANTS if n not in readings):  # every other registered reading
+        readings[name] = {"intact": line * (1.1 + 0.1 * k), "trimmed": centroid * (0.9 - 0.1 * k)}
     return EvalOutcome.success(f1, {"total": 1.0}, {"eps_c_max": sens, "deflection": 1.0, "delta_l": dl,
                                                     "von_mises_max": {"intact": vm, "trimmed": vm / 2},
                                                     "readings": readings})
