@@ -30,8 +30,14 @@ def _homogeneous(mesh, f: np.ndarray) -> np.ndarray:
     return mesh.points @ (f - np.eye(3)).T  # (n_nodes, 3): u = (F − I) X
 
 
-def test_the_registry_holds_line_centroid_and_section_in_order():
-    assert tuple(GAUGE_READINGS) == tuple(GAUGE_VARIANTS) == ("line", "centroid", "section")
+def test_the_registry_holds_every_reading_module_the_default_first():
+    import pkgutil
+
+    import whisker_opt.experiment.readings as pkg
+
+    modules = {m.name for m in pkgutil.iter_modules(pkg.__path__)}
+    assert tuple(GAUGE_READINGS) == tuple(GAUGE_VARIANTS) and set(GAUGE_READINGS) == modules
+    assert tuple(GAUGE_READINGS)[:3] == ("line", "centroid", "section")
     assert all(r.name == n and r.description == GAUGE_VARIANTS[n] for n, r in GAUGE_READINGS.items())
     from whisker_opt.config.model import WhiskerConfig
     from whisker_opt.experiment.measures import MEASURE_NAMES
@@ -47,7 +53,7 @@ def test_every_reading_is_zero_at_onset(gauged):
     reader = GaugeReader(mesh, gauge, XI)
     u = _homogeneous(mesh, F)
     reader.zero(u)
-    assert reader.read(u) == {"line": 0.0, "centroid": 0.0, "section": 0.0}
+    assert reader.read(u) == dict.fromkeys(GAUGE_READINGS, 0.0)
 
 
 def test_line_reading_is_the_log_stretch_of_the_gauge_tangent(gauged):

@@ -13,6 +13,8 @@ The gauge's host elements depend on the mesh only: they are located once per mes
 from __future__ import annotations
 
 from dataclasses import dataclass
+from types import MappingProxyType
+from typing import Mapping
 
 import numpy as np
 
@@ -37,14 +39,11 @@ class GaugeGeometry:
         Unit reference tangent of the line.
     centroid_element : int
         Element under the gauge centre (the thesis' readout).
-    section_elements : ndarray, shape (2, m)
-        Host elements of the sampling points of the wall's cross-sections at the gauge's two ends
-        (:func:`section_points`; the ``section`` reading).
-    section_coords : ndarray, shape (2, m, 3)
-    section_weights : ndarray, shape (m,)
-        Area weights of those points, normalised to sum 1.
     radius : float
         Reference outer radius at the gauge centre [mm].
+    sites : mapping
+        Reading name -> :class:`Site`: the sampling points that a registered reading asks for with a
+        ``points(design)`` function of its own module, located with the gauge.
     """
 
     host_elements: np.ndarray
@@ -52,10 +51,25 @@ class GaugeGeometry:
     weights: np.ndarray
     tangent: np.ndarray
     centroid_element: int
-    section_elements: np.ndarray
-    section_coords: np.ndarray
-    section_weights: np.ndarray
     radius: float
+    sites: Mapping[str, "Site"]
+
+
+@dataclass(frozen=True)
+class Site:
+    """A reading's own sampling points, located in the mesh.
+
+    Attributes
+    ----------
+    host_elements : ndarray, shape (n,)
+    local_coords : ndarray, shape (n, 3)
+    data : object
+        What the reading's ``points`` returned beside the points (weights, a layout), passed through.
+    """
+
+    host_elements: np.ndarray
+    local_coords: np.ndarray
+    data: object = None
 
 
 @dataclass(frozen=True)
@@ -70,19 +84,6 @@ class ReadingContext:
     """
 
     wall_transfer: float = 1.0
-
-
-def section_points(design: WhiskerDesign, x: float, n_r: int = 4, n_theta: int = 16) -> tuple[np.ndarray, np.ndarray]:
-    """Sampling points of the wall's cross-section at ``x`` (r_i … r_o, Gauss–Legendre in r, equal angles
-    offset by half a step) and their area weights r w_r (normalised to sum 1), shapes (n_r n_theta, 3), (n_r n_theta,)."""
-    s, w = np.polynomial.legendre.leggauss(n_r)
-    ri, ro = design.r_inner(x), design.r_outer(x)
-    r = ri + 0.5 * (ro - ri) * (s + 1.0)  # (n_r,)
-    th = 2.0 * np.pi * (np.arange(n_theta) + 0.5) / n_theta  # (n_theta,)
-    R, T = np.meshgrid(r, th, indexing="ij")  # (n_r, n_theta)
-    pts = np.stack([np.full(R.size, float(x)), (R * np.cos(T)).ravel(), (R * np.sin(T)).ravel()], axis=1)
-    wt = np.repeat(w * r, n_theta)
-    return pts, wt / wt.sum()
 
 
 def gauge_points(x_ss: float, e: float, r_outer, alpha: float, n: int = 4) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -117,19 +118,22 @@ def locate_gauge(wm: WhiskerMesh, design: WhiskerDesign, n: int = 16) -> GaugeGe
     """
     pts, w, tangent = gauge_points(design.x_ss, design.e, design.r_outer, design.alpha, n)
     centre = np.array([[design.x_ss + 0.5 * design.e, design.r_outer(design.x_ss + 0.5 * design.e), 0.0]])
-    sec = [section_points(design, x) for x in (design.x_ss, design.x_ss + design.e)]
-    m = len(sec[0][1])
+    own = {name: r.points(design) for name, r in GAUGE_READINGS.items() if r.points is not None}  # name -> (pts, data)
     # Points on the exact cone lie up to the P2 surface-interpolation error outside the
     # mesh; a host whose local coordinates are slightly outside (barycentric >= -0.05)
     # with an exact inverse map is the right host (the field extends smoothly).
-    loc = PointLocator(wm.mesh.points, wm.mesh.cells).locate(np.vstack([pts, centre, sec[0][0], sec[1][0]]), tol=0.05)
+    loc = PointLocator(wm.mesh.points, wm.mesh.cells).locate(np.vstack([pts, centre, *(p for p, _ in own.values())]),
+                                                              tol=0.05)
     if not np.all(loc.inside) or np.any(loc.residual > 1e-8 * (1.0 + design.D)):
         bad = int(np.sum(~np.asarray(loc.inside)) + np.sum(np.asarray(loc.residual) > 1e-8 * (1.0 + design.D)))
         raise ValueError(f"gauge points not located in the mesh: {bad} of {len(loc.inside)} sampling points "
-                         f"(gauge line, centre, the wall sections at its ends)")
+                         f"(the gauge line, its centre and the readings' own: {', '.join(own) or 'none'})")
     elems, xi = loc.host_elements, loc.local_coords
-    return GaugeGeometry(elems[:n], xi[:n], w, tangent, int(elems[n]), elems[n + 1:].reshape(2, m),
-                         xi[n + 1:].reshape(2, m, 3), sec[0][1], float(centre[0, 1]))
+    sites, k = {}, n + 1
+    for name, (p, data) in own.items():
+        sites[name] = Site(elems[k:k + len(p)], xi[k:k + len(p)], data)
+        k += len(p)
+    return GaugeGeometry(elems[:n], xi[:n], w, tangent, int(elems[n]), float(centre[0, 1]), MappingProxyType(sites))
 
 
 @dataclass(frozen=True, eq=False)

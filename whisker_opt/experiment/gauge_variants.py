@@ -9,7 +9,12 @@ Each reading is a module of :mod:`whisker_opt.experiment.readings` with a ``NAME
 (:mod:`whisker_opt.experiment.measures`) and ``scene.gauge_variant`` follow this registry. The reading modules
 load the finite-element code only when they read, so the run-file models may list the names without it.
 
-Adding a reading: one module in ``whisker_opt/experiment/readings/``, its line in :func:`_registry`, and a test.
+A reading that samples points of its own (beyond the gauge line and centre of
+:class:`whisker_opt.experiment.gauge.GaugeGeometry`) also has ``points(design) -> (points (n, 3), data)``; they are
+located with the gauge, once per mesh, and reach it as ``gauge.sites[NAME]``.
+
+Adding a reading: one module in ``whisker_opt/experiment/readings/`` (found by :func:`_registry`, ordered by its
+``ORDER``) and a test.
 """
 
 from __future__ import annotations
@@ -27,12 +32,19 @@ class GaugeReading:
     description: str
     state: Callable[..., Any]
     relative: Callable[..., float]
+    points: Callable[..., Any] | None = None
 
 
 def _registry() -> dict[str, GaugeReading]:
-    from whisker_opt.experiment.readings import centroid, line, section
+    """Every module of :mod:`whisker_opt.experiment.readings`, in the order of their ``ORDER``."""
+    import importlib
+    import pkgutil
 
-    return {m.NAME: GaugeReading(m.NAME, m.DESCRIPTION, m.state, m.relative) for m in (line, centroid, section)}
+    import whisker_opt.experiment.readings as pkg
+
+    mods = [importlib.import_module(f"{pkg.__name__}.{m.name}") for m in pkgutil.iter_modules(pkg.__path__)]
+    return {m.NAME: GaugeReading(m.NAME, m.DESCRIPTION, m.state, m.relative, getattr(m, "points", None))
+            for m in sorted(mods, key=lambda m: (m.ORDER, m.NAME))}
 
 
 #: The gauge readings, by name, in the order a reader returns them (read-only).

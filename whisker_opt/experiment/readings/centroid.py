@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 NAME = "centroid"
+ORDER = 1  # place in the registry (the default reading first)
 DESCRIPTION = ("axial Eulerian log strain at the centroid of the element under the gauge centre, relative to "
                "contact onset, times ξ (the thesis' readout)")
 

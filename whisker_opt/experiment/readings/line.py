@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 NAME = "line"
+ORDER = 0  # place in the registry (the default reading first)
 DESCRIPTION = "mean logarithmic strain along the gauge line, relative to contact onset, times ξ"
 
 

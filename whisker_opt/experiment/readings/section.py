@@ -4,7 +4,7 @@ A global–local reading. The section curvature over the gauge is a section inte
 contact force is; the outer surface's strain per unit curvature of a pressurised, fibre-wound wall is the
 local quantity that the whisker's mesh does not resolve, and the periodic wall cell (docs/physics.md §14)
 gives converged. At each gauge end x_k (x_ss and x_ss + e) the plane x = a + b y + c z is fitted, area-weighted,
-to the deformed positions of the wall's cross-section (:func:`whisker_opt.experiment.gauge.section_points`);
+to the deformed positions of the wall's cross-section (:func:`points`, located with the gauge);
 its tilt about z is φ_k = arctan b. The mean curvature over the gauge is
 
     κ = (φ₂ − φ₁) / s,   s = c (Δφ/2) / sin(Δφ/2),
@@ -28,8 +28,26 @@ import math
 import numpy as np
 
 NAME = "section"
+ORDER = 2  # place in the registry (the default reading first)
 DESCRIPTION = ("log strain of the wall's outer surface from the section curvature over the gauge and the wall "
                "cell's transfer G(Q), relative to contact onset, times ξ")
+
+
+def points(design, n_r: int = 4, n_theta: int = 16) -> tuple[np.ndarray, np.ndarray]:
+    """Sampling points of the wall's cross-sections at the gauge's two ends, shape (2 n_r n_theta, 3), and their
+    area weights r w_r normalised to sum 1 per section, shape (2, n_r n_theta): Gauss–Legendre in r over
+    r_i … r_o, equal angles offset by half a step."""
+    s, w = np.polynomial.legendre.leggauss(n_r)
+    th = 2.0 * np.pi * (np.arange(n_theta) + 0.5) / n_theta  # (n_theta,)
+    pts, wts = [], []
+    for x in (design.x_ss, design.x_ss + design.e):
+        ri, ro = design.r_inner(x), design.r_outer(x)
+        r = ri + 0.5 * (ro - ri) * (s + 1.0)  # (n_r,)
+        R, T = np.meshgrid(r, th, indexing="ij")  # (n_r, n_theta)
+        pts.append(np.stack([np.full(R.size, float(x)), (R * np.cos(T)).ravel(), (R * np.sin(T)).ravel()], axis=1))
+        wt = np.repeat(w * r, n_theta)
+        wts.append(wt / wt.sum())
+    return np.vstack(pts), np.stack(wts)
 
 
 def _tilt(mesh, u: np.ndarray, hosts: np.ndarray, coords: np.ndarray, w: np.ndarray) -> tuple[float, np.ndarray]:
@@ -45,8 +63,10 @@ def _tilt(mesh, u: np.ndarray, hosts: np.ndarray, coords: np.ndarray, w: np.ndar
 
 def state(mesh, u: np.ndarray, gauge) -> float:
     """The mean section curvature κ over the gauge of displacement ``u`` [1/mm] (module docstring)."""
-    (p1, c1), (p2, c2) = (_tilt(mesh, u, gauge.section_elements[k], gauge.section_coords[k], gauge.section_weights)
-                          for k in (0, 1))
+    site = gauge.sites[NAME]
+    m = site.data.shape[1]
+    (p1, c1), (p2, c2) = (_tilt(mesh, u, site.host_elements[k * m:(k + 1) * m], site.local_coords[k * m:(k + 1) * m],
+                                site.data[k]) for k in (0, 1))
     d = p2 - p1
     chord = float(np.linalg.norm(c2 - c1))
     arc = chord if d == 0.0 else chord * (0.5 * d) / math.sin(0.5 * d)
