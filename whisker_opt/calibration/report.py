@@ -119,7 +119,8 @@ def _headline(outcome: FitOutcome, config: str, date: str) -> list[str]:
         head = [f"# NOT CALIBRATED ({outcome.state}): {why}; the values below are where it stopped,",
                 f"# not a calibrated model. {made}"]
     if outcome.chi2_high:
-        head.append(f"# MISFIT: chi2/dof = {outcome.chi2_per_dof:.4g} is above its limit {chi2_limit(outcome.dof):.3g}: "
+        limit = chi2_limit(outcome.dof)
+        head.append(f"# MISFIT: chi2/dof = {outcome.chi2_per_dof:.4g} is above its limit {limit:.3g}: "
                     "the model does not reach the data within their stated uncertainties.")
     return head
 
@@ -133,8 +134,9 @@ def calibrated_yaml(cfg: WhiskerConfig, outcome: FitOutcome, *, source: str, con
         f"# Fit: {_status_line(outcome)}",
         *(f"# WARNING: {w}" for w in outcome.warnings()),
         f"# Data source: {' '.join(source.split())}",
-        "# Fitted values (± standard uncertainty from the fit's Jacobian, scaled by sqrt(chi2/dof) when that is above 1;",
-        "# calibration.json beside this file holds the residual of every observation and the held-out predictions):",
+        "# Fitted values (± standard uncertainty from the fit's Jacobian, scaled by sqrt(chi2/dof) when that is",
+        "# above 1; calibration.json beside this file holds the residual of every observation and the held-out",
+        "# predictions):",
     ]
     for k, p in enumerate(outcome.parameters):
         bound = f" (at its {outcome.at_bound[k]} bound)" if outcome.at_bound[k] else ""
@@ -162,8 +164,8 @@ def format_summary(outcome: FitOutcome, *, source: str) -> str:
     measured / start / fitted / miss."""
     out = [f"calibration against {source}", f"status: {_status_line(outcome)}",
            f"{outcome.message.rstrip('.')}; {outcome.total_evaluations} model evaluations in all (a scan of "
-           f"{len(outcome.scan)}, {len(outcome.starts)} local fit(s)), {outcome.scenes} scenes, {outcome.seconds:.0f} s; "
-           f"cost {outcome.cost_start:.5g} -> {outcome.cost:.5g} (chi2 {outcome.chi2:.4g}, dof {outcome.dof})"]
+           f"{len(outcome.scan)}, {len(outcome.starts)} local fit(s)), {outcome.scenes} scenes, "
+           f"{outcome.seconds:.0f} s; cost {outcome.cost_start:.5g} -> {outcome.cost:.5g} (chi2 {outcome.chi2:.4g}, dof {outcome.dof})"]
     out += [f"WARNING: {w}" for w in outcome.warnings()]
     out += ["", f"{'parameter':<28} {'start':>10} {'fitted':>12} {'std':>10} {'scaled':>10}  determined  unit"]
     for k, p in enumerate(outcome.parameters):
