@@ -41,8 +41,8 @@ Status of a fit (:attr:`FitOutcome.state`): ``converged`` when ``least_squares``
 ``not moved`` when, in addition, no parameter left its start by more than the tolerance. Only a
 converged fit that determines at least one parameter is a calibrated model (of the parameters it
 determines). ``evaluations`` and the budget ``max_evaluations`` are those of the chosen local fit;
-``total_evaluations`` adds the scan's and the other fit's. A parameter is *at a bound* when it lies within ``tolerance``
-× (upper − lower) of it, the nearer one: the rule by which ``least_squares`` (trust-region
+``total_evaluations`` adds the scan's and the other fit's. A parameter is *at a bound* when it lies
+within ``tolerance`` × (upper − lower) of it, the nearer one: the rule by which ``least_squares`` (trust-region
 reflective) declares a bound active (``xtol`` in the normalised u, whose bounds are 0 and 1). Its
 iterates stay strictly inside the bounds (a step covers at most 99.5 % of the distance to a bound),
 so a parameter pressed against a bound ends a small fraction of the range inside it, not on it.
