@@ -22,7 +22,7 @@ from whisker_opt.calibration.fit import DETERMINED_FRACTION, Problem, determined
 from whisker_opt.calibration.forward import BeamSimulator, RestoreSearch
 from whisker_opt.calibration.job import calibrate, prepare
 from whisker_opt.calibration.parameters import ModelParameter
-from whisker_opt.calibration.starts import scan_points
+from whisker_opt.calibration.starts import LocalFit, disagree, scan_points
 from whisker_opt.config.model import load_config
 
 DATA = Path(__file__).resolve().parents[1] / "configs" / "data"
@@ -52,6 +52,25 @@ def test_the_scan_is_a_centred_latin_hypercube_the_same_on_every_call():
     for col in two.T:  # each parameter's ten cell centres, once each
         np.testing.assert_allclose(np.sort(col), (np.arange(10) + 0.5) / 10)
     np.testing.assert_array_equal(two, scan_points(2))
+
+
+def test_two_fits_disagree_in_cost_or_in_a_determined_parameter():
+    """1 % of the cost (and chi2 by more than 1) or of a determined parameter's range (10 x the tolerance
+    1e-3) apart."""
+    def local(values, cost):
+        return LocalFit("-", np.zeros(2), np.array(values, dtype=float), cost, cost, 1, "", 1)
+
+    widths = [6.0, 0.9]
+    assert not disagree([local([-2.88, 0.5], 95.6)], widths, 1e-3)
+    assert not disagree([local([-2.88, 0.5], 95.6), local([-2.91, 0.5], 95.8)], widths, 1e-3)
+    assert disagree([local([-2.88, 0.5], 95.6), local([-2.95, 0.5], 95.6)], widths, 1e-3)
+    assert disagree([local([-2.88, 0.5], 95.6), local([-2.88, 0.5], 97.0)], widths, 1e-3)
+    # costs of an exact fit, both below chi2 = 1: the same
+    assert not disagree([local([-2.88, 0.5], 1e-8), local([-2.88, 0.5], 2e-8)], widths, 1e-3)
+    assert disagree([local([-2.88, 0.5], 0.1), local([-2.88, 0.5], 0.7)], widths, 1e-3)
+    # apart only in a parameter the data do not determine: the same result
+    assert disagree([local([-2.88, 0.5], 95.6), local([-2.88, 0.7], 95.6)], widths, 1e-3)
+    assert not disagree([local([-2.88, 0.5], 95.6), local([-2.88, 0.7], 95.6)], widths, 1e-3, (True, False))
 
 
 def _sensitivity_config(folder: Path, *, sigma: float, parameters: list) -> Path:

@@ -295,8 +295,9 @@ class FitOutcome:
 
     @property
     def start_dependent(self) -> bool:
-        """The local fits ended apart (:func:`~whisker_opt.calibration.starts.disagree`)."""
-        return disagree(self.starts, self.width, self.tolerance)
+        """The local fits ended apart in cost or in a determined parameter
+        (:func:`~whisker_opt.calibration.starts.disagree`)."""
+        return disagree(self.starts, self.width, self.tolerance, self.determined)
 
     @property
     def state(self) -> str:

@@ -9,7 +9,8 @@ centre taken once; the cells are paired across parameters by a permutation drawn
 :data:`SEED`, so the same box gives the same points on every run and from every start). One local
 fit starts at the run file's start; when a scanned point has a lower cost, a second one starts at the
 best of them. The fit of lower final cost is the result (:func:`whisker_opt.calibration.fit.fit`);
-two fits that end apart (:func:`disagree`) make the result start-dependent, and that is reported.
+two fits that end apart (:func:`disagree`: in cost, or in a parameter the data determine) make the
+result start-dependent, and that is reported.
 """
 
 from __future__ import annotations
@@ -20,8 +21,11 @@ import numpy as np
 
 #: Seed of the scan's pairing of cells across parameters (a fixed number: the scan is part of the method).
 SEED = 0
-#: Two local fits agree when every parameter ends within this many ``tolerance`` × its range of the other.
+#: Two local fits agree when their costs, and their ends in every determined parameter, lie within this many
+#: ``tolerance`` (of the cost, of the range) of each other.
 AGREEMENT = 10.0
+#: Costs C = χ²/2 closer than this are the same: Δχ² < 1 is within one standard deviation.
+COST_SAME = 0.5
 #: What started a local fit.
 FROM_START = "the run file's start"
 FROM_SCAN = "the scan's best point"
@@ -82,8 +86,11 @@ class LocalFit:
     evaluations: int
 
 
-def disagree(fits, widths, tolerance: float) -> bool:
-    """Some two fits end more than :data:`AGREEMENT` × ``tolerance`` × range apart in some parameter.
+def disagree(fits, widths, tolerance: float, determined=None) -> bool:
+    """Some two fits end apart: their costs differ by more than :data:`AGREEMENT` × ``tolerance`` of the
+    larger and by more than :data:`COST_SAME` (χ² by more than 1: statistically distinct), or a
+    determined parameter's ends by more than :data:`AGREEMENT` × ``tolerance`` × its range (a parameter
+    the data do not determine may end anywhere; it is reported as such).
 
     Parameters
     ----------
@@ -91,14 +98,20 @@ def disagree(fits, widths, tolerance: float) -> bool:
     widths : array_like, shape (n,)
         upper − lower of each parameter.
     tolerance : float
-        The fit's tolerance (a fraction of each range).
+        The fit's tolerance (a fraction of each range, and of the cost).
+    determined : sequence of bool, shape (n,), optional
+        The parameters compared (default all).
 
     Returns
     -------
     bool
     """
-    ends = np.array([f.values for f in fits], dtype=float)  # (n_fits, n)
-    if len(ends) < 2:
+    if len(fits) < 2:
         return False
+    ends = np.array([f.values for f in fits], dtype=float)  # (n_fits, n)
+    costs = np.array([f.cost for f in fits], dtype=float)  # (n_fits,)
+    mask = np.ones(ends.shape[1], dtype=bool) if determined is None else np.asarray(determined, dtype=bool)
     spread = ends.max(axis=0) - ends.min(axis=0)  # (n,)
-    return bool(np.any(spread > AGREEMENT * tolerance * np.asarray(widths, dtype=float)))
+    apart = np.any(spread[mask] > AGREEMENT * tolerance * np.asarray(widths, dtype=float)[mask])
+    gap = costs.max() - costs.min()
+    return bool(apart or gap > max(AGREEMENT * tolerance * costs.max(), COST_SAME))
