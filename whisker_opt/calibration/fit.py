@@ -347,7 +347,8 @@ class FitOutcome:
                        "uncertainties do not account for the misfit; std is too small (see std_scaled)")
         for p, u, ok in zip(self.parameters, self.uncertainty, self.determined):
             if not ok:
-                why = (f"its uncertainty {u:.3g} {p.unit} is more than {DETERMINED_FRACTION:g} of its range "
+                unit = "" if p.unit in ("", "-") else f" {p.unit}"
+                why = (f"its uncertainty {u:.3g}{unit} is more than {DETERMINED_FRACTION:g} of its range "
                        f"[{p.lower:g}, {p.upper:g}]" if math.isfinite(u) else "no combination of them moves it")
                 out.append(f"{p.path} is not determined by these observations ({why}): its value is where the fit "
                            "stopped, not a calibration")

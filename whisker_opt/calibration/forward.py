@@ -212,9 +212,10 @@ def _restore(ob: Restore, cfg: WhiskerConfig, sim: Simulator, search: RestoreSea
     k = int(np.argmin(np.abs(fs)))
     lo, hi = float(np.min(fs + target)), float(np.max(fs + target))
     q_star = unmatched_pressure(qs, fs, search.Q_max)
+    beyond = f"; extrapolated, the mismatch vanishes at Q = {q_star:.4g} MPa" if q_star != qs[k] else ""
     note = (f"no Q in [0, {search.Q_max:g}] MPa matches: the reading ε({ob.delta:g} mm) spans [{lo:.5g}, {hi:.5g}] "
             f"over it, the reference reads {target:.5g} ({100 * fs[k] / target:+.1f} % at the closest, "
-            f"Q = {qs[k]:g} MPa; extrapolated, the mismatch vanishes at Q = {q_star:.4g} MPa){held}")
+            f"Q = {qs[k]:g} MPa{beyond}){held}")
     return Prediction(q_star, False, note)
 
 
