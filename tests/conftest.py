@@ -44,6 +44,9 @@ QUICK: dict[str, tuple[str, ...]] = {
                             "test_lengths_and_trims_of_a_row",
                             "test_parameters_name_real_valued_keys_within_their_range",
                             "test_the_bound_and_chi2_limits"),
+    "test_calibration_starts.py": (
+        "test_a_parameter_is_determined_when_its_uncertainty_is_a_quarter_of_its_range_at_most",
+        "test_the_scan_is_a_centred_latin_hypercube_the_same_on_every_call"),
     "test_cli_conveniences.py": ("test_version", "test_init_writes_a_template_that_validates",
                                  "test_bad_settings_are_one_line"),
     "test_cli_errors.py": ("test_bad_option_is_one_line_before_anything_is_done",),

@@ -11,9 +11,13 @@ One concept per module:
 :mod:`~whisker_opt.calibration.forward`
     What the model predicts for an observation: the finite-element scenes or the beam model, and the
     root search that turns a restore observation into a pressure.
+:mod:`~whisker_opt.calibration.starts`
+    Where the local fits start: a coarse deterministic scan of the parameter box, and whether two
+    local fits agree.
 :mod:`~whisker_opt.calibration.fit`
-    The weighted least-squares fit (``scipy.optimize.least_squares`` with bounds), the covariance of
-    the fitted values and the predictions of the held-out observations.
+    The weighted least-squares fit (``scipy.optimize.least_squares`` with bounds) from the start and
+    from the scan's best point, the covariance of the fitted values, which parameters the data
+    determine, and the predictions of the held-out observations.
 :mod:`~whisker_opt.calibration.report`
     What a calibration writes: ``calibration.json``, ``calibrated.yaml``, ``calibration.png`` and the
     printed summary.

@@ -23,14 +23,26 @@ by √(χ²/ν), χ² = 2C, ν = m − n, as when the σ_k only fix relative wei
 1e-8 of the largest marks a direction the data do not determine: a parameter with a component along
 it has an infinite std (``null`` in JSON), stated as "not determined by these observations".
 
+A parameter is *determined* by the observations when its uncertainty u_i (``std_scaled`` when χ²/ν > 1,
+else ``std``: the larger) is finite and at most :data:`DETERMINED_FRACTION` of its range, so that
+θ̂_i ± 2u_i (≈ 95 %) spans no more than the box the fit was given (:func:`determined`, the one rule for
+every model); otherwise the data leave it where the fit stopped, and it is not calibrated.
+
+Before the local fit, the cost is evaluated on a coarse deterministic scan of the box
+(:mod:`~whisker_opt.calibration.starts`); a second local fit starts at the scan's best point when it
+beats the start, the fit of lower final cost is the result, and two fits ending apart are reported
+as a start-dependent result.
+
 Held-out observations take no part in C; they are predicted with the start and the fitted values and
 their miss m_k(θ̂) − y_k reported.
 
 Status of a fit (:attr:`FitOutcome.state`): ``converged`` when ``least_squares`` met its tolerance
 (``ftol``, ``xtol`` or ``gtol``); ``budget exhausted`` when it stopped at its evaluation budget first;
 ``not moved`` when, in addition, no parameter left its start by more than the tolerance. Only a
-converged fit is a calibrated model. A parameter is *at a bound* when it lies within ``tolerance``
-× (upper − lower) of it, the nearer one: the rule by which ``least_squares`` (trust-region
+converged fit that determines at least one parameter is a calibrated model (of the parameters it
+determines). ``evaluations`` and the budget ``max_evaluations`` are those of the chosen local fit;
+``total_evaluations`` adds the scan's and the other fit's. A parameter is *at a bound* when it lies
+within ``tolerance`` × (upper − lower) of it, the nearer one: the rule by which ``least_squares`` (trust-region
 reflective) declares a bound active (``xtol`` in the normalised u, whose bounds are 0 and 1). Its
 iterates stay strictly inside the bounds (a step covers at most 99.5 % of the distance to a bound),
 so a parameter pressed against a bound ends a small fraction of the range inside it, not on it.
@@ -52,10 +64,13 @@ from typing import Sequence
 import numpy as np
 from scipy import optimize
 
+from fem.newton import SolveFailed
+from geometry.design import InvalidDesignError
 from whisker_opt.calibration.forward import Prediction, RestoreSearch, Simulator, predict
 from whisker_opt.calibration.measurements import Observation
 from whisker_opt.calibration.parameters import ModelParameter, configure
-from whisker_opt.config.model import WhiskerConfig
+from whisker_opt.calibration.starts import FROM_SCAN, FROM_START, LocalFit, disagree, scan_points, scan_size
+from whisker_opt.config.model import ConfigError, WhiskerConfig
 
 logger = logging.getLogger(__name__)
 
@@ -67,6 +82,12 @@ CHI2_QUANTILE = 0.99
 CONVERGED = "converged"
 BUDGET_EXHAUSTED = "budget exhausted"
 NOT_MOVED = "not moved"
+#: :attr:`FitOutcome.state` of a converged fit that determines no parameter.
+NOT_DETERMINED = "no parameter determined"
+#: A parameter is determined when its uncertainty is at most this fraction of its range (:func:`determined`).
+DETERMINED_FRACTION = 0.25
+#: What the model raises at a parameter set it cannot solve (a scanned point is then skipped).
+UNSOLVABLE = (SolveFailed, FloatingPointError, InvalidDesignError, ConfigError)
 
 
 def chi2_limit(dof: int, quantile: float = CHI2_QUANTILE) -> float:
@@ -107,6 +128,39 @@ def bounds_reached(values, parameters: Sequence[ModelParameter], rtol: float) ->
         lo, up = v - p.lower, p.upper - v
         out.append("lower" if lo <= min(up, near) else ("upper" if up <= min(lo, near) else None))
     return tuple(out)
+
+
+def uncertainty(std, std_scaled) -> np.ndarray:
+    """u_i: ``std_scaled`` where it is the larger (χ²/ν > 1), else ``std``; ``std`` where ν ≤ 0.
+
+    Parameters
+    ----------
+    std, std_scaled : array_like, shape (n,)
+
+    Returns
+    -------
+    ndarray, shape (n,)
+    """
+    std, scaled = np.asarray(std, dtype=float), np.asarray(std_scaled, dtype=float)
+    return np.where(np.isnan(scaled), std, np.fmax(std, scaled))
+
+
+def determined(std, std_scaled, parameters: Sequence[ModelParameter]) -> tuple[bool, ...]:
+    """Whether the observations determine each parameter: u_i (:func:`uncertainty`) finite and at most
+    :data:`DETERMINED_FRACTION` × (upper − lower) (the module docstring).
+
+    Parameters
+    ----------
+    std, std_scaled : array_like, shape (n,)
+    parameters : sequence of ModelParameter
+
+    Returns
+    -------
+    tuple of bool
+    """
+    u = uncertainty(std, std_scaled)
+    return tuple(bool(np.isfinite(v) and v <= DETERMINED_FRACTION * (p.upper - p.lower))
+                 for v, p in zip(u, parameters))
 
 
 @dataclass(frozen=True)
@@ -178,9 +232,17 @@ class FitOutcome:
     seconds : float
     singular_values : ndarray
     max_evaluations : int
-        The evaluation budget.
+        The evaluation budget of a local fit.
     tolerance : float
         ``ftol`` and ``xtol`` of the fit; also the at-bound and moved tolerance (a fraction of the range).
+    starts : tuple of LocalFit
+        The local fits, the one from the run file's start first (:mod:`~whisker_opt.calibration.starts`).
+    scan : tuple of (ndarray, float)
+        The scanned parameter sets and their cost (nan where the model gave no value).
+    fit_start : ndarray, shape (n,)
+        Where the chosen local fit started.
+    total_evaluations : int
+        Distinct parameter sets evaluated: the scan, every local fit and the start.
     """
 
     parameters: tuple[ModelParameter, ...]
@@ -202,27 +264,51 @@ class FitOutcome:
     singular_values: np.ndarray = field(default_factory=lambda: np.zeros(0))
     max_evaluations: int = 0
     tolerance: float = 1e-3
+    starts: tuple[LocalFit, ...] = ()
+    scan: tuple = ()
+    fit_start: np.ndarray | None = None
+    total_evaluations: int = 0
 
     @property
     def start(self) -> np.ndarray:
         return np.array([p.start for p in self.parameters])
 
     @property
+    def width(self) -> np.ndarray:
+        return np.array([p.upper - p.lower for p in self.parameters])
+
+    @property
     def moved(self) -> bool:
-        """Some parameter left its start by more than ``tolerance`` × its range."""
-        width = np.array([p.upper - p.lower for p in self.parameters])
-        return bool(np.any(np.abs(self.values - self.start) > self.tolerance * width))
+        """Some parameter left the chosen local fit's start by more than ``tolerance`` × its range."""
+        start = self.start if self.fit_start is None else self.fit_start
+        return bool(np.any(np.abs(self.values - start) > self.tolerance * self.width))
+
+    @property
+    def uncertainty(self) -> np.ndarray:
+        """u_i of each parameter (:func:`uncertainty`)."""
+        return uncertainty(self.std, self.std_scaled)
+
+    @property
+    def determined(self) -> tuple[bool, ...]:
+        """Whether the observations determine each parameter (:func:`determined`)."""
+        return determined(self.std, self.std_scaled, self.parameters)
+
+    @property
+    def start_dependent(self) -> bool:
+        """The local fits ended apart in cost or in a determined parameter
+        (:func:`~whisker_opt.calibration.starts.disagree`)."""
+        return disagree(self.starts, self.width, self.tolerance, self.determined)
 
     @property
     def state(self) -> str:
-        """:data:`CONVERGED`, :data:`BUDGET_EXHAUSTED` or :data:`NOT_MOVED` (the module docstring)."""
+        """:data:`CONVERGED`, :data:`NOT_DETERMINED`, :data:`BUDGET_EXHAUSTED` or :data:`NOT_MOVED`."""
         if self.status > 0:
-            return CONVERGED
+            return CONVERGED if any(self.determined) else NOT_DETERMINED
         return BUDGET_EXHAUSTED if self.moved else NOT_MOVED
 
     @property
     def calibrated(self) -> bool:
-        """The fit converged: the fitted values are a calibrated model."""
+        """The fit converged and determined at least one parameter: those are a calibrated model."""
         return self.state == CONVERGED
 
     @property
@@ -239,11 +325,18 @@ class FitOutcome:
         """One sentence per reason not to trust the fit as it is: not converged, a parameter at a
         bound, χ²/ν above its limit, a parameter the observations do not determine."""
         out = []
-        if self.state != CONVERGED:
+        if self.state == NOT_DETERMINED:
+            out.append("not calibrated: the observations determine none of the parameters (each one's uncertainty "
+                       f"is more than {DETERMINED_FRACTION:g} of its range, or infinite)")
+        elif self.state != CONVERGED:
             what = ("no parameter moved from its start by more than "
                     f"{self.tolerance:g} of its range" if self.state == NOT_MOVED else "it had not converged")
             out.append(f"not calibrated: the fit used its budget of {self.max_evaluations} model evaluations and "
                        f"stopped ({what}); raise calibration.max_evaluations (done: {self.evaluations})")
+        if self.start_dependent:
+            out.append("the result depends on where the fit starts: " + "; ".join(
+                f"from {f.origin} ({self._describe(f.start)}) it ended at {self._describe(f.values)}, cost "
+                f"{f.cost:.5g}" for f in self.starts) + "; the end of lower cost is reported")
         for p, v, b in zip(self.parameters, self.values, self.at_bound):
             if b:
                 out.append(f"{p.path} = {v:.6g} is at its {b} bound {getattr(p, b):g} (within {self.tolerance:g} "
@@ -252,10 +345,17 @@ class FitOutcome:
             out.append(f"chi2/dof = {self.chi2_per_dof:.3g} is above {chi2_limit(self.dof):.3g} (the "
                        f"{100 * CHI2_QUANTILE:g}th percentile for {self.dof} degrees of freedom): the stated "
                        "uncertainties do not account for the misfit; std is too small (see std_scaled)")
-        for p, sd in zip(self.parameters, self.std):
-            if not math.isfinite(sd):
-                out.append(f"{p.path} is not determined by these observations")
+        for p, u, ok in zip(self.parameters, self.uncertainty, self.determined):
+            if not ok:
+                unit = "" if p.unit in ("", "-") else f" {p.unit}"
+                why = (f"its uncertainty {u:.3g}{unit} is more than {DETERMINED_FRACTION:g} of its range "
+                       f"[{p.lower:g}, {p.upper:g}]" if math.isfinite(u) else "no combination of them moves it")
+                out.append(f"{p.path} is not determined by these observations ({why}): its value is where the fit "
+                           "stopped, not a calibration")
         return out
+
+    def _describe(self, theta) -> str:
+        return ", ".join(f"{p.path} = {v:.4g}" for p, v in zip(self.parameters, theta))
 
     @property
     def fitted(self) -> tuple[ObservationResult, ...]:
@@ -301,6 +401,8 @@ class Problem:
         #: Scenes the predictions read back from :attr:`journal` cost when they were made.
         self.replayed_scenes = 0
         self._replayed: set[str] = set()
+        #: The parameter sets asked for since it was last set to an empty set (a local fit's), when set.
+        self.requested: set | None = None
 
     def theta(self, u) -> np.ndarray:
         """θ = lower + u·(upper − lower)."""
@@ -338,6 +440,8 @@ class Problem:
     def residuals_at(self, theta) -> np.ndarray:
         """r(θ), shape (m,): w (m − y)/σ of every fitted observation."""
         key = tuple(np.round(np.asarray(theta, dtype=float), 15))
+        if self.requested is not None:
+            self.requested.add(key)
         hit = self._memo.get(key)
         if hit is not None:
             return hit
@@ -412,9 +516,10 @@ def fit(problem: Problem, held_out: Sequence[Weighted] = (), *, max_evaluations:
     held_out : sequence of Weighted
         Observations left out of the fit, predicted at the start and at the fitted values.
     max_evaluations : int
-        Budget of model evaluations, the finite-difference Jacobian's included: ``least_squares`` gets
-        ``max_nfev = max(1, max_evaluations // (n + 1))`` (each of its evaluations costs n more for the
-        Jacobian; a Jacobian at a point already evaluated reuses it).
+        Budget of model evaluations of each local fit, the finite-difference Jacobian's included:
+        ``least_squares`` gets ``max_nfev = max(1, max_evaluations // (n + 1))`` (each of its evaluations
+        costs n more for the Jacobian; a Jacobian at a point already evaluated reuses it). The scan
+        adds :func:`~whisker_opt.calibration.starts.scan_size` evaluations.
     diff_step : float
         Finite-difference step h in the normalised parameters (a fraction of each range).
     tolerance : float
@@ -435,49 +540,97 @@ def fit(problem: Problem, held_out: Sequence[Weighted] = (), *, max_evaluations:
     n = len(params)
     theta0 = np.array([p.start for p in params])
     u0 = problem.u(theta0)
-    problem.progress = Progress(max_evaluations, "calibrate", "model evaluation", progress, at_most=True)
+    problem.progress = Progress(scan_size(n) + 2 * max_evaluations + 1, "calibrate", "model evaluation", progress,
+                                at_most=True)
+    local = dict(max_evaluations=max_evaluations, diff_step=diff_step, tolerance=tolerance)
     try:
         r0 = problem.residuals(u0)
         start_preds = problem.predictions(theta0)  # memoised scenes: no new solves
-        res = optimize.least_squares(problem.residuals, u0, jac=lambda u: problem.jacobian(u, diff_step),
-                                     bounds=(np.zeros(n), np.ones(n)), method="trf", x_scale=1.0, ftol=tolerance,
-                                     xtol=tolerance, gtol=1e-10, max_nfev=max(1, max_evaluations // (n + 1)))
+        scan = _scan(problem)
+        fits = [_local_fit(problem, u0, FROM_START, **local)]
+        best = min((c, k) for k, (_, c) in enumerate(scan) if math.isfinite(c)) if scan else None
+        if best is not None and best[0] < 0.5 * float(r0 @ r0):
+            try:
+                fits.append(_local_fit(problem, problem.u(scan[best[1]][0]), FROM_SCAN, **local))
+            except UNSOLVABLE as exc:  # a region the model cannot solve: the start's fit stands
+                logger.warning("calibration: the fit from %s stopped: %s", FROM_SCAN, exc)
     finally:
         problem.progress.close()
         problem.progress = None
-    theta = problem.theta(np.clip(res.x, 0.0, 1.0))
-    r = problem.residuals(res.x)
+    chosen, res = min(fits, key=lambda f: f[0].cost)
+    theta = chosen.values
+    r = problem.residuals_at(theta)
     jac_theta = np.asarray(res.jac, dtype=float) / problem.width  # (m, n): dr/dθ = dr/du / (upper - lower)
+    std, std_scaled, corr, s, chi2, dof = _uncertainties(jac_theta, r)
+    fitted_preds = problem.predictions(theta)
+    held_start = problem.predictions(theta0, held_out) if held_out else []
+    held_fit = problem.predictions(theta, held_out) if held_out else []
+    results = [_result(w, p0, p1, False) for w, p0, p1 in zip(problem.observations, start_preds, fitted_preds)]
+    results += [_result(w, p0, p1, True) for w, p0, p1 in zip(held_out, held_start, held_fit)]
+    outcome = FitOutcome(
+        parameters=params, values=theta, std=std, std_scaled=std_scaled, correlation=corr,
+        at_bound=bounds_reached(theta, params, tolerance), cost_start=0.5 * float(r0 @ r0), cost=0.5 * chi2,
+        chi2=chi2, dof=dof, observations=tuple(results), evaluations=chosen.evaluations,
+        scenes=int(getattr(problem.sim, "solved", 0)) + problem.replayed_scenes, status=chosen.status,
+        message=chosen.message, seconds=time.perf_counter() - t0, singular_values=s,
+        max_evaluations=int(max_evaluations), tolerance=float(tolerance), starts=tuple(f for f, _ in fits),
+        scan=tuple(scan), fit_start=chosen.start, total_evaluations=problem.evaluations,
+    )
+    logger.info("calibration: %s (%s) after %d evaluations (%d in all): cost %.6g -> %.6g", outcome.state,
+                chosen.message, chosen.evaluations, problem.evaluations, outcome.cost_start, outcome.cost)
+    return outcome
+
+
+def _scan(problem: Problem) -> list[tuple[np.ndarray, float]]:
+    """The cost at each point of the scan (:func:`~whisker_opt.calibration.starts.scan_points`); nan
+    where the model gives no value (logged)."""
+    out = []
+    for u in scan_points(len(problem.parameters)):
+        theta = problem.theta(u)
+        try:
+            r = problem.residuals_at(theta)
+            out.append((theta, 0.5 * float(r @ r)))
+        except UNSOLVABLE as exc:
+            logger.info("calibration: scan: no model value at %s: %s", problem._describe(theta), exc)
+            out.append((theta, math.nan))
+    return out
+
+
+def _local_fit(problem: Problem, u0: np.ndarray, origin: str, *, max_evaluations: int, diff_step: float,
+               tolerance: float) -> tuple[LocalFit, optimize.OptimizeResult]:
+    """One ``least_squares`` fit from u0 (trust-region reflective, in the normalised parameters)."""
+    n = u0.size
+    problem.requested = set()
+    try:
+        res = optimize.least_squares(problem.residuals, u0, jac=lambda u: problem.jacobian(u, diff_step),
+                                     bounds=(np.zeros(n), np.ones(n)), method="trf", x_scale=1.0, ftol=tolerance,
+                                     xtol=tolerance, gtol=1e-10, max_nfev=max(1, max_evaluations // (n + 1)))
+        evaluations = len(problem.requested)
+    finally:
+        problem.requested = None
+    r0 = problem.residuals(u0)
+    fitted = LocalFit(origin=origin, start=problem.theta(u0), values=problem.theta(np.clip(res.x, 0.0, 1.0)),
+                      cost_start=0.5 * float(r0 @ r0), cost=float(res.cost), status=int(res.status),
+                      message=str(res.message), evaluations=evaluations)
+    logger.info("calibration: the fit from %s (%s) ended at %s: cost %.6g -> %.6g (%s)", origin,
+                problem._describe(fitted.start), problem._describe(fitted.values), fitted.cost_start, fitted.cost,
+                res.message)
+    return fitted, res
+
+
+def _uncertainties(jac_theta: np.ndarray, r: np.ndarray):
+    """std, std_scaled, the correlation matrix, J's singular values, χ² and ν (the module docstring)."""
+    n = jac_theta.shape[1]
     cov, s = covariance(jac_theta)
     with np.errstate(invalid="ignore"):
         std = np.sqrt(np.diag(cov))
         finite = np.isfinite(std) & (std > 0)
         corr = np.full((n, n), np.nan)
         corr[np.ix_(finite, finite)] = cov[np.ix_(finite, finite)] / np.outer(std[finite], std[finite])
-    m = r.size
     chi2 = float(r @ r)
-    dof = m - n
+    dof = r.size - n
     std_scaled = std * math.sqrt(chi2 / dof) if dof > 0 else np.full(n, np.nan)
-    at_bound = bounds_reached(theta, params, tolerance)
-    fitted_preds = problem.predictions(theta)
-    held_start = problem.predictions(theta0, held_out) if held_out else []
-    held_fit = problem.predictions(theta, held_out) if held_out else []
-    results = []
-    for w, p0, p1 in zip(problem.observations, start_preds, fitted_preds):
-        results.append(_result(w, p0, p1, False))
-    for w, p0, p1 in zip(held_out, held_start, held_fit):
-        results.append(_result(w, p0, p1, True))
-    outcome = FitOutcome(
-        parameters=params, values=theta, std=std, std_scaled=std_scaled, correlation=corr, at_bound=at_bound,
-        cost_start=0.5 * float(r0 @ r0), cost=0.5 * chi2, chi2=chi2, dof=dof, observations=tuple(results),
-        evaluations=problem.evaluations, scenes=int(getattr(problem.sim, "solved", 0)) + problem.replayed_scenes,
-        status=int(res.status),
-        message=str(res.message), seconds=time.perf_counter() - t0, singular_values=s,
-        max_evaluations=int(max_evaluations), tolerance=float(tolerance),
-    )
-    logger.info("calibration: %s (%s) after %d evaluations: cost %.6g -> %.6g", outcome.state, res.message,
-                problem.evaluations, outcome.cost_start, outcome.cost)
-    return outcome
+    return std, std_scaled, corr, s, chi2, dof
 
 
 def _result(w: Weighted, start: Prediction, fitted: Prediction, held_out: bool) -> ObservationResult:

@@ -18,14 +18,18 @@ An observation becomes the model's value of the quantity measured (:func:`predic
   ``ε(δ; Δ, Q*) = ε(δ; Δ_ref, Q_ref)``, the root of the signed difference (as the ``root`` method of
   :func:`whisker_opt.analysis.compensation.fe_compensation`): the difference is sampled at ``scan``
   pressures evenly on [0, Q_max]; of the brackets with a sign change, the one nearest the measured Q is
-  refined by Brent's method. When no sampled bracket holds a root, the prediction is the sampled
-  pressure of the smallest mismatch, marked unmatched, and its note gives the range the reading spans.
+  refined by Brent's method. When no sampled bracket holds a root, the prediction is marked unmatched
+  and its note gives the range the reading spans; its value is where the mismatch, extrapolated
+  linearly from the closest end of the scan, would vanish (:func:`unmatched_pressure`), at most
+  ``Q_max`` beyond that end, so that it moves continuously with the parameters and meets the root
+  where a match enters the scanned range (a constant "no match" value gives the fit no direction).
   A pressure the model's whisker cannot be brought to (its pressurisation does not converge, e.g. a soft
-  rubber) ends the scan there, and the note says so.
+  rubber; a pressure outside the beam model's range) ends the scan there, and the note says so.
 """
 
 from __future__ import annotations
 
+from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from typing import Protocol
 
@@ -114,14 +118,33 @@ class BeamSimulator:
 
         self.calls += 1
         design = wiring.design_from_config(cfg, float(trim), trim_key="the trim of a measurement")
-        return sensitivity(design, float(a), float(Q), self._model(cfg)) * np.asarray(deltas, dtype=float)
+        model = self._model(cfg)
+        with _beam_range(Q):
+            return sensitivity(design, float(a), float(Q), model) * np.asarray(deltas, dtype=float)
 
     def extension(self, cfg: WhiskerConfig, trim: float, Q: float) -> float:
         from whisker_opt.analysis.beam import chamber_extension
 
         self.calls += 1
         design = wiring.design_from_config(cfg, float(trim), trim_key="the trim of a measurement")
-        return float(chamber_extension(design, float(Q), self._model(cfg)))
+        model = self._model(cfg)
+        with _beam_range(Q):
+            return float(chamber_extension(design, float(Q), model))
+
+
+class PressureNotHeld(SolveFailed):
+    """The beam model has no state at this pressure (its softening law gives no stiffness, or the
+    wall thins away): the beam's counterpart of a pressurisation that does not converge."""
+
+
+@contextmanager
+def _beam_range(Q: float):
+    """Turns the beam model's refusal of a pressure outside its range (ValueError) into
+    :class:`PressureNotHeld`, as a scene that cannot be pressurised raises ``SolveFailed``."""
+    try:
+        yield
+    except ValueError as exc:
+        raise PressureNotHeld(f"the beam model holds no state at Q = {float(Q):g} MPa: {exc}", []) from exc
 
 
 @dataclass(frozen=True)
@@ -188,10 +211,42 @@ def _restore(ob: Restore, cfg: WhiskerConfig, sim: Simulator, search: RestoreSea
         return Prediction(q, True, f"root in [{b[0]:g}, {b[1]:g}] MPa{more}{held}")
     k = int(np.argmin(np.abs(fs)))
     lo, hi = float(np.min(fs + target)), float(np.max(fs + target))
+    q_star = unmatched_pressure(qs, fs, search.Q_max)
+    beyond = f"; extrapolated, the mismatch vanishes at Q = {q_star:.4g} MPa" if q_star != qs[k] else ""
     note = (f"no Q in [0, {search.Q_max:g}] MPa matches: the reading ε({ob.delta:g} mm) spans [{lo:.5g}, {hi:.5g}] "
             f"over it, the reference reads {target:.5g} ({100 * fs[k] / target:+.1f} % at the closest, "
-            f"Q = {qs[k]:g} MPa){held}")
-    return Prediction(float(qs[k]), False, note)
+            f"Q = {qs[k]:g} MPa{beyond}){held}")
+    return Prediction(q_star, False, note)
+
+
+def unmatched_pressure(qs: np.ndarray, fs: np.ndarray, reach: float) -> float:
+    """The model's value of a restore observation that no scanned pressure matches.
+
+    With f(Q) = ε(δ; Δ, Q) − ε_ref sampled at ``qs`` (no sign change) and Q_c the sample of the smallest
+    |f|: at an end of the scan, Q_c − f(Q_c)/f′ with f′ the slope of the end interval (where the
+    mismatch, continued linearly, vanishes: outside the scan, on the side of Q_c), moved at most
+    ``reach`` from Q_c; inside the scan, Q_c. It is continuous in the model's parameters while Q_c stays
+    at the same end, and equals the root where a match leaves the scan through that end (f(Q_c) = 0).
+
+    Parameters
+    ----------
+    qs, fs : ndarray, shape (n,)
+        Scanned pressures (increasing) and the mismatch there.
+    reach : float
+        Largest distance of the value from Q_c [MPa].
+
+    Returns
+    -------
+    float
+    """
+    k = int(np.argmin(np.abs(fs)))
+    if qs.size < 2 or 0 < k < qs.size - 1:
+        return float(qs[k])
+    j = (0, 1) if k == 0 else (k - 1, k)
+    slope = (fs[j[1]] - fs[j[0]]) / (qs[j[1]] - qs[j[0]])
+    side = -1.0 if k == 0 else 1.0  # the match lies below the scan from its lower end, above it from its upper
+    step = abs(fs[k] / slope) if slope != 0.0 else np.inf
+    return float(qs[k] + side * min(step, reach))
 
 
 def predict(ob: Observation, cfg: WhiskerConfig, sim: Simulator, search: RestoreSearch = RestoreSearch()) -> Prediction:

@@ -4,9 +4,12 @@
 without the ``calibration`` section, so ``whisker-opt run`` and ``whisker-opt compensate`` take it as it
 is. Its header says that it is a calibrated model, from which run file and data source, on which date,
 and the fitted values with their uncertainties: a calibrated model is used by name, never silently.
-A fit that did not converge (:attr:`~whisker_opt.calibration.fit.FitOutcome.state`) is headed
-``NOT CALIBRATED`` instead, with the reason; the header, the summary and ``calibration.json`` state
-the fit's status, χ²/ν against its limit and every warning
+The header calls calibrated only the parameters the observations determine
+(:func:`~whisker_opt.calibration.fit.determined`) and names those they do not; a fit that did not
+converge, or that determines no parameter (:attr:`~whisker_opt.calibration.fit.FitOutcome.state`), is
+headed ``NOT CALIBRATED`` instead, with the reason. The header, the summary and ``calibration.json``
+state the fit's status, χ²/ν against its limit (flagged above it), each parameter's uncertainty and
+whether it is determined, the local fits and where they started, and every warning
 (:meth:`~whisker_opt.calibration.fit.FitOutcome.warnings`).
 
 The figure has one panel per kind of observation: each observation's measured value with its stated
@@ -26,7 +29,8 @@ from typing import Any, Mapping
 import numpy as np
 import yaml
 
-from whisker_opt.calibration.fit import CHI2_QUANTILE, FitOutcome, ObservationResult, chi2_limit
+from whisker_opt.calibration.fit import (CHI2_QUANTILE, DETERMINED_FRACTION, NOT_DETERMINED, FitOutcome,
+                                         ObservationResult, chi2_limit)
 from whisker_opt.config.model import WhiskerConfig
 from whisker_opt.output.storage import atomic_write_bytes, atomic_write_text, write_json
 
@@ -60,10 +64,20 @@ def summary_dict(outcome: FitOutcome, *, source: str, config: str, model: str,
     for k, p in enumerate(outcome.parameters):
         params.append({"path": p.path, "unit": p.unit, "lower": p.lower, "upper": p.upper, "start": p.start,
                        "value": float(outcome.values[k]), "std": _f(outcome.std[k]),
-                       "std_scaled": _f(outcome.std_scaled[k]), "at_bound": outcome.at_bound[k],
-                       "determined": bool(math.isfinite(outcome.std[k]))})
+                       "std_scaled": _f(outcome.std_scaled[k]), "uncertainty": _f(outcome.uncertainty[k]),
+                       "at_bound": outcome.at_bound[k], "determined": outcome.determined[k]})
+    names = [p.path for p in outcome.parameters]
     return {
         "calibrated_model": outcome.calibrated, "fit_status": outcome.state, "warnings": outcome.warnings(),
+        "calibrated_parameters": [n for n, ok in zip(names, outcome.determined) if ok and outcome.calibrated],
+        "undetermined_parameters": [n for n, ok in zip(names, outcome.determined) if not ok],
+        "determined_fraction": DETERMINED_FRACTION, "chi2_high": outcome.chi2_high,
+        "start_dependent": outcome.start_dependent,
+        "starts": [{"origin": f.origin, "start": dict(zip(names, map(float, f.start))),
+                    "end": dict(zip(names, map(float, f.values))), "cost_start": f.cost_start, "cost": f.cost,
+                    "status": f.status, "message": f.message, "evaluations": f.evaluations} for f in outcome.starts],
+        "scan": [{"values": dict(zip(names, map(float, theta))), "cost": _f(c)} for theta, c in outcome.scan],
+        "total_evaluations": outcome.total_evaluations,
         "source": source, "config": config, "date": date, "model": model,
         "fidelity": dict(fidelity) if fidelity else None,
         "parameters": params,
@@ -88,28 +102,47 @@ def _pm(value: float, std: float, unit: str) -> str:
     return f"{value:.6g} ± {std:.2g}{u}"
 
 
+def _headline(outcome: FitOutcome, config: str, date: str) -> list[str]:
+    """The first lines of ``calibrated.yaml``: what is calibrated, what is not, and a misfit flag."""
+    made = f"Written by `whisker-opt calibrate` from {Path(config).name} on {date}."
+    undetermined = [p.path for p, ok in zip(outcome.parameters, outcome.determined) if not ok]
+    if outcome.calibrated and not undetermined:
+        head = [f"# CALIBRATED MODEL, not the default one: written by `whisker-opt calibrate` from {Path(config).name} "
+                f"on {date}."]
+    elif outcome.calibrated:
+        good = [p.path for p, ok in zip(outcome.parameters, outcome.determined) if ok]
+        head = [f"# CALIBRATED MODEL in {', '.join(good)} only, not the default one. NOT DETERMINED by the data, "
+                f"left where the fit stopped: {', '.join(undetermined)}.", f"# {made}"]
+    else:
+        why = ("the observations determine none of the parameters" if outcome.state == NOT_DETERMINED else
+               "the fit stopped before it converged")
+        head = [f"# NOT CALIBRATED ({outcome.state}): {why}; the values below are where it stopped,",
+                f"# not a calibrated model. {made}"]
+    if outcome.chi2_high:
+        limit = chi2_limit(outcome.dof)
+        head.append(f"# MISFIT: chi2/dof = {outcome.chi2_per_dof:.4g} is above its limit {limit:.3g}: "
+                    "the model does not reach the data within their stated uncertainties.")
+    return head
+
+
 def calibrated_yaml(cfg: WhiskerConfig, outcome: FitOutcome, *, source: str, config: str, date: str) -> str:
     """The text of ``calibrated.yaml``: a header of comments, then the resolved run file."""
     data = cfg.model_dump(mode="json")
     data.pop("calibration", None)
-    if outcome.calibrated:
-        head = ["# CALIBRATED MODEL, not the default one: written by `whisker-opt calibrate` "
-                f"from {Path(config).name} on {date}."]
-    else:
-        head = [f"# NOT CALIBRATED ({outcome.state}): the fit stopped before it converged; the values below are where "
-                "it stopped,", "# not a calibrated model. Written by `whisker-opt calibrate` "
-                f"from {Path(config).name} on {date}."]
     lines = [
-        *head,
+        *_headline(outcome, config, date),
         f"# Fit: {_status_line(outcome)}",
         *(f"# WARNING: {w}" for w in outcome.warnings()),
         f"# Data source: {' '.join(source.split())}",
-        "# Fitted values (± standard uncertainty from the fit's Jacobian; calibration.json beside this file holds",
-        "# the residual of every observation and the held-out predictions):",
+        "# Fitted values (± standard uncertainty from the fit's Jacobian, scaled by sqrt(chi2/dof) when that is",
+        "# above 1; calibration.json beside this file holds the residual of every observation and the held-out",
+        "# predictions):",
     ]
     for k, p in enumerate(outcome.parameters):
         bound = f" (at its {outcome.at_bound[k]} bound)" if outcome.at_bound[k] else ""
-        lines.append(f"#   {p.path} = {_pm(outcome.values[k], outcome.std[k], p.unit)}{bound}  (start {p.start:.6g})")
+        what = "determined" if outcome.determined[k] else "NOT DETERMINED"
+        lines.append(f"#   {p.path} = {_pm(outcome.values[k], outcome.uncertainty[k], p.unit)}{bound}  "
+                     f"({what}; range [{p.lower:g}, {p.upper:g}], start {p.start:.6g})")
     for o in outcome.held_out:
         state = "" if o.fitted.matched else " (no match found)"
         lines.append(f"# Held out: {o.name}: measured {o.measured:.6g}, predicted {o.fitted.value:.6g}{state} {o.unit}")
@@ -130,15 +163,20 @@ def format_summary(outcome: FitOutcome, *, source: str) -> str:
     """The printed summary: the fit's status and warnings, the parameters, then every observation
     measured / start / fitted / miss."""
     out = [f"calibration against {source}", f"status: {_status_line(outcome)}",
-           f"{outcome.message.rstrip('.')}; {outcome.evaluations} model evaluations, {outcome.scenes} scenes, "
-           f"{outcome.seconds:.0f} s; cost {outcome.cost_start:.5g} -> {outcome.cost:.5g} (chi2 {outcome.chi2:.4g}, "
-           f"dof {outcome.dof})"]
+           f"{outcome.message.rstrip('.')}; {outcome.total_evaluations} model evaluations in all (a scan of "
+           f"{len(outcome.scan)}, {len(outcome.starts)} local fit(s)), {outcome.scenes} scenes, "
+           f"{outcome.seconds:.0f} s; cost {outcome.cost_start:.5g} -> {outcome.cost:.5g} (chi2 {outcome.chi2:.4g}, dof {outcome.dof})"]
     out += [f"WARNING: {w}" for w in outcome.warnings()]
-    out += ["", f"{'parameter':<28} {'start':>10} {'fitted':>12} {'std':>10}  unit"]
+    out += ["", f"{'parameter':<28} {'start':>10} {'fitted':>12} {'std':>10} {'scaled':>10}  determined  unit"]
     for k, p in enumerate(outcome.parameters):
-        std = f"{outcome.std[k]:.3g}" if math.isfinite(outcome.std[k]) else "undetermined"
+        std, scaled = (f"{v:.3g}" if math.isfinite(v) else "inf" for v in (outcome.std[k], outcome.std_scaled[k]))
         bound = f"  (at {outcome.at_bound[k]} bound)" if outcome.at_bound[k] else ""
-        out.append(f"{p.path:<28} {p.start:>10.5g} {outcome.values[k]:>12.6g} {std:>10}  {p.unit}{bound}")
+        ok = "yes" if outcome.determined[k] else "NO"
+        out.append(f"{p.path:<28} {p.start:>10.5g} {outcome.values[k]:>12.6g} {std:>10} {scaled:>10}  {ok:<10}  "
+                   f"{p.unit}{bound}")
+    out += ["", "local fits:"] + [f"  from {f.origin}: {f.cost_start:.5g} -> {f.cost:.5g} in {f.evaluations} "
+                                  f"evaluations, ending at {', '.join(f'{v:.6g}' for v in f.values)}"
+                                  for f in outcome.starts]
     out += ["", f"{'observation':<26} {'kind':<9} {'measured':>10} {'±σ':>8} {'start':>10} {'fitted':>10} "
                 f"{'miss':>10}  unit"]
     for o in outcome.observations:
@@ -174,7 +212,7 @@ def calibration_figure(outcome: FitOutcome, *, title: str = ""):
         if any(o.held_out for o in obs):
             ax.plot([], [], "o", color="tab:red", label="calibrated, held out")
         if any(not o.fitted.matched for o in obs):
-            ax.plot([], [], "o", color="tab:blue", mfc="none", label="no match (closest sampled Q)")
+            ax.plot([], [], "o", color="tab:blue", mfc="none", label="no match (Q extrapolated)")
         ax.set_xticks(x)
         ax.set_xticklabels([o.name for o in obs], rotation=30, ha="right", fontsize=8)
         ax.set_title(_KIND_TITLES[kind], fontsize=10)
