@@ -188,3 +188,28 @@ def test_finite_element_evaluations_are_bit_identical_on_every_executor():
         assert numbers(ex.map(genes, seeds)) == ref
     with DaskExecutor(ev, n_workers=2, processes=True) as ex:
         assert numbers(ex.map(genes, seeds)) == ref
+
+
+def test_an_interrupt_while_a_worker_starts_comes_once_it_has_started(monkeypatch):
+    """Was: a Ctrl-C (or the SIGTERM the command line turns into one) in the middle of a worker's start cut
+    the evaluator's message to the fresh interpreter, which printed a traceback of its own."""
+    import multiprocessing.process
+    import os
+    import signal
+
+    ex = ProcessExecutor(AnalyticFitness(), n_workers=1)
+    started = []
+    real_start = multiprocessing.process.BaseProcess.start
+
+    def interrupted_start(self):
+        os.kill(os.getpid(), signal.SIGINT)  # Python runs its handler at the next instruction
+        real_start(self)
+        started.append(self)
+
+    monkeypatch.setattr(multiprocessing.process.BaseProcess, "start", interrupted_start)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            ex.map([GOOD], [1])
+        assert len(started) == 1 and started[0].pid is not None  # the start was not cut short
+    finally:
+        ex.close()
