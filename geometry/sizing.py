@@ -44,6 +44,13 @@ from fem.mesh import orient_linear
 from geometry.design import WhiskerDesign
 
 
+#: Allowed absolute edge lengths [mm], closed ranges: of the chamber wall, the body and the cap (the run
+#: file's ``fidelity.h_wall`` and ``fidelity.h_body`` take theirs from here).
+H_WALL_RANGE = (0.05, 10.0)
+H_BODY_RANGE = (0.05, 50.0)
+H_CAP_RANGE = (0.05, 50.0)
+
+
 @dataclass(frozen=True)
 class MeshSizing:
     """Frozen element-size specification (mm).
@@ -100,7 +107,7 @@ class MeshSizing:
         checks = [
             ("wall_layers", self.wall_layers, 0.25, 20.0),
             ("cap_factor", self.cap_factor, 0.25, 10.0),
-            ("h_body", self.h_body, 0.05, 50.0),
+            ("h_body", self.h_body, *H_BODY_RANGE),
             ("grading", self.grading, 0.0, 10.0),
             ("epsilon", self.epsilon, 1e-5, 1e-2),
             ("axial_pitch_fraction", self.axial_pitch_fraction, 0.02, 5.0),
@@ -114,9 +121,9 @@ class MeshSizing:
                 raise ValueError(f"MeshSizing.contact_fractions={self.contact_fractions!r}: each must be in (0, 1)")
         if not (isinstance(self.n_theta, int) and 6 <= self.n_theta <= 256 and self.n_theta % 2 == 0):
             raise ValueError(f"MeshSizing.n_theta={self.n_theta!r} must be an even integer in [6, 256]")
-        for opt in ("h_wall", "h_cap"):
+        for opt, rng in (("h_wall", H_WALL_RANGE), ("h_cap", H_CAP_RANGE)):
             if getattr(self, opt) is not None:
-                checks.append((opt, getattr(self, opt), 0.05, 50.0))
+                checks.append((opt, getattr(self, opt), *rng))
         for name, val, lo, hi in checks:
             if not (isinstance(val, (int, float)) and lo <= val <= hi):
                 raise ValueError(f"MeshSizing.{name}={val!r} outside the allowed range [{lo}, {hi}]")

@@ -14,8 +14,12 @@ failures are recorded, graded and never ranked best:
   returned with ``extra["violation"] = genes[gene] − above``;
 - ``"raise"``: the evaluator raises ``RuntimeError`` (the executor records ``"error"``);
 - ``"nan"``: returns status ``"ok"`` with ``f1 = NaN`` (must become ``"error"``);
-- ``"hang"``: sleeps ``hang_s`` seconds before answering (to test timeouts);
+- ``"hang"``: sleeps ``hang_s`` seconds before answering (to test timeouts; ``math.inf``: it never
+  answers, so a timeout always fires however slow the machine);
 - ``"crash"``: the process exits at once (only for the ``processes`` executor!).
+
+A :class:`Hold` stops evaluations at a known point of a run, in whatever process they run, until the
+test releases them (or kills the run there): a file barrier in place of a race against the clock.
 """
 
 from __future__ import annotations
@@ -53,6 +57,66 @@ class FailureRegion:
 
 
 @dataclass(frozen=True)
+class Hold:
+    """A file barrier for evaluations: once armed, an evaluation creates ``folder/held`` and waits until
+    ``folder/release`` exists.
+
+    Parameters
+    ----------
+    folder : str
+        The barrier's folder (it must exist).
+    run_dir : str or None
+        Armed once the checkpoint of this run directory is at ``generation`` or later (None: armed
+        from the first evaluation on).
+    generation : int
+        See ``run_dir``.
+    """
+
+    folder: str
+    run_dir: str | None = None
+    generation: int = 0
+
+    @property
+    def held(self) -> Path:
+        return Path(self.folder) / "held"
+
+    @property
+    def release_file(self) -> Path:
+        return Path(self.folder) / "release"
+
+    def armed(self) -> bool:
+        """True when an evaluation now has to wait."""
+        if self.run_dir is None:
+            return True
+        from whisker_opt.optimise.checkpoint import load_checkpoint
+
+        try:
+            return load_checkpoint(Path(self.run_dir))[0].generation >= self.generation
+        except Exception:  # noqa: BLE001 - no checkpoint yet (or one being replaced): not armed
+            return False
+
+    def wait(self) -> None:
+        """Hold the calling evaluation when armed (see the class docstring)."""
+        if self.armed():
+            self.held.touch()
+            while not self.release_file.exists():
+                time.sleep(0.005)
+
+    def wait_held(self, proc, timeout: float = 600.0) -> None:
+        """Return once an evaluation of ``proc`` (a ``subprocess.Popen``, still running) is held; the
+        ``timeout`` only ends a run that never gets there."""
+        deadline = time.monotonic() + timeout
+        while not self.held.exists():
+            assert proc.poll() is None, f"the run ended before it was held: {proc.communicate()}"
+            assert time.monotonic() < deadline, f"no evaluation held within {timeout:g} s"
+            time.sleep(0.005)
+
+    def release(self) -> None:
+        """Let the held evaluations (and every later one) go on."""
+        self.release_file.touch()
+
+
+@dataclass(frozen=True)
 class AnalyticFitness:
     """Picklable analytic evaluator ``evaluate(genes) -> EvalOutcome``.
 
@@ -81,6 +145,8 @@ class AnalyticFitness:
         Folder of the marker files of ``"kill_once"`` regions: the first evaluation of such a
         design leaves a marker and SIGKILLs its own process (as the system would kill a worker),
         later ones evaluate normally. ``"kill"`` regions SIGKILL their process every time.
+    hold : Hold or None
+        A barrier every evaluation passes first.
     """
 
     optimum: tuple[float, ...] = (3.0, 12.0, 4.0, 0.05)
@@ -93,6 +159,7 @@ class AnalyticFitness:
     hang_s: float = 30.0
     with_curves: bool = False
     marker_dir: str | None = None
+    hold: Hold | None = None
 
     def f1(self, genes: dict[str, float]) -> float:
         """The analytic objective (no failures, no sleep)."""
@@ -103,6 +170,8 @@ class AnalyticFitness:
 
     def __call__(self, genes: dict[str, float]) -> EvalOutcome:
         t0 = time.perf_counter()
+        if self.hold is not None:
+            self.hold.wait()
         if self.sleep_s > 0:
             time.sleep(self.sleep_s)
         for region in self.failures:
@@ -123,7 +192,9 @@ class AnalyticFitness:
                 if region.kind == "kill":
                     os.kill(os.getpid(), signal.SIGKILL)
                 if region.kind == "hang":
-                    time.sleep(self.hang_s)
+                    end = time.monotonic() + self.hang_s
+                    while time.monotonic() < end:  # time.sleep refuses an endless sleep
+                        time.sleep(min(3600.0, end - time.monotonic()))
                     continue
                 return EvalOutcome.failure(
                     region.kind,

@@ -14,6 +14,62 @@ from tests.bad_input_harness import (COMPENSATE_FAILS, GARBAGE, NON_UTF8, SOLVE_
                                      _dead_display, _free_port, _listen)
 
 
+#: Run files whose wall law or mesh size no evaluation could use, refused where the config is validated:
+#: label -> (run-file text, the words of the one line). Each also reaches every command through --set.
+MODEL_RANGES = {
+    "wall_slope without the calibrated law": ("material:\n  wall_slope: 5\n",
+                                              ("material.wall_slope=5", "'calibrated'", "'embedded'")),
+    "wall_slope with the sliding law": ("material:\n  wall_law: sliding\n  wall_slope: 5\n",
+                                        ("material.wall_slope=5", "'calibrated'", "'sliding'")),
+    "wall_slope gene without the calibrated law": ("optimiser:\n  genes:\n    wall_slope: [-1, 2]\n",
+                                                   ("optimiser.genes.wall_slope=[-1, 2]", "'calibrated'")),
+    "wall_slope gene under a law set": ("material:\n  wall_law: calibrated\noptimiser:\n  genes:\n"
+                                        "    wall_slope: [-1, 2]\n  wall_laws:\n    laws: [embedded, calibrated]\n",
+                                        ("optimiser.genes.wall_slope=[-1, 2]", "optimiser.wall_laws", "'embedded'")),
+    "calibrated slope without stiffness at scene.Q_i": ("material:\n  wall_law: calibrated\n  wall_slope: -4\n"
+                                                        "scene:\n  Q_i: 0.5\n",
+                                                        ("material.wall_slope=-4", "scene.Q_i=0.5", "below 0.05")),
+    "sliding law at design.t 1.5": ("material:\n  wall_law: sliding\ndesign:\n  t: 1.5\n",
+                                    ("design.t=1.5", "'sliding'", "t 2..6 mm", "r_i + t 7.42..8.91 mm")),
+    "sliding law at scene.Q_i 0.5": ("material:\n  wall_law: sliding\nscene:\n  Q_i: 0.5\n",
+                                     ("scene.Q_i=0.5", "'sliding'", "Q 0..0.2 MPa")),
+    "sliding law, gene Q_i up to 1": ("material:\n  wall_law: sliding\noptimiser:\n  genes:\n    Q_i: [0.01, 1]\n",
+                                      ("optimiser.genes", "Q_i=1", "'sliding'", "Q 0..0.2 MPa")),
+    "sliding law, gene t from 1.5": ("material:\n  wall_law: sliding\noptimiser:\n  genes:\n    t: [1.5, 6]\n",
+                                     ("optimiser.genes", "t=1.5", "'sliding'", "t 2..6 mm")),
+    "sliding in a law set, gene l up to 40": ("optimiser:\n  genes:\n    l: [10, 40]\n  wall_laws:\n"
+                                              "    laws: [embedded, sliding]\n",
+                                              ("optimiser.genes", "l=40", "optimiser.wall_laws", "r_i + t 7.42")),
+    "fidelity.h_wall below the mesher's": ("fidelity:\n  h_wall: 0.01\n", ("fidelity.h_wall", "0.01", "[0.05, 10]")),
+    "fidelity.h_body below the mesher's": ("fidelity:\n  h_body: 0.01\n", ("fidelity.h_body", "0.01", "[0.05, 50]")),
+}
+
+
+def runnable(text: str) -> str:
+    """A :data:`MODEL_RANGES` text with ``scene.trim: 5`` (``simulate`` needs a trim for its pair), so that the
+    range it breaks is the one thing wrong with it, on the coarse preset (cheap if it were solved)."""
+    import yaml
+
+    data = yaml.safe_load(text)
+    data.setdefault("scene", {})["trim"] = 5.0
+    data.setdefault("fidelity", {}).setdefault("preset", "coarse")
+    return yaml.safe_dump(data, sort_keys=False)
+
+
+def model_range_settings(text: str) -> list[str]:
+    """The ``--set KEY=VALUE`` arguments that make the same run file of a :data:`MODEL_RANGES` text."""
+    import yaml
+
+    def flat(node, prefix):
+        for k, v in node.items():
+            if isinstance(v, dict):
+                yield from flat(v, f"{prefix}{k}.")
+            else:
+                yield f"{prefix}{k}={yaml.safe_dump(v, default_flow_style=True).strip().removesuffix('...').strip()}"
+
+    return [a for item in flat(yaml.safe_load(text), "") for a in ("--set", item)]
+
+
 @dataclass(frozen=True)
 class Shared:
     """Fixtures that several groups of cases use: the output folder, the good config, the bad configs
@@ -129,6 +185,16 @@ def commands_and_configs(w: Workspace, add, s: Shared) -> None:
         words=("already holds a run",))
     add("run results_dir under a file", ["run", results_under_file, "--no-progress"], words=("results_dir",))
     add("run results_dir read-only", ["run", results_read_only, "--no-progress"], words=("results_dir",))
+
+    # ------------------------------------------------------------------ wall laws and mesh sizes out of range
+    for i, (label, (text, words)) in enumerate(MODEL_RANGES.items()):
+        cfg = w.config(f"model_range_{i}.yaml", runnable(text))
+        for cmd, extra in (("mesh", []), ("simulate", []), ("run", ["--no-progress"])):
+            dest = out / f"{cmd}_model_range_{i}"
+            add(f"{cmd} {label}", [cmd, cfg, "--out", dest, *extra], absent=[dest], words=words)
+        dest = out / f"simulate_model_range_set_{i}"
+        add(f"simulate --set {label}", ["simulate", good, *model_range_settings(text), "--out", dest], absent=[dest],
+            words=words)
 
 
 def damaged_run_directories(w: Workspace, add, s: Shared) -> None:

@@ -3,7 +3,9 @@
 Shared by ``tests/test_kill_resume.py`` and ``benchmarks/reliability/kill_resume.py``. The run is
 :func:`whisker_opt.optimise.runner.run_optimisation` with the analytic evaluator
 (:class:`tests.analytic_fitness.AnalyticFitness`, ``sleep_s`` per evaluation) on the serial
-executor, in a child process (:data:`CHILD`). The child emulates a slow disk by sleeping in
+executor, in a child process (:data:`CHILD`; its arguments: the run directory, the optimiser section as
+JSON, the sleeps per evaluation and per fsync, the seed, and optionally a :class:`tests.analytic_fitness.Hold`
+as JSON). The child emulates a slow disk by sleeping in
 every ``os.fsync``, so that the temporary file of an atomic write (the checkpoint's among
 them) lives long enough to be seen and killed in. The parent watches the run directory and
 sends SIGKILL at the moment (:class:`Moment`); the run is then resumed in this process with
@@ -55,9 +57,11 @@ def slow_fsync(fd):
 os.fsync = slow_fsync
 from whisker_opt.config.optimiser import OptimiserConfig
 from whisker_opt.optimise.runner import run_optimisation
-from tests.analytic_fitness import AnalyticFitness, FailureRegion
+from tests.analytic_fitness import AnalyticFitness, FailureRegion, Hold
 cfg = OptimiserConfig.model_validate(json.loads(sys.argv[2]))
-ev = AnalyticFitness(failures=(FailureRegion("alpha", 5.5, "invalid_geometry"),), sleep_s=float(sys.argv[3]))
+hold = Hold(**json.loads(sys.argv[6])) if len(sys.argv) > 6 else None
+ev = AnalyticFitness(failures=(FailureRegion("alpha", 5.5, "invalid_geometry"),), sleep_s=float(sys.argv[3]),
+                     hold=hold)
 run_optimisation(cfg, Path(sys.argv[1]), ev, seed=int(sys.argv[5]), progress=False)
 """
 

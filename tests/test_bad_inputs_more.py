@@ -4,7 +4,9 @@ In-process through ``whisker_opt.cli.main.main`` and cheap (nothing is solved): 
 values YAML cannot turn into data (nested too deeply, integers of thousands of digits),
 dask scheduler addresses that are no ``tcp://HOST:PORT``, keys given twice in a run file,
 ``output.name`` that is not a plain name, a ``compensate --step`` that makes more trims than
-are allowed, ``init --force`` onto a FIFO or a socket, and ``view --no-progress``. A boolean
+are allowed, ``init --force`` onto a FIFO or a socket, ``view --no-progress``, and wall laws or mesh sizes
+that no evaluation could use (:data:`tests.bad_input_cases.MODEL_RANGES`) for ``mesh``, ``simulate`` and ``run``,
+in a file and through ``--set``. A boolean
 given for a number (``t: yes``) is a warning naming the key.
 """
 
@@ -17,6 +19,7 @@ from pathlib import Path
 
 import pytest
 
+from tests.bad_input_cases import MODEL_RANGES, model_range_settings, runnable
 from whisker_opt.cli import main as cli
 
 GOOD = "fidelity:\n  preset: coarse\nscene:\n  Q_i: 0.1\n  trim: 5.0\noptimiser:\n  trim: 2.0\n"
@@ -173,3 +176,19 @@ def test_a_contact_on_the_fixed_base_fails_in_one_line(tmp_path, capsys):
     errors = [ln for ln in lines if "error" in ln]
     assert code == 3 and len(errors) == 1 and not any("Traceback" in ln for ln in lines), lines
     assert "scene.contact_ratio" in errors[0] and "fixed base" in errors[0]
+
+
+@pytest.mark.parametrize("command", ["mesh", "simulate", "run"])
+@pytest.mark.parametrize("label", list(MODEL_RANGES))
+def test_a_wall_law_or_mesh_size_no_evaluation_can_use_is_refused_at_validation(tmp_path, capsys, label, command):
+    """Was: a traceback from the scene or the mesher once solving began (simulate, mesh), or every design of
+    a run failed and it ended with status 0 or a traceback from its best design's re-solve."""
+    text, words = MODEL_RANGES[label]
+    cfg = tmp_path / "bad.yaml"
+    cfg.write_text(runnable(text))
+    extra = ["--no-progress"] if command == "run" else []
+    _refused(*_run(capsys, command, cfg, "--out", tmp_path / "out", *extra), words)
+    good = tmp_path / "good.yaml"
+    good.write_text(runnable("{}"))
+    _refused(*_run(capsys, command, good, *model_range_settings(text), "--out", tmp_path / "out", *extra), words)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.yaml", "good.yaml"]  # nothing written

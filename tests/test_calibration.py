@@ -231,7 +231,10 @@ def test_parameters_name_real_valued_keys_within_their_range(tmp_path):
                           ([{"path": "design.fibre", "lower": 0, "upper": 1}], "is no key of a run file"),
                           ([{"path": "optimiser.ga", "lower": 0, "upper": 1}], "is a section, not a key"),
                           ([{"path": "design.t", "lower": 1, "upper": 12}],
-                           "calibration.parameters[0].upper: design.t = 12 leaves no whisker")):
+                           "calibration.parameters[0].upper: design.t = 12 leaves no whisker"),
+                          ([{"path": "material.wall_slope", "lower": -4, "upper": 2, "start": 0}],
+                           "calibration.parameters[0].lower: material.wall_slope = -4.0 makes the run file impossible: "
+                           "material.wall_slope=-4.0 is read only by material.wall_law 'calibrated'")):
         path = _config(tmp_path, parameters=params)
         if words is None:
             with pytest.raises(ConfigError, match="start: the run file gives fidelity.h_wall = None"):

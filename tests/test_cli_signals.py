@@ -19,7 +19,10 @@ def test_a_run_ended_by_a_signal_says_so(tmp_path, sig):
     proc = subprocess.Popen([sys.executable, "-m", "whisker_opt.cli", "run", str(ROOT / "configs" / "demo.yaml"),
                              "--out", str(tmp_path / "run"), "--no-progress"], cwd=ROOT, stderr=subprocess.PIPE,
                             stdout=subprocess.DEVNULL, text=True)
-    time.sleep(6.0)  # inside the first generation's evaluations
+    environment = tmp_path / "run" / "environment.json"  # written as the first generation's evaluations start
+    while not environment.exists():
+        assert proc.poll() is None, proc.communicate()[1]
+        time.sleep(0.01)
     proc.send_signal(sig)
     _, err = proc.communicate(timeout=120)
     assert proc.returncode == 128 + int(sig), err

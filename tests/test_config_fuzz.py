@@ -185,7 +185,7 @@ def test_wrong_types_name_the_expected_type(tmp_path):
             "optimiser.penalties: expected a list of entries, each a mapping of keys, got a mapping {'gene': 't'}",
         "output: {name: ''}\n": "output.name: an empty string is not allowed (allowed: 1..100 characters)",
         "output: {results_dir: [a]}\n": "output.results_dir: expected a path (text), got a list ['a']",
-        "fidelity: {h_wall: [1]}\n": "fidelity.h_wall: expected a number in (0, 10] (mm) or null, got a list [1]",
+        "fidelity: {h_wall: [1]}\n": "fidelity.h_wall: expected a number in [0.05, 10] (mm) or null, got a list [1]",
     }
     for text, line in cases.items():
         path, msg = _message(tmp_path, text)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import signal
@@ -16,7 +17,7 @@ from whisker_opt.optimise.checkpoint import CHECKPOINT_NAME, RunDirectoryError, 
 from whisker_opt.config.optimiser import OptimiserConfig
 from whisker_opt.optimise.runner import resume_optimisation, run_optimisation
 from whisker_opt.output.storage import read_csv
-from tests.analytic_fitness import AnalyticFitness, FailureRegion, Interrupt
+from tests.analytic_fitness import AnalyticFitness, FailureRegion, Hold, Interrupt
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -78,9 +79,9 @@ import json, sys
 from pathlib import Path
 from whisker_opt.config.optimiser import OptimiserConfig
 from whisker_opt.optimise.runner import run_optimisation
-from tests.analytic_fitness import AnalyticFitness, FailureRegion
+from tests.analytic_fitness import AnalyticFitness, FailureRegion, Hold
 cfg = OptimiserConfig.model_validate(json.loads(sys.argv[2]))
-ev = AnalyticFitness(failures=(FailureRegion("alpha", 5.5, "invalid_geometry"),), sleep_s=float(sys.argv[3]))
+ev = AnalyticFitness(failures=(FailureRegion("alpha", 5.5, "invalid_geometry"),), hold=Hold(**json.loads(sys.argv[3])))
 run_optimisation(cfg, Path(sys.argv[1]), ev, seed=13, progress=False)
 """
 
@@ -95,32 +96,28 @@ def _checkpoint_generation(run_dir: Path) -> int:
 
 @pytest.mark.parametrize("kind", ["serial", "processes"])
 def test_sigkill_mid_generation_then_resume_equals_uninterrupted(tmp_path, kind):
-    sleep_s = 0.03
     cfg_data = {**CFG, "executor": {"kind": kind, "n_workers": 2}}
     cfg = OptimiserConfig.model_validate(cfg_data)
-    ev = AnalyticFitness(failures=FAILS)  # the child's evaluator minus its sleep, which changes no result
+    ev = AnalyticFitness(failures=FAILS)  # the child's evaluator minus its hold, which changes no result
     run_dir = tmp_path / "killed"
+    (tmp_path / "hold").mkdir()
+    hold = Hold(str(tmp_path / "hold"), run_dir=str(run_dir), generation=1)  # generation 2's evaluations
     env = {**os.environ, "PYTHONPATH": str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", "")}
     proc = subprocess.Popen(
-        [sys.executable, "-c", _CHILD, str(run_dir), json.dumps(cfg_data), str(sleep_s)],
+        [sys.executable, "-c", _CHILD, str(run_dir), json.dumps(cfg_data), json.dumps(dataclasses.asdict(hold))],
         cwd=REPO, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
     )
     try:
-        deadline = time.monotonic() + 60
-        while _checkpoint_generation(run_dir) < 1:  # the 2nd checkpoint (generations 0 and 1)
-            assert proc.poll() is None, proc.stderr.read().decode()
-            assert time.monotonic() < deadline, "child never wrote its second checkpoint"
-            time.sleep(0.01)
-        time.sleep(2.5 * sleep_s)  # well inside generation 2's evaluations
+        hold.wait_held(proc)
         os.kill(proc.pid, signal.SIGKILL)
-        proc.wait(10)
+        proc.wait(60)
     finally:
         if proc.poll() is None:
             proc.kill()
-            proc.wait(10)
+            proc.wait(60)
     assert proc.returncode == -signal.SIGKILL
     cut_at = _checkpoint_generation(run_dir)
-    assert 1 <= cut_at < CFG["stopping"]["max_generations"]
+    assert cut_at == 1  # killed in generation 2, the checkpoint of generation 1 left
     print(f"killed with the checkpoint at generation {cut_at}")
     resumed = resume_optimisation(run_dir, ev, progress=False)
     ref = run_optimisation(cfg, tmp_path / "ref", ev, seed=13, progress=False)

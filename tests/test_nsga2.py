@@ -20,7 +20,7 @@ from whisker_opt.optimise.pareto import dominates, hypervolume, non_dominated
 from whisker_opt.optimise.runner import resume_optimisation, run_optimisation
 from whisker_opt.report import report
 from whisker_opt.output.storage import read_csv
-from tests.analytic_fitness import AnalyticFitness, FailureRegion, Interrupt
+from tests.analytic_fitness import AnalyticFitness, FailureRegion, Hold, Interrupt
 
 REPO = Path(__file__).resolve().parents[1]
 X_STAR = (4.2, 11.0, 3.5, 0.15)
@@ -252,10 +252,10 @@ def test_bad_objective_on_the_command_line_is_one_line_exit_2(tmp_path):
 
 
 def test_sigkilled_run_resumes_to_the_uninterrupted_result(tmp_path):
+    import dataclasses
     import json
     import os
     import signal
-    import time
 
     from tests import kill_harness as kh
     from whisker_opt.optimise.checkpoint import load_checkpoint
@@ -265,24 +265,18 @@ def test_sigkilled_run_resumes_to_the_uninterrupted_result(tmp_path):
     ev = AnalyticFitness(failures=(FailureRegion("alpha", 5.5, "invalid_geometry"),))
     ref = run_optimisation(OptimiserConfig.model_validate(data), tmp_path / "ref", ev, seed=kh.SEED, progress=False)
     cut = tmp_path / "cut"
-    child = subprocess.Popen([sys.executable, "-c", kh.CHILD, str(cut), json.dumps(data), "0.02", "0.0",
-                              str(kh.SEED)], cwd=REPO, env={**os.environ, "PYTHONPATH": str(REPO)})
+    (tmp_path / "hold").mkdir()
+    hold = Hold(str(tmp_path / "hold"), run_dir=str(cut), generation=2)  # in generation 3
+    child = subprocess.Popen([sys.executable, "-c", kh.CHILD, str(cut), json.dumps(data), "0.0", "0.0",
+                              str(kh.SEED), json.dumps(dataclasses.asdict(hold))], cwd=REPO,
+                             env={**os.environ, "PYTHONPATH": str(REPO)})
     try:
-        deadline = time.monotonic() + 120
-        while True:  # kill during generation 3, after the checkpoint of generation 2
-            assert child.poll() is None and time.monotonic() < deadline
-            try:
-                if load_checkpoint(cut)[0].generation >= 2:
-                    break
-            except (FileNotFoundError, ValueError, EOFError):
-                pass
-            time.sleep(0.01)
-        time.sleep(0.05)
+        hold.wait_held(child)
         os.kill(child.pid, signal.SIGKILL)
     finally:
-        child.wait(timeout=30)
+        child.wait(timeout=60)
     assert child.returncode == -signal.SIGKILL
-    assert load_checkpoint(cut)[0].stop_reason is None
+    assert load_checkpoint(cut)[0].generation == 2 and load_checkpoint(cut)[0].stop_reason is None
     resumed = resume_optimisation(cut, ev, progress=False)
     assert (resumed.population, resumed.fitness, resumed.best, resumed.n_evaluations) == (
         ref.population, ref.fitness, ref.best, ref.n_evaluations)

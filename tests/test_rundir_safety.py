@@ -18,6 +18,7 @@ evaluator, and without re-solving the best design's meshes, so that every run ta
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import os
@@ -25,12 +26,11 @@ import pickle
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
 
-from tests.analytic_fitness import AnalyticFitness, FailureRegion
+from tests.analytic_fitness import AnalyticFitness, FailureRegion, Hold
 from whisker_opt import wiring, workflows
 from whisker_opt.cli import main as cli
 from whisker_opt.config.optimiser import OptimiserConfig
@@ -71,20 +71,16 @@ output:
   results_dir: {results}
 """
 
-#: A child ``whisker-opt`` on the analytic fitness; when ``GO_FILE`` is set, it creates ``GO_FILE.ready``
-#: once imported and waits for ``GO_FILE`` before it starts.
+#: A child ``whisker-opt`` on the analytic fitness; with ``HOLD`` set (the JSON of a :class:`Hold`), its
+#: evaluations stop at that barrier, where the test finds it and releases or kills it.
 CHILD = """
-import os, sys, time
+import json, os, sys
 from whisker_opt import wiring, workflows
-from tests.analytic_fitness import AnalyticFitness
-wiring.evaluator = lambda cfg, *a, **k: AnalyticFitness(sleep_s=float(os.environ["SLEEP_S"]))
+from tests.analytic_fitness import AnalyticFitness, Hold
+hold = Hold(**json.loads(os.environ["HOLD"])) if os.environ.get("HOLD") else None
+wiring.evaluator = lambda cfg, *a, **k: AnalyticFitness(hold=hold)
 workflows.finish_best = lambda *a, **k: None
 from whisker_opt.cli.main import main
-go = os.environ.get("GO_FILE")
-if go:
-    open(go + ".ready", "w").close()
-while go and not os.path.exists(go):
-    time.sleep(0.002)
 sys.exit(main(sys.argv[1:]))
 """
 
@@ -135,19 +131,17 @@ def _complete(run_dir: Path, reference: Path) -> None:
     assert (best["genes"], best["F_p"], best["stop_reason"]) == (ref["genes"], ref["F_p"], ref["stop_reason"])
 
 
-def _child(argv: list[str], tmp_path: Path, sleep_s: float, go: Path | None = None) -> subprocess.Popen:
+def _child(argv: list[str], hold: Hold | None = None) -> subprocess.Popen:
     env = {**os.environ, "PYTHONPATH": str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", ""),
-           "SLEEP_S": str(sleep_s), "GO_FILE": str(go) if go else "", "OMP_NUM_THREADS": "1"}
+           "HOLD": json.dumps(dataclasses.asdict(hold)) if hold else "", "OMP_NUM_THREADS": "1"}
     return subprocess.Popen([sys.executable, "-c", CHILD, *argv], cwd=REPO, env=env, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
 
 
-def _wait_for(path: Path, proc: subprocess.Popen, timeout: float = 60.0) -> None:
-    deadline = time.monotonic() + timeout
-    while not path.exists():
-        assert proc.poll() is None, proc.communicate()
-        assert time.monotonic() < deadline, f"{path} never appeared"
-        time.sleep(0.005)
+def _hold(tmp_path: Path, name: str, **kw) -> Hold:
+    folder = tmp_path / name
+    folder.mkdir()
+    return Hold(str(folder), **kw)
 
 
 # ----------------------------------------------------------------------------- the state as data
@@ -273,10 +267,10 @@ def test_a_run_directory_of_the_previous_format_is_refused_then_converted_on_tru
 # ----------------------------------------------------------------------------- one writer
 def test_the_lock_names_its_holder_and_is_gone_after_it(tmp_path):
     holder = subprocess.Popen(
-        [sys.executable, "-c", "import sys, time; from whisker_opt.output.lock import RunDirLock\n"
+        [sys.executable, "-c", "import sys; from whisker_opt.output.lock import RunDirLock\n"
                                "with RunDirLock(sys.argv[1], 'resume'):\n    print('locked', flush=True)\n"
-                               "    time.sleep(60)\n", str(tmp_path)],
-        cwd=REPO, stdout=subprocess.PIPE, text=True)
+                               "    sys.stdin.readline()\n", str(tmp_path)],  # holds it until killed
+        cwd=REPO, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     try:
         assert holder.stdout.readline().strip() == "locked"
         with pytest.raises(RunDirectoryBusy, match=rf"`whisker-opt resume`, PID {holder.pid} on host "):
@@ -293,20 +287,20 @@ def test_the_lock_names_its_holder_and_is_gone_after_it(tmp_path):
 
 
 def _second_refuses(argv: list[str], run_dir: Path, tmp_path: Path) -> tuple[subprocess.Popen, str]:
-    """Start a writer, and a second one (imported beforehand) the moment the first holds the lock.
+    """Start a writer, hold it in its first evaluation (it holds the lock then), start a second one and let
+    the first go on once the second has ended.
 
     Returns the first (still running) and the second's one error line.
     """
-    go = tmp_path / "go"
-    second = _child(argv, tmp_path, 0.0, go)
-    _wait_for(Path(f"{go}.ready"), second)
-    first = _child(argv, tmp_path, 0.1)
-    deadline = time.monotonic() + 60
-    while read_holder(run_dir / LOCK_NAME).get("pid") != first.pid:  # a killed run may have left its lock file
-        assert first.poll() is None and time.monotonic() < deadline, first.communicate()
-        time.sleep(0.002)
-    go.touch()
-    _, err = second.communicate(timeout=120)
+    hold = _hold(tmp_path, "first")
+    first = _child(argv, hold)
+    try:
+        hold.wait_held(first)
+        assert read_holder(run_dir / LOCK_NAME).get("pid") == first.pid
+        second = _child(argv)
+        _, err = second.communicate(timeout=600)
+    finally:
+        hold.release()
     lines = [ln for ln in err.splitlines() if ln.strip()]
     assert second.returncode == 2 and len(lines) == 1 and "Traceback" not in err, err
     return first, lines[0]
@@ -318,7 +312,7 @@ def test_two_concurrent_runs_into_one_folder(tmp_path, analytic):
     run_dir = tmp_path / "shared"
     first, line = _second_refuses(["run", str(cfg), "--out", str(run_dir), "--no-progress"], run_dir, tmp_path)
     assert f"{run_dir}: in use by `whisker-opt run`, PID {first.pid} on host" in line, line
-    _, err = first.communicate(timeout=120)
+    _, err = first.communicate(timeout=600)
     assert first.returncode == 0, err
     _complete(run_dir, tmp_path / "reference")
 
@@ -327,13 +321,15 @@ def test_two_concurrent_resumes_of_one_run(tmp_path, analytic):
     cfg = _run_file(tmp_path)
     assert cli.main(["run", str(cfg), "--out", str(tmp_path / "reference"), "--no-progress"]) == 0
     run_dir = tmp_path / "killed"
-    killed = _child(["run", str(cfg), "--out", str(run_dir), "--no-progress"], tmp_path, 0.1)
-    _wait_for(run_dir / CHECKPOINT_NAME, killed)  # generation 0 done, three to go
+    hold = _hold(tmp_path, "killed", run_dir=str(run_dir), generation=0)
+    killed = _child(["run", str(cfg), "--out", str(run_dir), "--no-progress"], hold)
+    hold.wait_held(killed)  # in generation 1, with generation 0 checkpointed and two to go
     killed.send_signal(signal.SIGKILL)
-    killed.wait(10)
+    killed.communicate(timeout=60)
+    assert killed.returncode == -signal.SIGKILL and load_checkpoint(run_dir)[0].generation == 0
     first, line = _second_refuses(["resume", str(run_dir), "--no-progress"], run_dir, tmp_path)
     assert f"in use by `whisker-opt resume`, PID {first.pid} on host" in line, line
-    _, err = first.communicate(timeout=120)
+    _, err = first.communicate(timeout=600)
     assert first.returncode == 0, err
     _complete(run_dir, tmp_path / "reference")
 

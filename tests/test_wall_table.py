@@ -46,7 +46,8 @@ def test_the_table_round_trips_and_interpolates_linearly(tmp_path, table):
 
 
 def test_the_table_refuses_what_it_does_not_hold(table):
-    with pytest.raises(ValueError, match=r"outside the 'law' table, whose points span r_i 4..6 mm and t 2..4 mm"):
+    with pytest.raises(ValueError, match=r"outside the 'law' table, whose walls span r_i 4..6 mm, t 2..4 mm and r_i \+ t 6..10 mm "
+                       r"\(inside the hull of its points\), at Q 0..0.2 MPa"):
         table.lookup("law", "EI", 7.0, 3.0)
     with pytest.raises(ValueError, match="wall law 'glued': not in the table; allowed law"):
         table.lookup("glued", "EI", 5.0, 3.0)

@@ -123,9 +123,12 @@ def resolve_parameters(section: CalibrationConfig, data: dict, source: str) -> t
                 continue
             try:
                 WhiskerConfig.model_validate(with_values(data, {p.path: float(value)}))
-            except ValidationError:
-                raise ConfigError(f"{where}.{name}: {value!r} is outside the allowed range {rng} ({unit}) of "
-                                  f"{p.path}") from None
+            except ValidationError as exc:
+                if any(tuple(e["loc"]) == tuple(parts) for e in exc.errors()):  # the key's own range
+                    raise ConfigError(f"{where}.{name}: {value!r} is outside the allowed range {rng} ({unit}) of "
+                                      f"{p.path}") from None
+                why = format_validation_error(exc, "").splitlines()[0].removeprefix(": ")  # a check of the whole file
+                raise ConfigError(f"{where}.{name}: {p.path} = {value!r} makes the run file impossible: {why}") from None
             except ConfigError as exc:  # a key below a value that is not a section
                 raise ConfigError(f"{where}.path: {exc}") from None
         start = p.start if p.start is not None else _key_value(data, p.path, base)

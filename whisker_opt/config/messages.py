@@ -280,7 +280,8 @@ def describe(error: dict[str, Any], root: type[BaseModel], data: Any = None) -> 
     else:
         what = f"{error['msg']} (got {show(value)})"
     loc, note = as_written(loc, root, data) if data is not None else (loc, "")
-    return f"{key_path(loc)}: {_cut(what, MAX_LINE)}{note}".replace("\r", " ").replace("\n", " ")
+    where = f"{key_path(loc)}: " if loc or kind not in ("value_error", "assertion_error") else ""  # a check of
+    return f"{where}{_cut(what, MAX_LINE)}{note}".replace("\r", " ").replace("\n", " ")  # the whole file names keys
 
 
 def describe_errors(err: ValidationError, source: str, root: type[BaseModel], data: Any = None) -> list[str]:

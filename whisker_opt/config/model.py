@@ -26,9 +26,10 @@ from pathlib import Path
 from typing import Any, Literal, Sequence
 
 import yaml
-from pydantic import BaseModel, Field, ValidationError, create_model, field_validator
+from pydantic import BaseModel, Field, ValidationError, create_model, field_validator, model_validator
 
 from geometry.design import WhiskerDesign, user_parameters
+from geometry.sizing import H_BODY_RANGE, H_WALL_RANGE
 from fem.linsolve import SOLVER_NAMES
 from whisker_opt.config.base import StrictModel
 from whisker_opt.config.calibration import CalibrationConfig
@@ -36,6 +37,7 @@ from whisker_opt.config.fields import is_model, item_model, strip_optional
 from whisker_opt.config.messages import describe_errors, show
 from whisker_opt.config.optimiser import OptimiserConfig
 from whisker_opt.config.robustness import RobustnessConfig
+from whisker_opt.config.wall_ranges import check_wall_laws
 from whisker_opt.experiment.fidelity import PRESET_NAMES
 from whisker_opt.experiment.gauge_variants import GAUGE_VARIANTS
 from whisker_opt.experiment.spec import SceneSpec
@@ -126,9 +128,9 @@ class FidelityConfig(StrictModel):
     """Accuracy/speed preset, optionally overridden field by field."""
 
     preset: Literal[PRESET_NAMES] = Field("default", description="named preset (whisker_opt.experiment.fidelity)")
-    h_wall: float | None = Field(None, gt=0, le=10, description="override: element size in the chamber wall "
+    h_wall: float | None = Field(None, ge=H_WALL_RANGE[0], le=H_WALL_RANGE[1], description="override: element size in the chamber wall "
                                  "(meshes afresh: no template applies)", json_schema_extra={"unit": "mm"})
-    h_body: float | None = Field(None, gt=0, le=50, description="override: largest element size in the solid body",
+    h_body: float | None = Field(None, ge=H_BODY_RANGE[0], le=H_BODY_RANGE[1], description="override: largest element size in the solid body",
                                  json_schema_extra={"unit": "mm"})
     n_deflection_steps: int | None = Field(
         None, ge=1, le=1000, description="override: solved deflection increments", json_schema_extra={"unit": "-"}
@@ -184,6 +186,11 @@ class WhiskerConfig(StrictModel):
     calibration: CalibrationConfig | None = Field(None, description="what `whisker-opt calibrate` fits "
                                                   "(whisker_opt.config.calibration); other commands ignore it")
     seed: int = Field(0, ge=0, le=2**32 - 1, description="master random seed", json_schema_extra={"unit": "-"})
+
+    @model_validator(mode="after")
+    def _wall_laws_can_be_evaluated(self) -> "WhiskerConfig":
+        check_wall_laws(self)  # the slope, the design, scene.Q_i and the gene box against the laws
+        return self
 
 
 def _models(root: type[BaseModel] | None = None) -> dict[str, type[BaseModel]]:

@@ -161,12 +161,12 @@ def guarded_call(
         The evaluator's outcome (validated), or a ``"timeout"`` / ``"error"`` outcome;
         ``timings["eval_s"]`` holds the wall time.
     """
+    from fem.linsolve import mkl_threads  # imported before the clock starts: a first import is not the design's time
+
     _seed_globals(seed)
     t0 = time.perf_counter()
 
     def _call() -> Any:
-        from fem.linsolve import mkl_threads
-
         with mkl_threads(threads):
             return evaluator(dict(genes))
 
@@ -202,6 +202,30 @@ def _thread_env(n_threads: int) -> Iterator[None]:
                 os.environ.pop(k, None)
             else:
                 os.environ[k] = v
+
+
+@contextlib.contextmanager
+def _signals_held() -> Iterator[None]:
+    """Hold SIGINT, SIGTERM and SIGHUP until the block ends, then deliver them (main thread only).
+
+    A worker's start sends it its evaluator through a pipe: an interrupt in the middle of that write
+    leaves the fresh interpreter a cut message, which it reports with a traceback of its own after the
+    run has said it was interrupted.
+    """
+    names = ("SIGINT", "SIGTERM", "SIGHUP")
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    got: list[int] = []
+    old = {sig: signal.signal(sig, lambda s, frame: got.append(s))  # noqa: ARG005
+           for sig in (getattr(signal, n) for n in names if hasattr(signal, n))}
+    try:
+        yield
+    finally:
+        for sig, handler in old.items():
+            signal.signal(sig, handler if handler is not None else signal.SIG_DFL)
+        for sig in got:
+            signal.raise_signal(sig)
 
 
 def _check_picklable(evaluator: Evaluator) -> None:
@@ -301,6 +325,7 @@ def _worker_main(conn, evaluator: Evaluator, parent_pid: int | None = None) -> N
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is handled by the parent
     if parent_pid is not None:
         _die_with_parent(parent_pid)
+    import fem.linsolve  # noqa: F401 - what every evaluation imports, before its deadline runs
     try:
         conn.send("ready")
     except (BrokenPipeError, EOFError, OSError):
@@ -386,7 +411,7 @@ class ProcessExecutor(_BaseExecutor):
             target=_worker_main, args=(child, self.evaluator, os.getpid()), daemon=True,
             name=f"whisker-worker-{self._counter}",
         )
-        with _thread_env(self.threads_per_worker):
+        with _thread_env(self.threads_per_worker), _signals_held():
             proc.start()
         child.close()
         return _Worker(proc, parent)

@@ -188,10 +188,10 @@ class WallLaw:
         table = _table()
         r_i, t = mid_chamber_wall(design)
         qs = np.asarray(table.pressures, float)
+        variant = WALL_LAWS[self.name].table_variant
         if not (qs[0] - 1e-12 <= Q <= qs[-1] + 1e-12):
-            raise ValueError(f"material.wall_law={self.name!r}: Q = {Q:g} MPa outside the table's "
-                             f"[{qs[0]:g}, {qs[-1]:g}] MPa")
-        ei = table.lookup(WALL_LAWS[self.name].table_variant, "EI", r_i, t)
+            raise ValueError(f"Q = {Q:g} MPa: outside the {variant!r} table, {table.span(variant)}")
+        ei = table.lookup(variant, "EI", r_i, t)
         ei_b = table.lookup("bonded", "EI", r_i, t)
         return float(np.interp(Q, qs, ei / ei_b))
 

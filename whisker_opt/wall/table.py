@@ -86,11 +86,20 @@ class WallTable:
         interp = self._interpolators(variant)[quantity]
         v = interp([[r_i, t]])[0]
         if not np.all(np.isfinite(v)):
-            ri = [e["r_i"] for e in pts]
-            ts = [e["t"] for e in pts]
-            raise ValueError(f"wall ({r_i:.4g}, {t:.4g}) mm: outside the {variant!r} table, whose points span "
-                             f"r_i {min(ri):.4g}..{max(ri):.4g} mm and t {min(ts):.4g}..{max(ts):.4g} mm")
+            raise ValueError(f"wall (r_i, t) = ({r_i:.4g}, {t:.4g}) mm: outside the {variant!r} table, "
+                             f"{self.span(variant)}")
         return v
+
+    def span(self, variant: str) -> str:
+        """The walls and pressures a variant covers, in words: its points' ranges of r_i, t and r_i + t
+        (the outer radius; the table's walls lie between its lines, not only in the r_i × t box) and the
+        pressures."""
+        pts = self.points(variant)
+        ri, ts = (np.array([e[k] for e in pts], float) for k in ("r_i", "t"))
+        ro = ri + ts
+        return (f"whose walls span r_i {ri.min():.4g}..{ri.max():.4g} mm, t {ts.min():.4g}..{ts.max():.4g} mm and "
+                f"r_i + t {ro.min():.4g}..{ro.max():.4g} mm (inside the hull of its points), at Q "
+                f"{self.pressures[0]:g}..{self.pressures[-1]:g} MPa")
 
     @cached_property
     def _cache(self) -> dict:
