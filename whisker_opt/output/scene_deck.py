@@ -4,9 +4,8 @@
 (node ``i`` is deck node ``i + 1``, element ``e`` deck element ``e + 1``, TET10 = C3D10 node order,
 follower pressure ``*DLOAD ... P`` positive into the solid):
 
-* the rubber as C3D10 elements with ``*HYPERELASTIC, NEO HOOKE`` (C10, D1); the scene's D1 = 0
-  (incompressible, the in-house mixed u–p solve) has no counterpart without hybrid elements, so a
-  compressible D1 = 2 / (``bulk_ratio`` · μ) is written and named in the deck's header;
+* the rubber as C3D10 (CalculiX) or C3D10H (Abaqus) elements with ``*HYPERELASTIC, NEO HOOKE`` (C10, D1),
+  the written D1 named in the deck's header (Flavours, below);
 * the fibres as axial springs (SPRINGA, stiffness k = E A / L₀ of each segment, sets ``FIBRE<k>`` of
   equal stiffness, :func:`spring_groups`) whose nodes are tied to
   their host tetrahedra by ``*EQUATION``: u_j − Σ_a N_a(ξ_j) u_a = 0 per direction, the embedding
@@ -23,8 +22,32 @@ follower pressure ``*DLOAD ... P`` positive into the solid):
   is the tip face (a = 1) or the node ring nearest a·L in the reference configuration (the
   in-house scene places it at the pressurised a·L_Q, known only once pressurised).
 
-Outputs at the end of each phase: ``U`` and ``S`` to the ``.frd`` file; the total ``RF`` of ``BASE``
-and ``CONTACT`` and the ``U`` of the ``CONTACT`` nodes to the ``.dat`` file. Units: mm, N, MPa.
+Outputs at the end of each phase (CalculiX): ``U`` and ``S`` to the ``.frd`` file; the total ``RF`` of ``BASE``
+and ``CONTACT`` and the ``U`` of the ``CONTACT`` nodes to the ``.dat`` file (read back by
+:func:`peers.calculix.read_scene_deck`). Abaqus: ``*OUTPUT`` of U, RF and S at the phase ends to the ``.odb``,
+the totals of ``BASE`` and ``CONTACT`` printed every increment. Units: mm, N, MPa.
+
+Flavours
+--------
+The scene's rubber is incompressible (D1 = 0), solved by the in-house mixed u–p formulation.
+
+``abaqus``
+    C3D10H, Abaqus's hybrid quadratic tetrahedron (an independent pressure per element, as the in-house
+    P2/P0 solve), with the scene's own D1, 0 included (Abaqus Analysis User's Guide, "Solid (continuum)
+    elements" and "Hyperelastic behavior of rubberlike materials": hybrid elements for incompressible
+    hyperelastic materials). The cavity is loaded by ``*DSLOAD`` on its surface. Written to the keyword
+    reference; not run here (no Abaqus at hand), and CalculiX does not read C3D10H.
+``calculix``
+    CalculiX has no hybrid elements: its C3D10 is a pure displacement element with four integration points
+    (CalculiX User's Manual, "C3D10"), and D1 = 0 is replaced without a word by a compressible law (see
+    :mod:`whisker_opt.output.calculix_deck`). The deck writes D1 = 2/(K/μ · μ) with
+    K/μ = :data:`CALCULIX_BULK_RATIO` = 20 (ν = 0.475) unless asked otherwise. Two errors pull apart as K/μ
+    changes: the element's volumetric locking (stiffer, growing with K/μ and shrinking as the mesh refines)
+    and the compressibility itself (softer, growing as K/μ falls, independent of the mesh). At K/μ = 1000
+    the locking dominates (coarse preset, intact at 0.2 MPa: Δl −5.3 %, contact force +13.6 % against the
+    in-house mixed solve); at 20 the compressibility bounds what is left (the mixed solve at K/μ = 20: Δl
+    +3.1 %, F −4.2 %), the two nearly cancel on the GA presets' meshes and the deck tends to that bound as
+    the mesh refines. The measured agreement: docs/physics.md §15 and ``benchmarks/results/calculix_agreement.md``.
 """
 
 from __future__ import annotations
