@@ -149,7 +149,8 @@ def deck_refusal(spec) -> str | None:
         return (f"material.fibre_model: {spec.fibre_model!r}; the CalculiX/Abaqus deck writes the embedded fibres "
                 "only (springs tied into the rubber; fibre_model: embedded)")
     if not spec.law.identity:
-        return (f"material.wall_law: {spec.wall_law!r} ({spec.law.describe()}); the CalculiX/Abaqus deck writes "
+        law = f" (c(Q) = 1 + {spec.wall_slope:g}·Q)" if spec.wall_law == "calibrated" else ""
+        return (f"material.wall_law: {spec.wall_law!r}{law}; the CalculiX/Abaqus deck writes "
                 "the 'embedded' wall law only (a wall law changes the wall's stiffness about the pressurised "
                 "state, which the deck's material cannot)")
     return None
