@@ -399,3 +399,133 @@ def _read_results(case: CcxCase, log_path: Path, dat_path: Path, rc: int, t_end:
             else:
                 reac = blocks["RF"][1]
     return problems, disp, reac
+
+
+# --------------------------------------------------------------------------- exported scene decks
+
+_TOTALS = re.compile(r"^\s*total force \(fx,fy,fz\) for set\s+(\S+)\s+and time\s+(\S+)", re.I)
+_FRD_STEP = re.compile(r"^\s*100C\S*\s+\S+\s+(\S+)")
+
+
+def parse_dat_totals(path: str | os.PathLike) -> dict[str, dict[float, np.ndarray]]:
+    """The ``*NODE PRINT, TOTALS=ONLY`` blocks of a ``.dat`` file: ``{set: {time: (fx, fy, fz)}}``.
+
+    Raises
+    ------
+    CcxError
+        A totals header without its line of three numbers.
+    """
+    out: dict[str, dict[float, np.ndarray]] = {}
+    lines = Path(path).read_text(errors="replace").splitlines()
+    for k, line in enumerate(lines):
+        m = _TOTALS.match(line)
+        if not m:
+            continue
+        row = next((ln.split() for ln in lines[k + 1:k + 4] if ln.strip()), [])
+        try:
+            out.setdefault(m.group(1).upper(), {})[_to_float(m.group(2))] = np.array([_to_float(v) for v in row])
+        except ValueError as exc:
+            raise CcxError(f"parse_dat_totals: cannot parse the totals after line {k + 1} of {path}: {row!r}") from exc
+        if len(row) != 3:
+            raise CcxError(f"parse_dat_totals: line {k + 2} of {path} holds {len(row)} numbers, expected 3")
+    return out
+
+
+def parse_frd_displacements(path: str | os.PathLike, n_nodes: int) -> dict[float, np.ndarray]:
+    """Every ``DISP`` block of an ASCII ``.frd`` file: ``{time: (n_nodes, 3)}``, NaN for nodes not written.
+
+    The data lines are ``-1``, the node id in 10 columns and 12-column values with 6 significant digits
+    (CalculiX's ASCII format); nodes beyond ``n_nodes`` (the fibres' nodes of a scene deck) are left out.
+    """
+    out: dict[float, np.ndarray] = {}
+    t, arr = math.nan, None
+    with open(path, errors="replace") as f:
+        for line in f:
+            if line.startswith(" -1") and arr is not None:
+                node = int(line[3:13]) - 1
+                if node < n_nodes:
+                    arr[node] = [_to_float(line[13 + 12 * i:25 + 12 * i]) for i in range(3)]
+                continue
+            m = _FRD_STEP.match(line)
+            if m:
+                t = _to_float(m.group(1))
+            elif line.startswith(" -4"):
+                arr = np.full((n_nodes, 3), np.nan) if line.split()[1] == "DISP" else None
+                if arr is not None:
+                    out[t] = arr
+            elif line.startswith(" -3"):
+                arr = None
+    return out
+
+
+def run_deck(deck: str | os.PathLike, threads: int = 1, timeout: float | None = None) -> tuple[int, float, Path]:
+    """Run ``ccx`` on an existing deck in its folder: (exit code, wall time [s], console log).
+
+    Raises
+    ------
+    CcxError
+        ``ccx`` missing, or killed by the timeout.
+    """
+    if not ccx_available():
+        raise CcxError(f"run_deck: executable {CCX_EXECUTABLE!r} not found on PATH")
+    deck = Path(deck)
+    env = dict(os.environ)
+    for var in ("OMP_NUM_THREADS", "CCX_NPROC_EQUATION_SOLVER", "CCX_NPROC_RESULTS", "CCX_NPROC_STIFFNESS"):
+        env[var] = str(int(threads))
+    log = deck.with_suffix(".log")
+    rc, wall = _execute(shutil.which(CCX_EXECUTABLE), deck.stem, deck.parent, env, timeout, log)
+    return rc, wall, log
+
+
+@dataclass(frozen=True)
+class SceneDeckResult:
+    """What CalculiX computed for an exported scene deck (:mod:`whisker_opt.output.scene_deck`), read as the
+    in-house scene reads its own solution.
+
+    Attributes
+    ----------
+    times : tuple of float
+        The phase ends written (1: pressurised, 2: deflected; 1 alone for a vented scene).
+    delta_l : float
+        Tip extension Δl [mm] at the end of the pressurise phase: mean axial displacement of the mesh's
+        ``tip`` nodes (as ``SceneResult.delta_l``); 0 for a vented scene.
+    contact_force : float
+        Force of the pusher on the whisker at the largest deflection [N]: −F_y of the ``CONTACT`` set's
+        reactions.
+    eps : dict of str -> float
+        Every registered gauge reading at the largest deflection relative to the pressurised state (calibrated,
+        :class:`whisker_opt.experiment.gauge.GaugeReader` on the ``.frd`` displacements of the rubber's nodes).
+    """
+
+    times: tuple
+    delta_l: float
+    contact_force: float
+    eps: dict
+
+
+def read_scene_deck(deck: str | os.PathLike, wm, spec) -> SceneDeckResult:
+    """Read the ``.dat`` and ``.frd`` files CalculiX wrote for the scene deck ``deck`` of ``spec`` on ``wm``.
+
+    Raises
+    ------
+    CcxError
+        A phase end missing from the ``.dat`` or the ``.frd`` file (CalculiX stopped before the end).
+    """
+    from whisker_opt.experiment.gauge import GaugedMesh, GaugeReader
+    from whisker_opt.experiment.scene import reading_context
+
+    deck = Path(deck)
+    n, phases = wm.mesh.n_nodes, (spec.Q > 0) + 1
+    want = tuple(float(k) for k in range(1, phases + 1))
+    totals = parse_dat_totals(deck.with_suffix(".dat")).get("CONTACT", {})
+    disp = parse_frd_displacements(deck.with_suffix(".frd"), n)
+    missing = [t for t in want if t not in totals or t not in disp]
+    if missing:
+        raise CcxError(f"read_scene_deck: {deck.name}: no results at step time(s) {missing} of {list(want)}",
+                       deck.parent)
+    u_end, u_onset = disp[want[-1]], (disp[1.0] if phases == 2 else np.zeros((n, 3)))
+    reader = GaugeReader(wm.mesh, GaugedMesh.locate(wm, spec.design).gauge, spec.calibration,
+                         reading_context(spec))
+    reader.zero(u_onset)
+    dl = float(u_onset[wm.node_sets["tip"], 0].mean())
+    return SceneDeckResult(want, dl, -float(totals[want[-1]][1]), reader.read(u_end))

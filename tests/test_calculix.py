@@ -342,6 +342,43 @@ def test_parse_dat_handles_fortran_exponents(tmp_path):
     np.testing.assert_array_equal(out["RF"][1][1], [7.0, 8.0, 9.0])
 
 
+def test_parse_dat_totals_and_frd_displacements_read_every_phase(tmp_path):
+    """The totals of each set at each time, and each ``DISP`` block of an ASCII ``.frd`` (6-digit, fixed columns,
+    a three-digit exponent, a node beyond ``n_nodes`` left out, a ``STRESS`` block skipped), as CalculiX writes them."""
+    from peers.calculix import parse_dat_totals, parse_frd_displacements
+
+    dat = tmp_path / "x.dat"
+    dat.write_text(
+        "\n total force (fx,fy,fz) for set BASE and time  0.1000000E+01\n\n"
+        "        1.000000E-03  2.000000E+00 -3.000000E-08\n\n"
+        " total force (fx,fy,fz) for set CONTACT and time  0.2000000E+01\n\n"
+        "        7.165322E-06 -1.013964E-01 -7.519364-100\n\n"
+        " displacements (vx,vy,vz) for set CONTACT and time  0.2000000E+01\n\n"
+        "         5  1.000000E+00  0.000000E+00  0.000000E+00\n"
+    )
+    tot = parse_dat_totals(dat)
+    assert sorted(tot) == ["BASE", "CONTACT"] and list(tot["CONTACT"]) == [2.0]
+    np.testing.assert_array_equal(tot["BASE"][1.0], [1e-3, 2.0, -3e-8])
+    np.testing.assert_array_equal(tot["CONTACT"][2.0], [7.165322e-06, -1.013964e-01, -7.519364e-100])
+
+    def block(kind: str, t: float, rows: list) -> str:
+        head = f"    1PSTEP                         3          10           1\n  100CL  101 {t:.9f}           3" \
+               "                     0    1           1\n"
+        head += f" -4  {kind:<8}    {3 if kind == 'DISP' else 6}    1\n -5  D1          1    2    1    0\n"
+        return head + "".join(f" -1{n:10d}" + "".join(f"{v:12.5E}" for v in vals) + "\n" for n, vals in rows) + " -3\n"
+
+    frd = tmp_path / "x.frd"
+    frd.write_text("    1C\n" + block("DISP", 1.0, [(1, (0.0, -1.5e-3, 2.0)), (2, (1.0, 2.0, 3.0)), (3, (9.0, 9.0, 9.0))])
+                   + block("STRESS", 1.0, [(1, (5.0, 5.0, 5.0, 5.0, 5.0, 5.0))])
+                   + block("DISP", 2.0, [(2, (-4.0, 5.5e-120, 6.0))]) + "9999\n")
+    frd.write_text(frd.read_text().replace("5.50000E-120", " 5.50000-120"))
+    u = parse_frd_displacements(frd, 2)
+    assert sorted(u) == [1.0, 2.0]
+    np.testing.assert_array_equal(u[1.0], [[0.0, -1.5e-3, 2.0], [1.0, 2.0, 3.0]])
+    assert np.isnan(u[2.0][0]).all()
+    np.testing.assert_array_equal(u[2.0][1], [-4.0, 5.5e-120, 6.0])
+
+
 def test_element_faces_inverts_boundary_faces():
     points, cells = box_mesh((2, 1, 2), jitter=0.1)
     elem, local, faces6 = boundary_faces(cells)

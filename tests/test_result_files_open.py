@@ -1,7 +1,8 @@
-"""The folders that `simulate`, `mesh` and `export` write with --out: every VTU opens in meshio (a declared
-dependency) and in pyvista/VTK (as ParaView reads it) with the same points, cells and named arrays, the text
-metadata decodes to the same labels in both, every .pvd steps through files that exist, and every folder
-records the resolved config it ran (config.yaml) with its wall law.
+"""The folders that `simulate`, `mesh`, `export` and a tiny `run` write with --out: every VTU opens in meshio (a
+declared dependency) and in pyvista/VTK (as ParaView reads it) with the same points, cells and named arrays, the
+text metadata decodes to the same labels in both, every .pvd steps through files that exist, and every folder
+records the resolved config it ran (config.yaml) with its wall law (export's deck holds the 'embedded' law only,
+so it runs a file without the calibrated law).
 
 meshio stops the interpreter on a file it cannot read (a VTK string array: "Illegal data type 'String'"),
 so it reads the files in a child process.
@@ -18,13 +19,17 @@ from types import SimpleNamespace
 import pytest
 
 from fem.io import field_values, read_pvd
-from tests.subprocess_run import run_cli, run_command
+from tests.subprocess_run import run_cli, run_command, tiny_run_file
 
 pv = pytest.importorskip("pyvista")
 
 #: A calibrated wall law with a slope, so that the recorded and printed law is not the default.
 RUN_FILE = ("fidelity: {preset: coarse}\nscene: {Q_i: 0.1, trim: 2.0, deflection: 1.0}\n"
             "material: {wall_law: calibrated, wall_slope: 0.5}\n")
+#: The run file of ``export``: the same scene under the 'embedded' wall law (the deck refuses another law).
+EXPORT_FILE = "fidelity: {preset: coarse}\nscene: {Q_i: 0.1, trim: 2.0, deflection: 1.0}\n"
+#: A GA of 2 designs over one generation, serial, coarse preset.
+RUN_FILE_GA = tiny_run_file("deflection: 1.0", trim=2.0).replace("max_generations: 0", "max_generations: 1")
 
 #: Reads each file named on the command line with meshio and prints what it holds as one JSON object.
 MESHIO_READER = r"""
@@ -50,35 +55,45 @@ STATE_FIELD = {"scene", "state", "units", "wall_law", "wall_slope_per_MPa", "Q_M
 
 @pytest.fixture(scope="module")
 def written(tmp_path_factory):
-    """simulate, mesh and export of one run file, each into its --out folder."""
+    """simulate and mesh of one run file, export of it under the 'embedded' wall law and a tiny run, each into its
+    --out folder."""
     root = tmp_path_factory.mktemp("commands")
-    cfg = root / "w.yaml"
+    cfg, cfg_export, cfg_run = root / "w.yaml", root / "e.yaml", root / "r.yaml"
     cfg.write_text(RUN_FILE)
-    procs = {cmd: run_cli(cmd, cfg, "--out", root / cmd, cwd=root, timeout=600)
-             for cmd in ("simulate", "mesh", "export")}
+    cfg_export.write_text(EXPORT_FILE)
+    cfg_run.write_text(RUN_FILE_GA)
+    files = {"simulate": cfg, "mesh": cfg, "export": cfg_export, "run": cfg_run}
+    procs = {cmd: run_cli(cmd, files[cmd], "--out", root / cmd, *(("--no-progress",) if cmd == "run" else ()),
+                          cwd=root, timeout=900) for cmd in files}
     for cmd, proc in procs.items():
         assert proc.returncode == 0, f"{cmd}: {proc.stderr}"
-    return SimpleNamespace(root=root, cfg=cfg, procs=procs)
+    return SimpleNamespace(root=root, cfg=cfg, files=files, procs=procs)
 
 
-def _meshio_read(files: list[Path]) -> dict:
+def _meshio_read(files: list[Path], keys: str = "names") -> dict | list:
+    """What meshio reads of each file: ``{file name: ...}``, or with ``keys="paths"`` a list in the order of
+    ``files`` (files of several folders may share a name)."""
     proc = run_command([sys.executable, "-c", MESHIO_READER, *map(str, files)], timeout=300)
     assert proc.returncode == 0, proc.stderr[-2000:]
-    return {Path(k).name: v for k, v in json.loads(proc.stdout).items()}
+    got = json.loads(proc.stdout)
+    if keys == "paths":
+        return [got[str(f)] for f in files]
+    return {Path(k).name: v for k, v in got.items()}
 
 
-def _vtk_files(folder: Path) -> list[Path]:
-    return sorted([*folder.glob("*.vtu"), *folder.glob("*.vtk")])
+def _vtk_files(folder: Path, recursive: bool = False) -> list[Path]:
+    find = folder.rglob if recursive else folder.glob
+    return sorted([*find("*.vtu"), *find("*.vtk")])
 
 
-@pytest.mark.parametrize("command", ["simulate", "mesh"])
+@pytest.mark.parametrize("command", ["simulate", "mesh", "run"])
 def test_every_vtu_opens_in_meshio_and_pyvista_alike(written, command):
+    """Every mesh file of the folder (of a run directory, in every sub-folder) opens in both readers alike."""
     folder = written.root / command
-    files = _vtk_files(folder)
+    files = _vtk_files(folder, recursive=command == "run")
     assert files
-    got = _meshio_read(files)
-    for path in files:
-        m, g = got[path.name], pv.read(path)
+    for path, m in zip(files, _meshio_read(files, keys="paths")):
+        g = pv.read(path)
         assert m["points"] == g.n_points and sum(m["cells"].values()) == g.n_cells, path.name
         assert set(m["point_data"]) == set(g.point_data) and set(m["cell_data"]) == set(g.cell_data), path.name
         fd = field_values(g.field_data)
@@ -134,11 +149,12 @@ def test_every_folder_records_the_resolved_config_it_ran(written, command):
     from whisker_opt.config.model import dump_config, load_config
 
     path = written.root / command / "config.yaml"
-    assert path.read_text() == dump_config(load_config(written.cfg))
+    assert path.read_text() == dump_config(load_config(written.files[command]))
     cfg = load_config(path)
-    assert cfg.material.wall_law == "calibrated" and cfg.material.wall_slope == 0.5
+    law = ("embedded", 0.0) if command == "export" else ("calibrated", 0.5)
+    assert (cfg.material.wall_law, cfg.material.wall_slope) == law
     assert cfg.fidelity.preset == "coarse" and cfg.scene.trim == 2.0
-    assert "wall_law: calibrated" in path.read_text() and "preset: coarse" in path.read_text()
+    assert f"wall_law: {law[0]}" in path.read_text() and "preset: coarse" in path.read_text()
 
 
 def test_simulate_prints_the_wall_law(written):

@@ -4,9 +4,13 @@ For every scene ``simulate`` would solve (:func:`whisker_opt.workflows.simulatio
 ``intact``/``trimmed_uncompensated``/``trimmed`` pair, or the one scene ``scene``):
 
 ``<scene>.inp``
-    The scene on the preset's mesh as a CalculiX/Abaqus deck
-    (:func:`whisker_opt.output.scene_deck.write_scene_deck`): C3D10 rubber, fibres as springs tied
-    into the rubber, base supports, pressurise then deflect.
+    The scene on the preset's mesh as a CalculiX or Abaqus deck (``flavour``,
+    :func:`whisker_opt.output.scene_deck.write_scene_deck`): the rubber as C3D10 with a compressible
+    K/μ = 20 (CalculiX) or as the hybrid C3D10H (Abaqus), fibres as springs tied into the rubber, base
+    supports, pressurise then deflect. The CalculiX deck's expected agreement with the in-house solve on the
+    same mesh: docs/physics.md, "The exported deck". A scene the deck cannot hold (another rubber, the
+    smeared fibres, a wall law other than 'embedded') is refused before anything is written
+    (:func:`check_deckable`).
 ``<design>.step``, ``<design>.stl``
     The CAD solid of each distinct design (``intact``, and ``trimmed`` for a pair's trimmed
     whisker; ``whisker`` for one scene) (:mod:`geometry.cad`; STL chordal tolerance 0.01 mm).
@@ -71,7 +75,33 @@ def _write_cad(design, out: Path, name: str) -> tuple[Path, Path]:
     return paths[0], paths[1]
 
 
-def export(cfg: WhiskerConfig, out: Path, source: str = "config", n_increments: int = 10) -> Export:
+def check_deckable(cfg: WhiskerConfig, source: str = "config") -> dict:
+    """The scenes of ``cfg`` that ``export`` writes, refused in one line when the deck cannot hold one of them.
+
+    Returns
+    -------
+    dict of scene name -> SceneSpec
+        :func:`whisker_opt.workflows.simulation_specs`.
+
+    Raises
+    ------
+    whisker_opt.config.model.ConfigError
+        A pair with ``scene.trim`` = 0, or a scene the deck cannot hold
+        (:func:`whisker_opt.output.scene_deck.deck_refusal`: the key, its value and what the deck writes).
+    """
+    from whisker_opt.config.model import ConfigError
+    from whisker_opt.output.scene_deck import deck_refusal
+    from whisker_opt.workflows import simulation_specs
+
+    specs = simulation_specs(cfg, source)
+    refusal = next((r for r in map(deck_refusal, specs.values()) if r), None)
+    if refusal:
+        raise ConfigError(f"{source}: {refusal}")
+    return specs
+
+
+def export(cfg: WhiskerConfig, out: Path, source: str = "config", n_increments: int = 10,
+           flavour: str = "calculix", bulk_ratio: float | None = None) -> Export:
     """Write the decks, STEP and STL of the config's scenes into ``out`` (see the module).
 
     Parameters
@@ -83,6 +113,11 @@ def export(cfg: WhiskerConfig, out: Path, source: str = "config", n_increments: 
         The config file, for messages.
     n_increments : int
         Initial and largest increment of each phase of the deck, as a fraction 1/n of it.
+    flavour : {'calculix', 'abaqus'}
+        The deck's dialect and rubber element (:class:`whisker_opt.output.scene_deck.DeckOptions`).
+    bulk_ratio : float or None
+        K/μ written for the scene's D1 = 0; None: the flavour's own (20 for CalculiX, the hybrid element's
+        incompressible rubber for Abaqus).
 
     Returns
     -------
@@ -91,20 +126,16 @@ def export(cfg: WhiskerConfig, out: Path, source: str = "config", n_increments: 
     Raises
     ------
     whisker_opt.config.model.ConfigError
-        A pair with ``scene.trim`` = 0, or a rubber the deck cannot write.
+        A pair with ``scene.trim`` = 0, or a scene the deck cannot hold (:func:`check_deckable`).
     """
     from geometry.mesh import build_mesh
-    from whisker_opt.config.model import ConfigError
     from whisker_opt.output import storage
-    from whisker_opt.output.scene_deck import DeckOptions, write_scene_deck
-    from whisker_opt.workflows import record_config, simulation_specs
-
-    if cfg.material.rubber != "neo_hookean" or cfg.material.cap_rubber not in ("same", "neo_hookean"):
-        raise ConfigError(f"{source}: material.rubber: {cfg.material.rubber!r} (cap_rubber "
-                          f"{cfg.material.cap_rubber!r}); the CalculiX deck writes the neo-Hookean law only "
-                          "(rubber: neo_hookean, cap_rubber: same)")
-    specs = simulation_specs(cfg, source)
+    from whisker_opt.output.scene_deck import DeckOptions, deck_d1, write_scene_deck
+    from whisker_opt.workflows import record_config
     from whisker_opt.wiring import warn_unread_keys
+
+    specs = check_deckable(cfg, source)
+    options = DeckOptions(n_increments=n_increments, flavour=flavour, bulk_ratio=bulk_ratio)
 
     warn_unread_keys(cfg, "export")
     out = Path(out)
@@ -112,8 +143,10 @@ def export(cfg: WhiskerConfig, out: Path, source: str = "config", n_increments: 
     decks, solids, entries = {}, {}, {}
     for name, spec in specs.items():
         wm = build_mesh(spec.design, spec.sizing, method=spec.mesh_method)
-        decks[name] = write_scene_deck(out / f"{name}.inp", spec, wm, DeckOptions(n_increments=n_increments))
-        entries[name] = {"deck": decks[name].name, "Q_MPa": spec.Q, "deflection_mm": spec.deflection,
+        decks[name] = write_scene_deck(out / f"{name}.inp", spec, wm, options)
+        entries[name] = {"deck": decks[name].name, "flavour": options.flavour, "element": options.element,
+                         "C10_MPa": spec.c10, "D1_per_MPa": deck_d1(spec.c10, spec.d1, options.rubber_bulk_ratio),
+                         "bulk_ratio": options.rubber_bulk_ratio, "Q_MPa": spec.Q, "deflection_mm": spec.deflection,
                          "contact_ratio": spec.contact_ratio, "trim_mm": spec.design.trim,
                          "base_support": spec.base_support, "n_nodes": wm.mesh.n_nodes,
                          "n_elements": wm.mesh.n_elements, "mesh_method": wm.report.method}

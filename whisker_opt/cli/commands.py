@@ -187,6 +187,12 @@ def _export_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", type=nonempty_path, default=None, help="output directory (default: a new run directory)")
     p.add_argument("--increments", type=int_in(1, 10_000, name="increments"), default=10,
                    help="deck: initial and largest increment 1/N of each phase (default 10)")
+    p.add_argument("--flavour", choices=("calculix", "abaqus"), default="calculix",
+                   help="deck: 'calculix' (C3D10, the rubber compressible at K/mu = 20; runs in ccx) or 'abaqus' "
+                        "(hybrid C3D10H, the rubber incompressible) (default calculix)")
+    p.add_argument("--bulk-ratio", type=finite_float_in(1.0, 1e6, lo_open=True), default=None,
+                   help="deck: K/mu of the rubber where material.D1 = 0 (default: 20 for calculix, "
+                        "incompressible for abaqus)")
 
 
 def _export_run(args: argparse.Namespace) -> int:
@@ -194,11 +200,12 @@ def _export_run(args: argparse.Namespace) -> int:
     import whisker_opt.workflows as workflows
 
     cfg = _read(args)
-    specs = workflows.simulation_specs(cfg, str(args.config))  # refuse a bad pair before creating the directory
+    specs = export.check_deckable(cfg, str(args.config))  # refuse before creating the directory
     _check_output(args, cfg)
     out = _out_dir(args, cfg, "export")
     try:
-        res = export.export(cfg, out, str(args.config), n_increments=args.increments)
+        res = export.export(cfg, out, str(args.config), n_increments=args.increments, flavour=args.flavour,
+                            bulk_ratio=args.bulk_ratio)
     except computation_errors() as exc:
         raise _failed(exc, "export", out, list(specs)) from exc
     for name, path in res.decks.items():

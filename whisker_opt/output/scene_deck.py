@@ -4,9 +4,8 @@
 (node ``i`` is deck node ``i + 1``, element ``e`` deck element ``e + 1``, TET10 = C3D10 node order,
 follower pressure ``*DLOAD ... P`` positive into the solid):
 
-* the rubber as C3D10 elements with ``*HYPERELASTIC, NEO HOOKE`` (C10, D1); the scene's D1 = 0
-  (incompressible, the in-house mixed u–p solve) has no counterpart without hybrid elements, so a
-  compressible D1 = 2 / (``bulk_ratio`` · μ) is written and named in the deck's header;
+* the rubber as C3D10 (CalculiX) or C3D10H (Abaqus) elements with ``*HYPERELASTIC, NEO HOOKE`` (C10, D1),
+  the written D1 named in the deck's header (Flavours, below);
 * the fibres as axial springs (SPRINGA, stiffness k = E A / L₀ of each segment, sets ``FIBRE<k>`` of
   equal stiffness, :func:`spring_groups`) whose nodes are tied to
   their host tetrahedra by ``*EQUATION``: u_j − Σ_a N_a(ξ_j) u_a = 0 per direction, the embedding
@@ -23,8 +22,32 @@ follower pressure ``*DLOAD ... P`` positive into the solid):
   is the tip face (a = 1) or the node ring nearest a·L in the reference configuration (the
   in-house scene places it at the pressurised a·L_Q, known only once pressurised).
 
-Outputs at the end of each phase: ``U`` and ``S`` to the ``.frd`` file; the total ``RF`` of ``BASE``
-and ``CONTACT`` and the ``U`` of the ``CONTACT`` nodes to the ``.dat`` file. Units: mm, N, MPa.
+Outputs at the end of each phase (CalculiX): ``U`` and ``S`` to the ``.frd`` file; the total ``RF`` of ``BASE``
+and ``CONTACT`` and the ``U`` of the ``CONTACT`` nodes to the ``.dat`` file (read back by
+:func:`peers.calculix.read_scene_deck`). Abaqus: ``*OUTPUT`` of U, RF and S at the phase ends to the ``.odb``,
+the totals of ``BASE`` and ``CONTACT`` printed every increment. Units: mm, N, MPa.
+
+Flavours
+--------
+The scene's rubber is incompressible (D1 = 0), solved by the in-house mixed u–p formulation.
+
+``abaqus``
+    C3D10H, Abaqus's hybrid quadratic tetrahedron (an independent pressure per element, as the in-house
+    P2/P0 solve), with the scene's own D1, 0 included (Abaqus Analysis User's Guide, "Solid (continuum)
+    elements" and "Hyperelastic behavior of rubberlike materials": hybrid elements for incompressible
+    hyperelastic materials). The cavity is loaded by ``*DSLOAD`` on its surface. Written to the keyword
+    reference; not run here (no Abaqus at hand), and CalculiX does not read C3D10H.
+``calculix``
+    CalculiX has no hybrid elements: its C3D10 is a pure displacement element with four integration points
+    (CalculiX User's Manual, "C3D10"), and D1 = 0 is replaced without a word by a compressible law (see
+    :mod:`whisker_opt.output.calculix_deck`). The deck writes D1 = 2/(K/μ · μ) with
+    K/μ = :data:`CALCULIX_BULK_RATIO` = 20 (ν = 0.475) unless asked otherwise. Two errors pull apart as K/μ
+    changes: the element's volumetric locking (stiffer, growing with K/μ and shrinking as the mesh refines)
+    and the compressibility itself (softer, growing as K/μ falls, independent of the mesh). At K/μ = 1000
+    the locking dominates (coarse preset, intact at 0.2 MPa: Δl −5.3 %, contact force +13.6 % against the
+    in-house mixed solve); at 20 the compressibility bounds what is left (the mixed solve at K/μ = 20: Δl
+    +3.1 %, F −4.2 %), the two nearly cancel on the GA presets' meshes and the deck tends to that bound as
+    the mesh refines. The measured agreement: docs/physics.md §15 and ``benchmarks/results/calculix_agreement.md``.
 """
 
 from __future__ import annotations
@@ -47,6 +70,13 @@ _TERMS_PER_LINE = 4
 _WEIGHT_TOL = 1e-12
 
 
+#: The deck flavours (``whisker-opt export --flavour``): the rubber's element and how its near-incompressibility
+#: is written (module docstring, "Flavours").
+FLAVOURS = ("calculix", "abaqus")
+#: K/μ of the CalculiX flavour's compressible rubber, where the scene's D1 = 0 (module docstring, "Flavours").
+CALCULIX_BULK_RATIO = 20.0
+
+
 @dataclass(frozen=True)
 class DeckOptions:
     """How the scene deck is written.
@@ -56,26 +86,74 @@ class DeckOptions:
     n_increments : int
         Initial (and largest) increment of each step is 1/``n_increments`` of it; CalculiX's
         automatic incrementation may cut back. >= 1.
-    bulk_ratio : float
-        K/μ of the compressible rubber written for D1 = 0: D1 = 2/(bulk_ratio · μ). > 1.
+    flavour : {'calculix', 'abaqus'}
+        'calculix': C3D10 with a compressible rubber of K/μ = ``bulk_ratio`` where the scene's D1 = 0
+        (CalculiX has no hybrid elements). 'abaqus': hybrid C3D10H with the scene's own D1 (0 is
+        incompressible), output requested by ``*OUTPUT``; it does not run in CalculiX.
+    bulk_ratio : float or None
+        K/μ of the compressible rubber written for D1 = 0: D1 = 2/(bulk_ratio · μ), > 1. None: the flavour's
+        own (:data:`CALCULIX_BULK_RATIO` for 'calculix', incompressible for 'abaqus').
     deflect : bool
         Write the deflection step after the pressurise step.
     """
 
     n_increments: int = 10
-    bulk_ratio: float = 1000.0
+    flavour: str = "calculix"
+    bulk_ratio: float | None = None
     deflect: bool = True
 
     def __post_init__(self) -> None:
         if not (isinstance(self.n_increments, (int, np.integer)) and self.n_increments >= 1):
             raise ValueError(f"DeckOptions.n_increments: {self.n_increments!r}, expected an int >= 1")
-        if not self.bulk_ratio > 1:
-            raise ValueError(f"DeckOptions.bulk_ratio: {self.bulk_ratio!r}, expected a number > 1")
+        if self.flavour not in FLAVOURS:
+            raise ValueError(f"DeckOptions.flavour: {self.flavour!r}, expected one of {', '.join(FLAVOURS)}")
+        if self.bulk_ratio is not None and not self.bulk_ratio > 1:
+            raise ValueError(f"DeckOptions.bulk_ratio: {self.bulk_ratio!r}, expected a number > 1 or None")
+
+    @property
+    def element(self) -> str:
+        """The rubber's element type: C3D10 (CalculiX) or the hybrid C3D10H (Abaqus)."""
+        return "C3D10H" if self.flavour == "abaqus" else "C3D10"
+
+    @property
+    def rubber_bulk_ratio(self) -> float | None:
+        """K/μ written where the scene's D1 = 0; None: D1 = 0 itself (the hybrid element)."""
+        if self.bulk_ratio is not None:
+            return float(self.bulk_ratio)
+        return None if self.flavour == "abaqus" else CALCULIX_BULK_RATIO
 
 
-def deck_d1(c10: float, d1: float, bulk_ratio: float) -> float:
-    """D1 written to the deck: ``d1`` when > 0, else 2/(bulk_ratio · μ) with μ = 2 C10 (K = 2/D1)."""
-    return float(d1) if d1 > 0 else 2.0 / (bulk_ratio * 2.0 * c10)
+def deck_d1(c10: float, d1: float, bulk_ratio: float | None) -> float:
+    """D1 written to the deck: ``d1`` when > 0, else 2/(bulk_ratio · μ) with μ = 2 C10 (K = 2/D1); 0 when
+    ``bulk_ratio`` is None (incompressible, for a hybrid element)."""
+    if d1 > 0 or bulk_ratio is None:
+        return float(d1)
+    return 2.0 / (bulk_ratio * 2.0 * c10)
+
+
+def deck_refusal(spec) -> str | None:
+    """Why the deck cannot hold the scene ``spec`` (one line naming the key, its value and what the deck
+    writes), or None when it can.
+
+    The deck writes the neo-Hookean rubber, the embedded fibres (springs tied into the rubber) and the
+    'embedded' wall law (or a law that is the identity, c ≡ 1). A wall law changes the chamber wall's
+    stiffness about the pressurised state (:func:`whisker_opt.wall.law.apply_law`: a scaled rubber with
+    the pressurised stress frozen), which a deck's material, fixed for the whole analysis, cannot state;
+    the smeared winding is an anisotropic term of the wall that the deck's isotropic hyperelastic
+    material cannot hold either.
+    """
+    if spec.rubber != "neo_hookean" or spec.cap_rubber not in ("same", spec.rubber):
+        return (f"material.rubber: {spec.rubber!r} (cap_rubber {spec.cap_rubber!r}); the CalculiX/Abaqus deck "
+                "writes the neo-Hookean law only (rubber: neo_hookean, cap_rubber: same)")
+    if spec.fibre_model != "embedded":
+        return (f"material.fibre_model: {spec.fibre_model!r}; the CalculiX/Abaqus deck writes the embedded fibres "
+                "only (springs tied into the rubber; fibre_model: embedded)")
+    if not spec.law.identity:
+        law = f" (c(Q) = 1 + {spec.wall_slope:g}·Q)" if spec.wall_law == "calibrated" else ""
+        return (f"material.wall_law: {spec.wall_law!r}{law}; the CalculiX/Abaqus deck writes "
+                "the 'embedded' wall law only (a wall law changes the wall's stiffness about the pressurised "
+                "state, which the deck's material cannot)")
+    return None
 
 
 def fibre_equations(cells: np.ndarray, host: np.ndarray, xi: np.ndarray, first_node: int) -> list[list[tuple]]:
@@ -160,15 +238,31 @@ def _phases(f, spec, options: DeckOptions) -> None:
             + " then ".join(n for n, on in (("pressurise", pressure), ("deflect", deflect)) if on) + "\n")
     f.write(f"*STEP, NLGEOM, INC={int(10 * n_inc * total) + 100}\n*STATIC\n")
     f.write(f"{_fmt(dt)}, {_fmt(total)}, 1e-05, {_fmt(dt)}\n")
-    if pressure:
-        f.write(f"*DLOAD, AMPLITUDE=APRESS\nCAVITY, P, {_fmt(spec.Q)}\n")
+    if pressure:  # Abaqus loads a surface by *DSLOAD; CalculiX reads a surface in *DLOAD too
+        f.write(f"*{'DSLOAD' if options.flavour == 'abaqus' else 'DLOAD'}, AMPLITUDE=APRESS\nCAVITY, P, {_fmt(spec.Q)}\n")
     if deflect:
         f.write(f"*BOUNDARY, AMPLITUDE=ADEFL\nCONTACT, 2, 2, {_fmt(-spec.deflection)}\n")
-    f.write("*NODE FILE, TIME POINTS=PHASES\nU\n*EL FILE, TIME POINTS=PHASES\nS\n")
-    for name in ("BASE", "CONTACT"):
-        f.write(f"*NODE PRINT, NSET={name}, TOTALS=ONLY, TIME POINTS=PHASES\nRF\n")
-    f.write("*NODE PRINT, NSET=CONTACT, TIME POINTS=PHASES\nU\n")
+    if options.flavour == "abaqus":  # Abaqus: time points on *OUTPUT (the .odb), totals printed every increment
+        f.write("*OUTPUT, FIELD, TIME POINTS=PHASES\n*NODE OUTPUT\nU, RF\n*ELEMENT OUTPUT, ELSET=RUBBER\nS\n")
+        f.write("*OUTPUT, HISTORY, TIME POINTS=PHASES\n*NODE OUTPUT, NSET=CONTACT\nU, RF\n")
+        for name in ("BASE", "CONTACT"):
+            f.write(f"*NODE PRINT, NSET={name}, TOTALS=ONLY\nRF\n")
+    else:
+        f.write("*NODE FILE, TIME POINTS=PHASES\nU\n*EL FILE, TIME POINTS=PHASES\nS\n")
+        for name in ("BASE", "CONTACT"):
+            f.write(f"*NODE PRINT, NSET={name}, TOTALS=ONLY, TIME POINTS=PHASES\nRF\n")
+        f.write("*NODE PRINT, NSET=CONTACT, TIME POINTS=PHASES\nU\n")
     f.write("*END STEP\n")
+
+
+def _d1_note(spec, options: DeckOptions) -> str:
+    """The header's word on D1: how the scene's D1 = 0 was written."""
+    if spec.d1 > 0:
+        return ""
+    k = options.rubber_bulk_ratio
+    if k is None:
+        return " (incompressible, the hybrid element's pressure)"
+    return f" (the scene's D1 = 0 written as K/mu = {k:g}, nu = {(3 * k - 2) / (6 * k + 2):.4f})"
 
 
 def write_scene_deck(path: str | os.PathLike, spec, wm, options: DeckOptions = DeckOptions()) -> Path:
@@ -191,13 +285,14 @@ def write_scene_deck(path: str | os.PathLike, spec, wm, options: DeckOptions = D
     Raises
     ------
     ValueError
-        A rubber other than the neo-Hookean one (the deck writes ``NEO HOOKE`` only).
+        A scene the deck cannot hold (:func:`deck_refusal`): a rubber other than the neo-Hookean one, the
+        smeared fibres or a wall law other than 'embedded'.
     """
     from fem.io import atomic_write
 
-    if spec.rubber != "neo_hookean" or spec.cap_rubber not in ("same", spec.rubber):
-        raise ValueError(f"material.rubber: {spec.rubber!r} (cap {spec.cap_rubber!r}); the CalculiX deck writes "
-                         "the neo-Hookean law only ('neo_hookean')")
+    refusal = deck_refusal(spec)
+    if refusal:
+        raise ValueError(refusal)
     path = Path(path)
     if path.suffix != ".inp":
         path = path.with_name(path.name + ".inp")
@@ -206,17 +301,18 @@ def write_scene_deck(path: str | os.PathLike, spec, wm, options: DeckOptions = D
     fibres = tuple(getattr(wm, "fibres", ()) or ())
     supports = _supports(wm, spec)
     contact = _contact_nodes(wm, spec)
-    d1 = deck_d1(spec.c10, spec.d1, options.bulk_ratio)
+    d1 = deck_d1(spec.c10, spec.d1, options.rubber_bulk_ratio)
     cav_el, cav_lab = element_faces(mesh.cells, wm.face_sets["cavity"]) if spec.Q > 0 else (None, None)
 
     def produce(tmp: str) -> None:
         with open(tmp, "w") as f:
-            f.write("** whisker-opt scene deck: C3D10 neo-Hookean rubber, SPRINGA fibres tied by *EQUATION, NLGEOM\n")
+            f.write(f"** whisker-opt scene deck ({options.flavour}): {options.element} neo-Hookean rubber, SPRINGA "
+                    "fibres tied by *EQUATION, NLGEOM\n")
             f.write(f"** design: {d.describe()}, trim {d.trim:g} mm; units mm, N, MPa\n")
             f.write(f"** scene: Q = {spec.Q:g} MPa, deflection {spec.deflection:g} mm in -y at a = "
                     f"{spec.contact_ratio:g}, base {spec.base_support}\n")
             f.write(f"** rubber: C10 = {spec.c10:g} MPa, D1 = {_fmt(d1)} 1/MPa"
-                    + (f" (the scene's D1 = 0 written as K/mu = {options.bulk_ratio:g})\n" if spec.d1 <= 0 else "\n"))
+                    + _d1_note(spec, options) + "\n")
             f.write("*HEADING\nwhisker-opt scene\n*NODE, NSET=NALL\n")
             for i, (x, y, z) in enumerate(mesh.points):
                 f.write(f"{i + 1}, {_fmt(x)}, {_fmt(y)}, {_fmt(z)}\n")
@@ -230,7 +326,7 @@ def write_scene_deck(path: str | os.PathLike, spec, wm, options: DeckOptions = D
                 fibre_first += len(fp.points_ref)
             groups = spring_groups(np.vstack(pts), np.vstack(segs) - n, d.fibre_E * d.fibre_area) if segs else []
             all_segs = np.vstack(segs) if segs else np.zeros((0, 2), dtype=np.int64)
-            f.write("*ELEMENT, TYPE=C3D10, ELSET=RUBBER\n")
+            f.write(f"*ELEMENT, TYPE={options.element}, ELSET=RUBBER\n")
             for e, c in enumerate(mesh.cells + 1):
                 f.write(f"{e + 1}, " + ", ".join(str(v) for v in c) + "\n")
             for i, (_, idx) in enumerate(groups):
