@@ -178,8 +178,8 @@ def plot(rows: list[dict], path: Path, prefix: str = "tpl-ladder", reading: str 
     ax.set_xticks([1, 2, 3, 4], ["1 (default,\nthe GA's)", "2", "3", "4"])
     ax.set_xlabel("mesh ladder level")
     ax.set_ylabel("f1 [calibrated strain]")
-    ax.set_title(f"f1 of the {reading} reading over the mesh ladder (templates as the GA meshes; dashed: seeded "
-                 "random designs)", fontsize=9)
+    ax.set_title(f"f1, {reading} reading, over the mesh ladder\n(templates as the GA meshes; dashed: seeded random "
+                 "designs)", fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7, ncol=3, loc="lower right")
     fig.tight_layout()
