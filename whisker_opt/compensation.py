@@ -187,7 +187,6 @@ def compensate(cfg: WhiskerConfig, out: Path, step: float = 1.0, delta_ref: floa
     if not np.any(np.abs(deltas - dref) <= 1e-9):
         deltas = np.sort(np.append(deltas, dref))
     out = Path(out)
-    record_config(out, cfg)
     fidelity = fidelity_of(cfg)
     t0 = time.perf_counter()
     rows = _TableProgress(scene_response(cfg, runner), _table_trims(float(opt.trim), float(step)), progress)
@@ -202,8 +201,9 @@ def compensate(cfg: WhiskerConfig, out: Path, step: float = 1.0, delta_ref: floa
         logger.info("compensate: trim Δ = %g mm: Q = %.6g MPa%s, recovery %.4g %%, analytic Q = %.6g MPa", r.trim,
                     r.Q, f" (at its bound, {'0' if r.at_bound == 'lower' else 'Q_i'})" if r.at_bound and r.trim > 0
                     else "", r.recovery_rate, r.Q_analytic)
-    paths = write_table(out, table, delta_ref=dref, fidelity=fidelity,
-                        forces=table_forces(cfg, runner, design, table))
+    forces = table_forces(cfg, runner, design, table)
+    record_config(out, cfg)  # only once the table is solved: a failed solve leaves no folder
+    paths = write_table(out, table, delta_ref=dref, fidelity=fidelity, forces=forces)
     result = Compensation(design, table, paths, time.perf_counter() - t0)
     if compare:
         t0 = time.perf_counter()
