@@ -127,6 +127,7 @@ QUICK: dict[str, tuple[str, ...]] = {
                        "test_von_mises_uniaxial_closed_form", "test_rank_and_eval_selection",
                        "test_discover_run_directory", "test_fields_and_errors",
                        "test_side_by_side_compare_with_markers", "test_cli_screenshot_list_plots_and_errors"),
+    "test_state_validation.py": ("test_individuals_off_the_genome_are_refused",),
     "test_study_resume.py": ("test_a_study_into_a_locked_folder_is_refused_in_one_line",),
     "test_viewer_stored_fields.py": ("test_computed_von_mises_closed_form",),
     "test_wall_cell.py": ("test_a_bad_mechanism_names_its_field", "test_a_fibre_outside_the_wall_is_refused"),

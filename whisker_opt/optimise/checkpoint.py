@@ -15,7 +15,10 @@ Saving a new checkpoint keeps the one it replaces as ``checkpoint.prev.json`` (h
 or copied, before the atomic replacement, so ``checkpoint.json`` exists at every instant).
 A checkpoint that cannot be read (truncated, empty, not JSON, not a GA state) raises
 :class:`RunDirectoryError` naming the file and the damage, and offering the previous one when
-it is intact; :func:`restore_previous` puts the previous one back in place (``whisker-opt
+it is intact. So does one whose individuals (population and hall of fame) do not fit the
+genome of its config: a gene vector of another length, a gene that is not finite, or one outside
+its bounds (the GA clamps every gene into them; after an allowed config change, outside the
+range of its key). :func:`restore_previous` puts the previous one back in place (``whisker-opt
 resume RUN_DIR --from-previous``).
 
 Earlier versions pickled the state into ``checkpoint.pkl`` (format 1). Such a run directory
@@ -30,6 +33,7 @@ from __future__ import annotations
 import io
 import json
 import logging
+import math
 import os
 import pickle
 import shutil
@@ -177,6 +181,53 @@ def _parse(path: Path, data: bytes) -> Any:
                              f"{exc.colno}; {len(data)} bytes") from None
     except RecursionError:
         raise _damaged(path, "truncated or damaged: nested too deeply") from None
+    except ValueError as exc:  # Python's limit on the digits of an integer read from text
+        raise _damaged(path, f"damaged: a number too long to read ({' '.join(str(exc).split(';')[0].split())})") from None
+
+
+def _gene_refusal(x: float, name: str, lo: float, hi: float, changed: bool) -> str | None:
+    """Why gene ``name`` = ``x`` of a checkpoint's individual cannot be bred on, or None.
+
+    The GA clamps every gene into its bounds before and after each bounded operator (SBX,
+    polynomial mutation) and draws the initial population inside them, so an individual it made
+    lies in ``[lo, hi]``. After an allowed config change (``changed``) the bounds may have moved
+    since older individuals were bred: the range of the gene's key then holds every legal bound.
+    """
+    if not math.isfinite(x):
+        return f"{x!r}, not a finite number"
+    if not changed:
+        return None if lo <= x <= hi else f"{x:g}, outside its bounds [{lo:g}, {hi:g}] (optimiser.genes.{name})"
+    from whisker_opt.genes import gene_key
+
+    key = gene_key(name)
+    return None if key.admits(x) else f"{x:g}, outside the allowed range {key.range_text()} of {name}"
+
+
+def _check_genomes(path: Path, state: GAState, config: dict[str, Any]) -> None:
+    """Refuse a state whose individuals (population and hall of fame) do not fit the genome of its config.
+
+    Raises
+    ------
+    RunDirectoryError
+        One line naming the file, the individual, the gene, its value and the allowed range.
+    """
+    from whisker_opt.config.optimiser import OptimiserConfig
+
+    try:
+        genes = OptimiserConfig.model_validate(config).genes
+    except ValueError:
+        return  # a damaged config is refused where the run reads it (runner.load_run)
+    names, bounds = genes.names(), genes.bounds()
+    changed = bool(state.extra.get("config_changes"))
+    for group, individuals in (("population", state.population), ("hof", state.hof.items)):
+        for i, ind in enumerate(individuals):
+            if len(ind) != len(names):
+                raise RunDirectoryError(f"{path}: {group}[{i}] has {len(ind)} genes, the run's genome has "
+                                        f"{len(names)} ({', '.join(names)})")
+            for j, (name, x, (lo, hi)) in enumerate(zip(names, ind, bounds)):
+                why = _gene_refusal(float(x), name, lo, hi, changed)
+                if why:
+                    raise RunDirectoryError(f"{path}: {group}[{i}] gene {j} ({name}) is {why}")
 
 
 def _read(path: Path) -> tuple[GAState, dict[str, Any]]:
@@ -212,10 +263,12 @@ def _read(path: Path) -> tuple[GAState, dict[str, Any]]:
         raise RunDirectoryError(f"{path}: checkpoint format {version} is not supported (this version reads format "
                                 f"{FORMAT_VERSION}): start the run again with `whisker-opt run`")
     try:
-        return decode(doc)
+        state, config = decode(doc)
     except (StateFormatError, RecursionError) as exc:
         msg = " ".join(str(exc).split())
         raise _damaged(path, f"damaged GA state: {msg[:160]}") from None
+    _check_genomes(path, state, config)
+    return state, config
 
 
 def previous_generation(run_dir: Path) -> int | None:

@@ -28,6 +28,7 @@ from pathlib import Path
 from typing import Any, Callable, Mapping
 
 from whisker_opt.config.optimiser import OptimiserConfig
+from whisker_opt.genes import GENE_NAMES
 from whisker_opt.optimise.checkpoint import CHECKPOINT_NAME, OLDER_NAME, RunDirectoryError, has_checkpoint
 from whisker_opt.output import storage
 from whisker_opt.output.lock import LOCK_NAME
@@ -137,7 +138,8 @@ def check_config(run_dir: Path, extra: Mapping[str, Any] | None, generation: int
     Raises
     ------
     ConfigChanged
-        The config changed and ``allow`` is False, or a key of :data:`FIXED_KEYS` changed.
+        The config changed and ``allow`` is False, or a key of :data:`FIXED_KEYS` or the genome (the names of
+        ``optimiser.genes``, which the checkpoint's individuals follow) changed.
     """
     digest, old = stored_config(run_dir, extra)
     new_digest = config_digest(resolved)
@@ -150,6 +152,11 @@ def check_config(run_dir: Path, extra: Mapping[str, Any] | None, generation: int
     if fixed:
         raise ConfigChanged(f"{path}: edited since the run started ({'; '.join(fixed[:3])}); a run cannot continue "
                             f"under another {', '.join(FIXED_KEYS)}: restore the file, or start a new run")
+    genome, bred = tuple(optimiser.genes.names()), tuple((extra or {}).get("gene_names") or GENE_NAMES)
+    if generation >= 0 and genome != bred:
+        raise ConfigChanged(f"{path}: optimiser.genes names the genome ({', '.join(genome)}), the run's checkpoint "
+                            f"holds individuals of ({', '.join(bred)}); a run cannot continue under another genome: "
+                            "restore the genes (their bounds may change), or start a new run")
     if not allow:
         raise ConfigChanged(f"{path}: edited since the run started ({shown}); restore it, or continue with the new "
                             f"config with `whisker-opt resume {run_dir} {ALLOW_FLAG}` (the change is recorded)")
