@@ -9,8 +9,9 @@ narrowed by 1 − β), the wall layers and the chamber layers. From the same sol
 - ``foot_w``: the same over the gauge's footprint, length e times an arc of width w on the outer surface
   (16 × 8 Gauss points);
 - ``dkappa``: the change of the section curvature over the gauge, (φ(x_ss + e) − φ(x_ss)) / s, with φ the tilt
-  about z of the plane fitted to the deformed wall section (4 × 16 points) and s the current distance between
-  the two sections' centroids: a section integral, as the contact force is;
+  about z of the plane fitted to the deformed wall section and s the arc between the two sections' centroids
+  (the ``section`` reading's curvature, :mod:`whisker_opt.experiment.readings.section`): a section integral, as
+  the contact force is;
 - ``transfer``: line / (ξ r_o Δκ), r_o the reference outer radius at the gauge centre: how much surface strain
   the section's curvature gives, which the periodic wall cell (docs/physics.md §14) gives converged as
   G(Q) = g(Q) (1 + ε_z(Q)) (its g is per reference length; ``cell_G`` below, bonded wall, no log correction).
@@ -30,10 +31,12 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.common import append_csv, design_from_genes, markdown_table, preset_spec, read_csv
-from fem.query import deformation_gradient_at, positions_at
+from fem.query import deformation_gradient_at
 from geometry.locate import PointLocator
 from geometry.mesh import build_mesh
 from geometry.sizing import MeshSizing
+from whisker_opt.experiment.gauge import locate_gauge
+from whisker_opt.experiment.readings import section
 from whisker_opt.experiment.scene import run_scene
 from whisker_opt.optimise.evaluator import SceneEvaluator
 from whisker_opt.wall.law import mid_chamber_x
@@ -85,33 +88,12 @@ def footprint_reading(res, design, width: float, calibration: float, nx: int = 1
     return calibration * float(w @ np.log(lam / lam0))
 
 
-def section_tilt(mesh, u: np.ndarray, design, x0: float, nr: int = 4, nt: int = 16) -> tuple[float, np.ndarray]:
-    """Tilt about z of the plane x = a + b y + c z fitted (area-weighted) to the deformed wall section at x0,
-    and the section's deformed centroid."""
-    sr, wr = np.polynomial.legendre.leggauss(nr)
-    ri, ro = design.r_inner(x0), design.r_outer(x0)
-    r = ri + 0.5 * (ro - ri) * (sr + 1.0)  # (nr,)
-    th = 2.0 * math.pi * (np.arange(nt) + 0.5) / nt  # (nt,)
-    R, T = np.meshgrid(r, th, indexing="ij")  # (nr, nt)
-    w = np.repeat(wr * r, nt)
-    w /= w.sum()
-    pts = np.stack([np.full(R.size, x0), (R * np.cos(T)).ravel(), (R * np.sin(T)).ravel()], axis=1)
-    loc = _locate(mesh, pts)
-    xyz = positions_at(mesh, u, loc.host_elements, loc.local_coords)  # (n, 3)
-    A = np.stack([np.ones(len(xyz)), xyz[:, 1], xyz[:, 2]], axis=1) * np.sqrt(w)[:, None]
-    coef = np.linalg.lstsq(A, xyz[:, 0] * np.sqrt(w), rcond=None)[0]
-    return math.atan(coef[1]), w @ xyz
-
-
 def curvature_change(res, design) -> float:
-    """Δκ over the gauge between onset and the last solved deflection [1/mm] (module docstring)."""
-    out = []
-    for key in ("pressurised", "deflected"):
-        u = res.states[key].u
-        p1, c1 = section_tilt(res.mesh.mesh, u, design, design.x_ss)
-        p2, c2 = section_tilt(res.mesh.mesh, u, design, design.x_ss + design.e)
-        out.append((p2 - p1) / float(np.linalg.norm(c2 - c1)))
-    return out[1] - out[0]
+    """Δκ over the gauge between onset and the last solved deflection [1/mm]: the section reading's own
+    curvature (:func:`whisker_opt.experiment.readings.section.state`) of the two kept states."""
+    gauge = locate_gauge(res.mesh, design)
+    k0, k1 = (section.state(res.mesh.mesh, res.states[key].u, gauge) for key in ("pressurised", "deflected"))
+    return k1 - k0
 
 
 def cell_transfer(design, Q: float) -> float:
