@@ -183,7 +183,8 @@ def test_preset_names_are_listed_in_one_place():
     assert homes == []  # PRESETS is a dict literal; its names are PRESET_NAMES = tuple(PRESETS)
     from whisker_opt.experiment.fidelity import PRESET_NAMES, PRESETS
 
-    assert PRESET_NAMES == tuple(PRESETS) == ("coarse", "default", "level2", "fine", "level3", "level4")
+    assert PRESET_NAMES == tuple(PRESETS) == ("coarse", "default", "level2", "fine", "level3", "level4",
+                                                  "reference")
 
 
 def _numbers(source: str) -> set[float]:

@@ -140,7 +140,7 @@ def test_words_of_a_choice_are_listed(tmp_path):
     assert msg == f"{path}: optimiser.executor.kind: 'mpi' is not one of the allowed words: {words}"
     path, msg = _message(tmp_path, "fidelity: {preset: ultra}\n")
     assert msg == (f"{path}: fidelity.preset: 'ultra' is not one of the allowed words: 'coarse', 'default', "
-                   "'level2', 'fine', 'level3', 'level4'")
+                   "'level2', 'fine', 'level3', 'level4', 'reference'")
 
 
 def test_unknown_keys_suggest_the_closest_key(tmp_path):

@@ -29,9 +29,18 @@ def test_templates_are_shipped_and_small():
     files = list(TEMPLATE_DIR.glob("*.npz"))
     assert len(files) >= 6
     assert sum(f.stat().st_size for f in files) < 2e6
-    assert set(available_sizings()) == set(PRESETS)
-    for name in PRESETS:  # every preset is served by a template
+    templated = {name for name, p in PRESETS.items() if p.template}
+    assert set(available_sizings()) == templated and "reference" not in templated
+    for name in templated:  # every preset but the reference is served by a template
         assert select_template(WhiskerDesign(), PRESETS[name].sizing) is not None
+    assert select_template(WhiskerDesign(), PRESETS["reference"].sizing) is None
+
+
+def test_reference_preset_is_swept_for_each_design():
+    """The ``reference`` preset has no template: ``auto`` sweeps its mesh (5 wall layers, 20 sectors)."""
+    r = build_mesh(WhiskerDesign(), PRESETS["reference"].sizing, method="auto").report
+    assert r.method == "swept"
+    assert r.wall_layers == pytest.approx(5.0, rel=0.05)
 
 
 @pytest.mark.parametrize(("preset", "lo", "hi"), [("coarse", 700, 1100), ("default", 900, 1500), ("fine", 5000, 9000)])

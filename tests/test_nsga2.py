@@ -219,7 +219,8 @@ def test_spread_keeps_both_ends_and_the_count():
 def test_finer_preset():
     assert finer_preset("coarse") == "default" and finer_preset("default") == "level2"
     assert finer_preset("level2") == "fine" and finer_preset("fine") == "level3"
-    assert finer_preset("level4") is None and finer_preset(None) is None
+    assert finer_preset("level4") == "reference"
+    assert finer_preset("reference") is None and finer_preset(None) is None
 
 
 @pytest.mark.parametrize("data, key, words", [

@@ -27,6 +27,7 @@ Rows are appended to a CSV as they finish (a killed run continues where it stopp
     python3 -m benchmarks.accuracy.f1_convergence directions [--designs default,case1]
     python3 -m benchmarks.accuracy.f1_convergence ladder [--designs default,slim-thin,stout-thick,case1,rand0,...]
         [--levels 1,2,3,4] [--random 8] [--csv results/f1_ladder.csv]
+    python3 -m benchmarks.accuracy.f1_convergence presets [--presets coarse,fine] [--designs ...] [--csv ...]
     python3 -m benchmarks.accuracy.f1_convergence report [--csv results/f1_ladder.csv] [--method template]
         [--plot docs/figures/f1_ladder.png]
 """
@@ -82,17 +83,20 @@ def random_designs(n: int, seed: int = SEED) -> dict:
     return {f"rand{i}": tuple(float(v) for v in np.round(lo + (hi - lo) * rng.random(4), 4)) for i in range(n)}
 
 
-def evaluate(name: str, genes: tuple, label: str, sizing: MeshSizing, level: int = 0, method: str = "swept") -> dict:
+def evaluate(name: str, genes: tuple, label: str, sizing: MeshSizing | None, level: int = 0, method: str = "swept",
+             preset: str = "default") -> dict:
     """One evaluation (intact at Q_i + trimmed vented) on meshes of ``sizing`` made by ``method`` ('swept': the
-    design meshed directly; 'auto': the nearest shipped template mapped to it, as the GA does); its row."""
+    design meshed directly; 'auto': the nearest shipped template mapped to it, as the GA does) with ``preset``'s
+    increments (``sizing`` None: the preset's own sizing too, i.e. the preset as a run uses it); its row."""
     alpha, l, t, q_i = genes  # noqa: E741
-    base = preset_spec(design_from_genes(alpha, l, t), "default", sizing=sizing, mesh_method=method)
+    over = {"mesh_method": method} if sizing is None else {"sizing": sizing, "mesh_method": method}
+    base = preset_spec(design_from_genes(alpha, l, t), preset, **over)
     ev = SceneEvaluator(base, trim=TRIM)
     intact, trimmed = ev.specs({"alpha": alpha, "l": l, "t": t, "Q_i": q_i})
     t0 = time.perf_counter()
     res, n_el = {}, 0
     for scene, spec in (("intact", intact), ("trimmed", trimmed)):
-        wm = build_mesh(spec.design, spec.sizing, method=method, num_threads=1)
+        wm = build_mesh(spec.design, spec.sizing, method=spec.mesh_method, num_threads=1)
         n_el = n_el or wm.mesh.n_elements
         res[scene] = run_scene(spec, wm)
     delta = ev.samples()
@@ -189,10 +193,11 @@ def plot(rows: list[dict], path: Path, prefix: str = "tpl-ladder", reading: str 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("study", choices=("directions", "ladder", "report"))
+    ap.add_argument("study", choices=("directions", "ladder", "presets", "report"))
     ap.add_argument("--designs", default=None)
     ap.add_argument("--only", default=",".join(DIRECTIONS), help="directions: which refinements")
     ap.add_argument("--levels", default="1,2,3,4")
+    ap.add_argument("--presets", default="coarse,fine", help="presets: the named presets evaluated as a run uses them")
     ap.add_argument("--random", type=int, default=8, help="ladder: number of seeded random designs")
     ap.add_argument("--csv", default=None)
     ap.add_argument("--plot", default=None, help="report: also draw f1 over the ladder into this PNG")
@@ -212,17 +217,23 @@ def main(argv=None) -> int:
         levels = [int(k) for k in args.levels.split(",")]
         tag = "tpl-ladder" if args.method == "template" else "ladder"
         jobs = [(n, f"{tag}{k}", ladder_sizing(k), k) for k in levels for n in names]
+    elif args.study == "presets":
+        names = (args.designs or ",".join(designs)).split(",")
+        jobs = [(n, f"preset-{p}", p, 0) for p in args.presets.split(",") for n in names]
     else:
         jobs = []
     method = "auto" if args.method == "template" else "swept"
     for name, label, sizing, k in jobs:
         if (name, label) in done:
             continue
-        row = evaluate(name, designs[name], label, sizing, k, method)
+        if args.study == "presets":
+            row = evaluate(name, designs[name], label, None, 0, "auto", preset=sizing)
+        else:
+            row = evaluate(name, designs[name], label, sizing, k, method)
         append_csv(csv, row, FIELDS + READING_FIELDS)
         print("|".join(str(v) for v in row.values()), file=sys.stderr, flush=True)
     rows = read_csv(csv) if csv.exists() else []
-    if args.study == "directions":
+    if args.study in ("directions", "presets"):
         print(markdown_table(rows, ["design", "mesh", "elements", "time_s", "delta_l", "eps_i5", "eps_c5", "diff5", "f1"]))
     else:
         prefix = "tpl-ladder" if args.method == "template" else "ladder"

@@ -17,6 +17,7 @@ The mesh ladder refines every direction together (:func:`ladder_sizing`; level 1
     level2    2, 10, 0.25, 5 mm
     level3    3, 12, 0.17, 3.3 mm
     level4    4, 16, 0.125, 2.5 mm
+    reference 5, 20, 0.1, 2 mm      (the finest level of the reference table; swept meshes, no template)
 
 The gauge reading scatters between mesh families without a trend in the wall layers, so
 ``default``, the GA's, is the cheapest mesh within 1 % of the gauge reference; ``fine`` keeps three
@@ -38,7 +39,7 @@ f1 resolution
     ``benchmarks/accuracy/time_vs_error.py`` and from the gap between ``default`` and ``fine`` at
     the case-1 optimum; for the mesh ladder (``level2``, ``level3``) from the largest distance to
     the next finer levels measured by ``python3 -m benchmarks.accuracy.f1_convergence ladder
-    --method template``; ``level4`` has no finer reference and claims none (NaN). The figures and
+    --method template``; ``reference`` has no finer mesh and claims none (NaN). The figures and
     the derivation of each value: ``benchmarks/results/f1_convergence.md``, "The presets' f1
     resolution: how each value was derived".
 
@@ -70,6 +71,9 @@ class Preset:
         Measured absolute f1 [calibrated strain, ξ = :data:`RESOLUTION_CALIBRATION`] below
         which f1 is not resolved at this preset (see the module docstring; the figures:
         ``benchmarks/results/f1_convergence.md``).
+    template : bool
+        Whether shipped template meshes serve it (the GA's mapped meshes); otherwise the
+        ``auto`` mesh method sweeps a mesh for each design (:func:`geometry.mesh.build_mesh`).
     """
 
     name: str
@@ -77,24 +81,29 @@ class Preset:
     n_pressure_steps: int
     n_deflection_steps: int
     f1_resolution: float = float("nan")
+    template: bool = True
 
 
 #: Calibration factor ξ of the readings in which :attr:`Preset.f1_resolution` was measured.
 RESOLUTION_CALIBRATION = 3.9
 
 #: Sectors around the whisker at each level of the mesh ladder.
-LADDER_SECTORS = {1: 8, 2: 10, 3: 12, 4: 16}
+LADDER_SECTORS = {1: 8, 2: 10, 3: 12, 4: 16, 5: 20}
+
+#: The preset (and mesh sizing) name of each level of the mesh ladder; level 5 is ``reference``.
+LADDER_NAMES = {1: "default", 2: "level2", 3: "level3", 4: "level4", 5: "reference"}
 
 
 def ladder_sizing(k: int) -> MeshSizing:
-    """Level k = 1 … 4 of the mesh ladder: k wall layers, :data:`LADDER_SECTORS` sectors, chamber layers of
-    pitch/(2k) and body elements ≤ 10/k mm; level 1 is the ``default`` preset's sizing."""
+    """Level k = 1 … 5 of the mesh ladder: k wall layers, :data:`LADDER_SECTORS` sectors, chamber layers of
+    pitch/(2k) and body elements ≤ 10/k mm; level 1 is the ``default`` preset's sizing, level 5 the
+    ``reference`` preset's (no template is shipped for it: its meshes are swept for each design)."""
     if k not in LADDER_SECTORS:
         raise ValueError(f"mesh ladder level {k!r}: allowed {', '.join(map(str, LADDER_SECTORS))}")
     if k == 1:
         return MeshSizing()
     return MeshSizing(wall_layers=float(k), n_theta=LADDER_SECTORS[k], axial_pitch_fraction=0.5 / k,
-                      h_body=10.0 / k, name=f"level{k}")
+                      h_body=10.0 / k, name=LADDER_NAMES[k])
 
 
 #: The named presets, cheapest first.
@@ -108,6 +117,7 @@ PRESETS: dict[str, Preset] = {
                                       name="fine"), n_pressure_steps=2, n_deflection_steps=10, f1_resolution=7e-4),
     "level3": Preset("level3", ladder_sizing(3), n_pressure_steps=1, n_deflection_steps=3, f1_resolution=4e-4),
     "level4": Preset("level4", ladder_sizing(4), n_pressure_steps=1, n_deflection_steps=3),
+    "reference": Preset("reference", ladder_sizing(5), n_pressure_steps=1, n_deflection_steps=3, template=False),
 }
 
 #: Names of :data:`PRESETS` (the allowed values of ``fidelity.preset``).
@@ -185,10 +195,10 @@ def describe(cfg, calibration: float = RESOLUTION_CALIBRATION) -> dict:
 
 
 def regenerate_templates(num_threads: int = 0):
-    """Rebuild the shipped template meshes of every preset (:func:`geometry.template.generate_templates`)."""
+    """Rebuild the shipped template meshes of every preset that has them (:func:`geometry.template.generate_templates`)."""
     from geometry.template import generate_templates
 
-    return generate_templates(tuple(p.sizing for p in PRESETS.values()), num_threads=num_threads)
+    return generate_templates(tuple(p.sizing for p in PRESETS.values() if p.template), num_threads=num_threads)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -161,8 +161,8 @@ def spread(items: Sequence[Any], k: int) -> list[Any]:
 
 
 def finer_preset(preset: str | None) -> str | None:
-    """The next finer fidelity preset in cost order (coarse, default, level2, fine, level3, level4), None for the
-    finest or an unknown one."""
+    """The next finer fidelity preset in cost order (coarse, default, level2, fine, level3, level4,
+    reference), None for the finest or an unknown one."""
     from whisker_opt.experiment.fidelity import PRESET_NAMES
 
     if preset not in PRESET_NAMES:
