@@ -23,7 +23,7 @@ def _stress(law, F):
 
 @pytest.mark.parametrize("name", RUBBERS)
 def test_f_derivatives_are_the_derivatives_of_f(name):
-    """f′(Ī1) and f″(Ī1) against central differences of f and f′ over 3 ≤ Ī1 ≤ 3.6, the arrays' shape kept."""
+    """f′(Ī1) and f″(Ī1) against central differences of f and f′ over 3 ≤ Ī1 ≤ 3.6, the shape kept."""
     law = rubber_law(name, C10, D1)
     i1 = np.linspace(3.0, 3.6, 13).reshape(13, 1)
     f, df, d2f = law.f_derivatives(i1)

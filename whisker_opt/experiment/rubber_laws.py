@@ -65,7 +65,8 @@ def _registry() -> dict[str, RubberLaw]:
 
     mods = [importlib.import_module(f"{pkg.__name__}.{m.name}") for m in pkgutil.iter_modules(pkg.__path__)]
     laws = [(name, RubberLaw(m.make, tuple(constants), source))
-            for m in sorted(mods, key=lambda m: (m.ORDER, m.__name__)) for name, (constants, source) in m.LAWS.items()]
+            for m in sorted(mods, key=lambda m: (m.ORDER, m.__name__))
+            for name, (constants, source) in m.LAWS.items()]
     names = [n for n, _ in laws]
     if len(set(names)) != len(names) or "same" in names:
         raise ValueError(f"rubber laws: a name registered twice or reserved ('same'): {names}")
@@ -134,7 +135,8 @@ def rubber_material(rubber: str, cap_rubber: str, c10: float, d1: float, cap: np
 
 def listing() -> str:
     """One line per registered law: its name, its constants and their source."""
-    return "".join(f"{name}: constants {law.constants or '(none)'}; {law.source}\n" for name, law in RUBBER_LAWS.items())
+    return "".join(f"{name}: constants {law.constants or '(none)'}; {law.source}\n"
+                   for name, law in RUBBER_LAWS.items())
 
 
 if __name__ == "__main__":  # python3 -m whisker_opt.experiment.rubber_laws: the registered laws
