@@ -53,7 +53,7 @@ class InvalidDesignError(ValueError, GeometryError):
 
 
 def parameter(default, unit: str, doc: str, choices: tuple | None = None, key: str | None = None,
-              **bounds: float):
+              listed: str | None = None, **bounds: float):
     """A dataclass field a user sets: its default, unit, meaning and allowed values, declared once.
 
     The sections of a run file (:mod:`whisker_opt.config.model`) are generated from the fields
@@ -70,10 +70,13 @@ def parameter(default, unit: str, doc: str, choices: tuple | None = None, key: s
         The allowed words of a text parameter.
     key : str, optional
         The run-file key, when it differs from the field name.
+    listed : str, optional
+        Words that stand for ``choices`` in a reference, where the choices are a registry that grows
+        (e.g. "a registered rubber law, listed by ..."): the reference then stays true as names are added.
     **bounds : float
         ``gt``, ``ge``, ``lt``, ``le``: the allowed range of a number.
     """
-    meta = {"unit": unit, "doc": doc, "bounds": dict(bounds), "choices": choices, "key": key}
+    meta = {"unit": unit, "doc": doc, "bounds": dict(bounds), "choices": choices, "key": key, "listed": listed}
     return dataclasses.field(default=default, metadata=meta)
 
 

@@ -119,6 +119,7 @@ QUICK: dict[str, tuple[str, ...]] = {
                            "test_the_same_seed_gives_the_same_sample", "test_bad_half_widths_are_refused",
                            "test_robust_objective_is_mean_plus_k_std", "test_default_tolerances_are_those_stated",
                            "test_a_sample_too_small_for_the_sensitivities_is_refused_in_one_line"),
+    "test_rubber_laws.py": ("*",),
     "test_rundir_safety.py": ("test_the_lock_names_its_holder_and_is_gone_after_it",),
     "test_scene.py": ("test_contact_band_refuses_an_empty_band",),
     "test_unread_keys.py": ("test_each_command_names_every_set_key_it_does_not_read",

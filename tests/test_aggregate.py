@@ -10,7 +10,7 @@ import pytest
 
 from whisker_opt.config.optimiser import OptimiserConfig
 from whisker_opt.experiment.gauge_variants import GAUGE_VARIANTS
-from whisker_opt.experiment.measures import MEASURE_NAMES, measure_values
+from whisker_opt.experiment.measures import MEASURE_NAMES, MEASURES, measure_values
 from whisker_opt.experiment.outcome import EvalOutcome
 from whisker_opt.optimise.aggregate import (REDUCTIONS, AggregateEvaluator, LawVariants, Spread, aggregate_columns,
                                             objective_column, reduce)
@@ -21,8 +21,23 @@ GENES = {"alpha": 4.0, "l": 11.0, "t": 2.6, "Q_i": 0.2}
 SPREAD = Spread((1.0, 2.0, 6.0), 3.0, math.sqrt(7.0))
 
 
+def test_the_reductions_are_the_modules_of_their_package_in_order():
+    """Every module of whisker_opt/optimise/reductions/ is registered by its NAME, ordered by its ORDER; an
+    unknown name is refused in one line listing them all."""
+    import importlib
+    import pkgutil
+
+    import whisker_opt.optimise.reductions as pkg
+
+    mods = [importlib.import_module(f"{pkg.__name__}.{m.name}") for m in pkgutil.iter_modules(pkg.__path__)]
+    assert set(REDUCTIONS) == {m.NAME for m in mods} and len(REDUCTIONS) == len(mods)
+    assert tuple(REDUCTIONS)[:3] == ("mean", "worst", "mean_plus_k_std")
+    assert all(REDUCTIONS[m.NAME] is m.reduce for m in mods)
+    with pytest.raises(ValueError, match=f"reduction 'no_such_reduction' is not one of {', '.join(REDUCTIONS)}$"):
+        reduce("no_such_reduction", SPREAD)
+
+
 def test_every_reduction_against_hand_computed_values():
-    assert set(REDUCTIONS) == {"mean", "worst", "mean_plus_k_std"}
     assert reduce("mean", SPREAD) == 3.0
     assert reduce("worst", SPREAD) == 6.0  # larger is worse
     assert reduce("worst", SPREAD, worse=-1.0) == 1.0  # smaller is worse (a sensitivity)
@@ -30,17 +45,18 @@ def test_every_reduction_against_hand_computed_values():
     assert reduce("mean_plus_k_std", SPREAD, k=0.0) == 3.0
     assert reduce("worst", Spread((1.0, math.nan, 4.0), 2.5, 2.1)) == 4.0  # an unread variant is left out
     assert math.isnan(reduce("worst", Spread((math.nan,), math.nan, math.nan)))
-    with pytest.raises(ValueError, match="reduction 'median' is not one of mean, worst, mean_plus_k_std"):
-        reduce("median", SPREAD)
 
 
 def _outcome(f1, sens, dl, vm, line, centroid):
-    """A successful outcome whose every measure reads: sensitivity = eps_c_max / deflection (deflection 1)."""
+    """A successful outcome holding every key of a scene evaluator's ``extra`` (so every measure reads):
+    sensitivity = eps_c_max / deflection (deflection 1)."""
     readings = {"line": {"intact": line, "trimmed": line + 1e-4}, "centroid": {"intact": centroid,
                                                                              "trimmed": centroid - 1e-4}}
     for k, name in enumerate(n for n in GAUGE_VARIANTS if n not in readings):  # every other registered reading
         readings[name] = {"intact": line * (1.1 + 0.1 * k), "trimmed": centroid * (0.9 - 0.1 * k)}
-    return EvalOutcome.success(f1, {"total": 1.0}, {"eps_c_max": sens, "deflection": 1.0, "delta_l": dl,
+    return EvalOutcome.success(f1, {"total": 1.0}, {"genes": dict(GENES, Q_i=0.1 + dl / 10), "eps_c_max": sens,
+                                                    "eps_i_max": sens + 1e-4, "deflection": 1.0, "delta_l": dl,
+                                                    "iterations": 20,
                                                     "von_mises_max": {"intact": vm, "trimmed": vm / 2},
                                                     "readings": readings})
 
@@ -67,7 +83,7 @@ def test_every_measure_is_the_reduction_over_the_laws_and_f1_is_the_nominal_desi
     per_law = [measure_values(o, MEASURE_NAMES) for o in LAWS]
     for n in MEASURE_NAMES:
         a, b = per_law[0][n], per_law[1][n]
-        smaller_is_worse = n == "sensitivity"
+        smaller_is_worse = MEASURES[n].worse < 0  # the sensitivity
         want = (a + b) / 2 if reduction == "mean" else (min(a, b) if smaller_is_worse else max(a, b))
         assert out.measures[f"{n}_{reduction}_over_laws"] == pytest.approx(want, rel=1e-15), n
     assert out.measures["f1_mean"] == pytest.approx(2e-3, rel=1e-15)

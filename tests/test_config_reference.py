@@ -151,3 +151,27 @@ def test_check_flags_a_stale_file(tmp_path):
                           cwd=ROOT, capture_output=True, text=True)
     assert proc.returncode == 1, proc.stderr
     assert "stale" in proc.stderr
+
+
+def test_a_registry_that_grows_is_named_where_it_is_listed_not_enumerated(rows):
+    """The gauge readings and the rubber laws are registries of one module each: the reference names the command
+    that lists them (so adding one leaves docs/config.md current), the command lists every registered name, and
+    a bad name is still refused naming them all."""
+    from pydantic import ValidationError
+
+    from whisker_opt.experiment.gauge_variants import GAUGE_VARIANTS
+    from whisker_opt.experiment.rubber_laws import RUBBERS
+
+    for key, module, names in (("scene.gauge_variant", "whisker_opt.experiment.gauge_variants", GAUGE_VARIANTS),
+                               ("material.rubber", "whisker_opt.experiment.rubber_laws", RUBBERS),
+                               ("material.cap_rubber", "whisker_opt.experiment.rubber_laws", RUBBERS)):
+        row = rows[key]
+        assert f"`python3 -m {module}`" in row["range"]
+        assert not [n for n in names if f"`{n}`" in row["range"]
+                    or f"'{n}'" in row["description"] and row["default"] != f"`{n}`"]  # the default may be named
+        proc = subprocess.run([sys.executable, "-m", module], cwd=ROOT, capture_output=True, text=True, check=True)
+        assert [line.split(":")[0] for line in proc.stdout.splitlines()] == list(names)
+        section, field = key.split(".")
+        with pytest.raises(ValidationError) as exc:
+            WhiskerConfig.model_validate({section: {field: "no_such_name"}})
+        assert all(repr(n) in str(exc.value) for n in names)

@@ -66,6 +66,7 @@ def test_each_measure_against_the_scenes(evaluated):
             solved = scenes[s].eps[v]
             assert measure(f"eps_{letter}_{v}")(out) == pytest.approx(solved[-1], rel=1e-9)
     assert measure("eps_c_line")(out) == pytest.approx(eps_c[-1], rel=1e-9)  # the run's gauge_variant is line
+    assert out.extra["genes"] == GENES  # the inputs a measure may read: the genome evaluated
 
 
 def test_every_measure_has_a_name_unit_and_description():
@@ -73,6 +74,26 @@ def test_every_measure_has_a_name_unit_and_description():
     assert {f"eps_{s}_{v}" for v in GAUGE_VARIANTS for s in "ic"} <= set(MEASURES)
     for name, m in MEASURES.items():
         assert m.name == name and m.unit and m.description
+
+
+def test_the_measures_are_the_modules_of_their_package_in_order():
+    """Every module of whisker_opt/experiment/measures/ is registered: one measure by its NAME, or a family (the
+    gauge readings, eps_<i|c>_<variant> of each registered reading); the modules in the order of their ORDER."""
+    import importlib
+    import pkgutil
+
+    import whisker_opt.experiment.measures as pkg
+
+    mods = sorted((importlib.import_module(f"{pkg.__name__}.{m.name}") for m in pkgutil.iter_modules(pkg.__path__)),
+                  key=lambda m: (m.ORDER, m.__name__))
+    names = [f["name"] for m in mods for f in (m.family() if hasattr(m, "family") else [{"name": m.NAME}])]
+    assert tuple(names) == MEASURE_NAMES
+    single = {m.NAME: m for m in mods if not hasattr(m, "family")}
+    for name, m in single.items():
+        got = MEASURES[name]
+        assert (got.unit, got.description, got.read) == (m.UNIT, m.DESCRIPTION, m.read)
+        assert (got.calibrated, got.worse) == (getattr(m, "CALIBRATED", False), getattr(m, "WORSE", 1.0))
+    assert MEASURES["sensitivity"].worse == -1.0 and MEASURES["f1"].calibrated and not MEASURES["delta_l"].calibrated
 
 
 def test_a_failed_or_foreign_outcome_has_no_measure():

@@ -29,7 +29,8 @@ from geometry.design import WhiskerDesign
 from geometry.mesh import build_mesh
 from whisker_opt.experiment.fidelity import PRESETS
 from whisker_opt.experiment.scene import base_dirichlet, cap_elements, pressurise, scene_material
-from whisker_opt.experiment.spec import RUBBER_LAWS, SceneSpec
+from whisker_opt.experiment.rubber_laws import RUBBER_LAWS
+from whisker_opt.experiment.spec import SceneSpec
 from tests.test_fem_tangent import energy_gradient_fd
 
 H = 1e-6
@@ -189,23 +190,34 @@ def test_cap_law_goes_to_exactly_the_elements_below_c(wm):
 
 
 def test_every_rubber_is_its_registered_factory_with_its_own_constants(monkeypatch):
-    """rubber_law builds each name of the registry by its factory: the neo-Hookean law of the material
+    """The registry holds every name of every module of whisker_opt/experiment/rubbers/ (neo_hookean first) and
+    rubber_law builds each by its module's factory with its own constants: the neo-Hookean law of the material
     section's C10, a Yeoh law of its own constants (C10 not read), D1 for all; a law added to the registry
     alone (here a three-term Yeoh of made-up constants) is built by rubber_law and rubber_material."""
+    import importlib
+    import pkgutil
     import types
 
-    import whisker_opt.experiment.spec as spec_mod
-    from whisker_opt.experiment.spec import RUBBERS, RubberLaw, rubber_law, rubber_material, yeoh
+    import whisker_opt.experiment.rubber_laws as laws_mod
+    import whisker_opt.experiment.rubbers as pkg
+    from whisker_opt.experiment.rubber_laws import RUBBERS, RubberLaw, rubber_law, rubber_material
+    from whisker_opt.experiment.rubbers.yeoh import make as yeoh
 
-    assert RUBBERS == tuple(RUBBER_LAWS) and RUBBERS[0] == "neo_hookean"
+    mods = [importlib.import_module(f"{pkg.__name__}.{m.name}") for m in pkgutil.iter_modules(pkg.__path__)]
+    assert sorted(RUBBERS) == sorted(n for m in mods for n in m.LAWS) and RUBBERS == tuple(RUBBER_LAWS)
+    assert RUBBERS[:4] == ("neo_hookean", "yeoh_dragon_skin_30", "yeoh_dragon_skin_10", "yeoh_ecoflex_00_30")
+    for m in mods:
+        for name, (constants, source) in m.LAWS.items():
+            assert RUBBER_LAWS[name] == RubberLaw(m.make, constants, source) and source
+            assert rubber_law(name, 0.21, 0.03) == m.make(constants, 0.21, 0.03)
     assert rubber_law("neo_hookean", 0.21, 0.03) == NeoHookean(0.21, 0.03)
-    for name in RUBBERS[1:]:
+    for name in (n for n in RUBBERS if n.startswith("yeoh_")):
         law = rubber_law(name, 0.21, 0.03)
         assert law == Yeoh(RUBBER_LAWS[name].constants, 0.03) and law.c[0] != 0.21
-    with pytest.raises(ValueError, match="'neo_hookean' or 'yeoh_dragon_skin_30'"):
-        rubber_law("gent", 0.21, 0.0)
+    with pytest.raises(ValueError, match="^rubber 'no_such_rubber': must be " + " or ".join(map(repr, RUBBERS)) + "$"):
+        rubber_law("no_such_rubber", 0.21, 0.0)
     added = RubberLaw(yeoh, (0.1, -2e-3, 5e-5), "a test's constants")
-    monkeypatch.setattr(spec_mod, "RUBBER_LAWS", types.MappingProxyType({**RUBBER_LAWS, "yeoh_three_terms": added}))
+    monkeypatch.setattr(laws_mod, "RUBBER_LAWS", types.MappingProxyType({**RUBBER_LAWS, "yeoh_three_terms": added}))
     assert rubber_law("yeoh_three_terms", 0.21, 0.01) == Yeoh((0.1, -2e-3, 5e-5), 0.01)
     cap = np.array([True, False, False])
     two = rubber_material("neo_hookean", "yeoh_three_terms", 0.21, 0.01, cap)

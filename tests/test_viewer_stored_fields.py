@@ -24,7 +24,8 @@ from fem.meshgen import box_mesh  # noqa: E402
 from geometry.design import WhiskerDesign  # noqa: E402
 from whisker_opt.config.model import WhiskerConfig, dump_config  # noqa: E402
 from whisker_opt.experiment.fidelity import PRESETS  # noqa: E402
-from whisker_opt.experiment.spec import RUBBER_LAWS, SceneSpec  # noqa: E402
+from whisker_opt.experiment.rubber_laws import RUBBER_LAWS  # noqa: E402
+from whisker_opt.experiment.spec import SceneSpec  # noqa: E402
 from whisker_opt.output import scenes as out_scenes  # noqa: E402
 from whisker_opt.viewer import fields, rundir  # noqa: E402
 from whisker_opt.viewer import state as vstate  # noqa: E402

@@ -6,7 +6,9 @@ the config's ``robustness`` section are propagated to two figures (docs/physics.
 - f1 = mean |ε_i − ε_c|, the intact whisker at Q_i against the trimmed, vented one (§4);
 - the recovery rate (§7, :func:`whisker_opt.analysis.compensation.curve_measures`), which also
   needs the trimmed whisker left at Q_i (ε_u, the ``trimmed_uncompensated`` scene of
-  :func:`whisker_opt.wiring.design_scene_specs`, the curve ``finish_best`` plots).
+  :func:`whisker_opt.wiring.design_scene_specs`, the curve ``finish_best`` plots). It is therefore not
+  a measure of :mod:`whisker_opt.experiment.measures`: those read the outcome of one evaluation, whose two
+  scenes (intact at Q_i, trimmed and vented) hold no ε_u; this study solves the third scene itself.
 
 One deviated design is three FE scenes (intact, trimmed vented, trimmed at Q_i), solved by a
 :class:`whisker_opt.experiment.scene.SceneRunner` (the two trimmed scenes share their mesh). The

@@ -1,4 +1,4 @@
-"""Two-term Yeoh constants of the silicones in :data:`whisker_opt.experiment.spec.RUBBER_LAWS`,
+"""Two-term Yeoh constants of the silicones in :data:`whisker_opt.experiment.rubber_laws.RUBBER_LAWS`,
 fitted to the manufacturer's published uniaxial data points.
 
 Data (Smooth-On technical bulletins of Dragon Skin™ 10 Medium / 30 and Ecoflex™ 00-30, ASTM D412
@@ -56,7 +56,7 @@ def fit(s100_psi: float, sb_psi: float, eb_pct: float) -> tuple[float, float]:
 
 def main(argv: list[str] | None = None) -> None:
     argparse.ArgumentParser(description=__doc__.splitlines()[0]).parse_args(argv)
-    from whisker_opt.experiment.spec import RUBBER_LAWS
+    from whisker_opt.experiment.rubber_laws import RUBBER_LAWS
 
     print(f"{'material':<16} {'C10 [MPa]':>10} {'C20 [MPa]':>11} {'mu [MPa]':>9} {'shipped C10, C20':>22} "
           f"{'P(2) [MPa]':>10} {'P(l_b) [MPa]':>12}")

@@ -49,7 +49,7 @@ from benchmarks.numerics import observed_order
 from geometry.design import WhiskerDesign
 import peers.wall_cell3d as cell3d
 from whisker_opt.analysis.beam import LinearSoftening
-from whisker_opt.experiment.spec import rubber_law
+from whisker_opt.experiment.rubber_laws import rubber_law
 from whisker_opt.wallcell.cell import PRESSURES, Resolution, WallCell, WallGeometry
 from whisker_opt.wallcell.mechanisms import VARIANTS, WallMechanism
 from whisker_opt.wallcell.reading import inferred_k, reading_ratios

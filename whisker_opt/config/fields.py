@@ -108,8 +108,9 @@ def constraints(info: FieldInfo) -> dict[str, Any]:
 def field_range(annotation: Any, info: FieldInfo) -> str:
     """The allowed values of a field, from its type and its ``Field`` constraints.
 
-    Real numbers as an interval, ``(0, 1]``; integers as ``lo..hi``; choices as a list;
-    strings and tuples by their length limits.
+    Real numbers as an interval, ``(0, 1]``; integers as ``lo..hi``; choices as a list, or the words of
+    ``json_schema_extra["listed"]`` that say where the choices of a growing registry are listed (the error
+    messages list them); strings and tuples by their length limits.
 
     Parameters
     ----------
@@ -124,6 +125,9 @@ def field_range(annotation: Any, info: FieldInfo) -> str:
     """
     tp, _ = strip_optional(annotation)
     c = constraints(info)
+    extra = info.json_schema_extra
+    if isinstance(extra, dict) and extra.get("listed"):  # choices of a registry that grows: where they are listed
+        return str(extra["listed"])
     if get_origin(tp) is Literal:
         return ", ".join(f"`{a}`" for a in get_args(tp))
     if tp is bool:

@@ -63,7 +63,8 @@ def declared_fields(cls, names: tuple[str, ...] | None = None) -> dict[str, Any]
         f = params[name]
         m = f.metadata
         kind = Literal[m["choices"]] if m["choices"] else scalar.get(f.type, f.type)
-        extra = {"json_schema_extra": {"unit": m["unit"]}} if m["unit"] else {}
+        schema = {k: v for k, v in (("unit", m["unit"]), ("listed", m.get("listed"))) if v}
+        extra = {"json_schema_extra": schema} if schema else {}
         out[m["key"] or f.name] = (kind, Field(f.default, description=m["doc"], **extra, **m["bounds"]))
     return out
 
@@ -81,10 +82,15 @@ DesignConfig = create_model(
 MaterialConfig = create_model(
     "MaterialConfig", __base__=StrictModel, __module__=__name__,
     __doc__="Rubber: neo-Hookean W = C10 (Ī1 − 3) + (1/D1)(J − 1)² by default (D1 = 0 is fully incompressible), "
-    "or a named Yeoh fit of a published silicone (docs/physics.md, model form); the cap may be of another rubber; "
+    "or another registered law, e.g. a named Yeoh fit of a published silicone (docs/physics.md, model form); the cap "
+    "may be of another rubber; "
     "the fibre winding embedded as lines or smeared over the wall.",
     **declared_fields(SceneSpec, ("c10", "d1", "rubber", "cap_rubber", "fibre_model", "wall_law", "wall_slope")),
 )
+
+
+#: What the reference says of the allowed gauge readings instead of listing them (they are a registry that grows).
+LISTED_READINGS = "a registered gauge reading, listed by `python3 -m whisker_opt.experiment.gauge_variants`"
 
 
 class _SceneSection(StrictModel):
@@ -105,8 +111,9 @@ _SCENE_OWN: dict[str, Any] = {
     "delta_step": (float, Field(0.01, gt=0, le=1, description="deflection sampling Δδ of the curves and of f1",
                                 json_schema_extra={"unit": "mm"})),
     "gauge_variant": (Literal[tuple(GAUGE_VARIANTS)], Field(
-        "line", description="the gauge reading of the curves and of f1: "
-        + "; ".join(f"'{name}': {doc}" for name, doc in GAUGE_VARIANTS.items()))),
+        "line", description=f"the gauge reading of the curves and of f1, by name: 'line' (the default), the "
+        f"{GAUGE_VARIANTS['line']}, or another registered reading (docs/physics.md §3)",
+        json_schema_extra={"listed": LISTED_READINGS})),
     "pair": (bool, Field(
         True, description="`simulate` runs the intact (at Q_i) / trimmed (vented) pair instead of one scene")),
 }

@@ -14,11 +14,13 @@ A reading that samples points of its own (beyond the gauge line and centre of
 located with the gauge, once per mesh, and reach it as ``gauge.sites[NAME]``.
 
 Adding a reading: one module in ``whisker_opt/experiment/readings/`` (found by :func:`_registry`, ordered by its
-``ORDER``) and a test.
+``ORDER``) and a test. ``python3 -m whisker_opt.experiment.gauge_variants`` lists the registered readings (the
+configuration reference points there instead of listing them).
 """
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Any, Callable, Mapping
@@ -51,3 +53,12 @@ def _registry() -> dict[str, GaugeReading]:
 GAUGE_READINGS: Mapping[str, GaugeReading] = MappingProxyType(_registry())
 #: Their one-line descriptions, by name (the names ``scene.gauge_variant`` allows).
 GAUGE_VARIANTS: Mapping[str, str] = MappingProxyType({n: r.description for n, r in GAUGE_READINGS.items()})
+
+
+def listing() -> str:
+    """One line per registered reading, in order: its name and its description."""
+    return "".join(f"{name}: {doc}\n" for name, doc in GAUGE_VARIANTS.items())
+
+
+if __name__ == "__main__":  # python3 -m whisker_opt.experiment.gauge_variants: the registered readings
+    sys.stdout.write(listing())

@@ -20,6 +20,9 @@ Conventions an evaluator may follow for the optional dictionaries:
     - ``"delta"``, ``"eps_i"``, ``"eps_c"`` (sequences): the response curves; when the
       best design carries them, the runner writes ``best_curves.csv`` and its plot.
     - ``"traceback"``: set by the executors when the evaluator raised.
+    - ``"genes"`` (dict): the genome evaluated, by gene name; with the numbers the scenes gave
+      (:class:`whisker_opt.optimise.evaluator.SceneEvaluator`), what the measures read
+      (:mod:`whisker_opt.experiment.measures`).
 """
 
 from __future__ import annotations

@@ -56,7 +56,8 @@ from geometry.mesh import MeshSizing, WhiskerMesh, build_mesh
 from whisker_opt.experiment.contact import Contact, contact_band, place_contact_ring
 from whisker_opt.experiment.gauge import GaugedMesh, GaugeReader, ReadingContext
 from whisker_opt.experiment.gauge_variants import GAUGE_VARIANTS
-from whisker_opt.experiment.spec import SceneSpec, cap_elements, rubber_material
+from whisker_opt.experiment.rubber_laws import rubber_material
+from whisker_opt.experiment.spec import SceneSpec, cap_elements
 from whisker_opt.wall.law import apply_law, chamber_elements, mid_chamber_x
 
 logger = logging.getLogger(__name__)
@@ -174,7 +175,7 @@ class SceneResult:
 def scene_material(mesh, spec: SceneSpec) -> IsochoricI1Material:
     """The rubber of the scene on ``mesh`` (:attr:`SceneSpec.rubber`, :attr:`SceneSpec.cap_rubber`): one
     law, or the cap's law on :func:`cap_elements` and the body's elsewhere
-    (:func:`whisker_opt.experiment.spec.rubber_material`)."""
+    (:func:`whisker_opt.experiment.rubber_laws.rubber_material`)."""
     return rubber_material(spec.rubber, spec.cap_rubber, spec.c10, spec.d1, cap_elements(mesh, spec.design.c))
 
 

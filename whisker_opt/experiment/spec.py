@@ -3,125 +3,32 @@
 Its user settings (contact, deflection, rubber constants, gauge factor) are declared here once
 with :func:`geometry.design.parameter`: their defaults, units, ranges and meanings; the
 ``scene`` and ``material`` sections of a run file are generated from them
-(:mod:`whisker_opt.config.model`). The rubbers are registered here by name, once, each a
-factory of its law with the law's own constants (:class:`RubberLaw` in :data:`RUBBER_LAWS`, the
-names :data:`RUBBERS`), and made into law objects by :func:`rubber_law` and :func:`rubber_material`
-alone, for the solver, the result files and the viewer alike. This module imports no solver code at import time (:mod:`fem.material` only
-inside those functions), so the configuration can read it cheaply.
+(:mod:`whisker_opt.config.model`). The rubbers a scene may name are those of
+:mod:`whisker_opt.experiment.rubber_laws` (:data:`whisker_opt.experiment.rubber_laws.RUBBERS`), which also makes
+them into law objects. This module imports no solver code at import time (:mod:`fem` only inside functions),
+so the configuration can read it cheaply.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from types import MappingProxyType
-from typing import TYPE_CHECKING, Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from geometry.design import WhiskerDesign, parameter, parameter_violations
 from geometry.materials import RUBBER_C10
 from geometry.sizing import MeshSizing
+from whisker_opt.experiment.rubber_laws import RUBBERS
 from whisker_opt.wall.law import SLOPE_RANGE, WALL_LAW_NAMES, WallLaw
 
 if TYPE_CHECKING:  # pragma: no cover
-    from fem.material import IsochoricI1Material
     from fem.newton import SolveOptions
 
 #: Where the contact is placed (:attr:`SceneSpec.contact_at`).
 CONTACT_AT: tuple[str, ...] = ("pressurised", "reference")
-
-def neo_hookean(constants: tuple, c10: float, d1: float) -> IsochoricI1Material:
-    """W = C10 (Ī1 − 3) with the material section's C10 = ``c10`` (:class:`fem.material.NeoHookean`);
-    it has no constants of its own."""
-    from fem.material import NeoHookean
-
-    return NeoHookean(c10, d1)
-
-
-def yeoh(constants: tuple, c10: float, d1: float) -> IsochoricI1Material:
-    """W = Σ_k C_k0 (Ī1 − 3)^k with the law's own constants (C10, C20, ...) = ``constants``
-    (:class:`fem.material.Yeoh`); ``c10`` is not read."""
-    from fem.material import Yeoh
-
-    return Yeoh(tuple(constants), d1)
-
-
-@dataclass(frozen=True)
-class RubberLaw:
-    """A registered rubber law: a factory of the isochoric law with the law's own constants.
-
-    Attributes
-    ----------
-    make : callable
-        ``make(constants, c10, d1) -> fem.material.IsochoricI1Material``, importing :mod:`fem` when
-        called (e.g. :func:`neo_hookean`, :func:`yeoh`); ``c10`` [MPa] is the material section's C10,
-        ``d1`` [1/MPa] its D1, which every law takes.
-    constants : tuple of float
-        The law's own constants [MPa] (empty for a law of the material section's C10).
-    source : str
-        Where the constants come from.
-    """
-
-    make: Callable[[tuple, float, float], IsochoricI1Material]
-    constants: tuple[float, ...] = ()
-    source: str = ""
-
-    def law(self, c10: float, d1: float) -> IsochoricI1Material:
-        """The law with D1 = ``d1`` (and C10 = ``c10`` for a law that reads it)."""
-        return self.make(self.constants, c10, d1)
-
-
-#: The fits of the manufacturer's technical bulletin.
-_TDS = "Smooth-On technical bulletin (ASTM D412), fit by benchmarks/studies/fit_rubber_tds.py"
-
-#: The rubber laws of :attr:`SceneSpec.rubber` by name, read-only: the neo-Hookean law of the material
-#: section's C10 and D1, and two-term Yeoh laws of named silicones, W = C10 (Ī1 − 3) + C20 (Ī1 − 3)²
-#: (Yeoh 1993), their own ``constants`` (C10, C20) [MPa]. Each Yeoh pair passes exactly through the two
-#: uniaxial points of the manufacturer's technical bulletin (Smooth-On, ASTM D412): the 100 % modulus at
-#: λ = 2 and the tensile strength at the elongation at break; fitted by
-#: ``benchmarks/studies/fit_rubber_tds.py`` (which prints these numbers), from Dragon Skin 30: σ100 = 86 psi,
-#: 500 psi at 364 %; Dragon Skin 10 Medium: 22 psi, 475 psi at 1000 %; Ecoflex 00-30 (the Shore 00-30 grade):
-#: 10 psi, 200 psi at 900 %. A new law is its class in :mod:`fem.material`, a factory as :func:`yeoh` and
-#: one entry here.
-RUBBER_LAWS = MappingProxyType({
-    "neo_hookean": RubberLaw(neo_hookean, (), "material.C10 and material.D1"),
-    "yeoh_dragon_skin_30": RubberLaw(yeoh, (0.14514, 6.0678e-3), _TDS),
-    "yeoh_dragon_skin_10": RubberLaw(yeoh, (0.041520, 4.5462e-4), _TDS),
-    "yeoh_ecoflex_00_30": RubberLaw(yeoh, (0.018663, 2.5902e-4), _TDS),
-})
-
-#: The names of the rubber laws (:data:`RUBBER_LAWS`).
-RUBBERS: tuple[str, ...] = tuple(RUBBER_LAWS)
-
-
-def rubber_law(name: str, c10: float, d1: float) -> IsochoricI1Material:
-    """The isochoric law called ``name``, one of :data:`RUBBERS`: the one place a rubber's name
-    becomes a law, by its registered factory (:meth:`RubberLaw.law`).
-
-    'neo_hookean': W = C10 (Ī1 − 3) with C10 = ``c10`` (:class:`fem.material.NeoHookean`);
-    a Yeoh entry: W = C10 (Ī1 − 3) + C20 (Ī1 − 3)² with that silicone's constants
-    (:class:`fem.material.Yeoh`; ``c10`` is not used). D1 = ``d1`` for every law.
-
-    Parameters
-    ----------
-    name : str
-    c10 : float
-        [MPa].
-    d1 : float
-        [1/MPa].
-
-    Returns
-    -------
-    fem.material.IsochoricI1Material
-
-    Raises
-    ------
-    ValueError
-        An unknown name (the message lists :data:`RUBBERS`).
-    """
-    if name not in RUBBER_LAWS:
-        raise ValueError(f"rubber {name!r}: must be " + " or ".join(map(repr, RUBBERS)))
-    return RUBBER_LAWS[name].law(c10, d1)
+#: What the reference says of the allowed rubbers instead of listing them (they are a registry that grows).
+_LISTED_RUBBERS = "registered rubber law, listed by `python3 -m whisker_opt.experiment.rubber_laws`"
 
 
 def cap_elements(mesh, c: float) -> np.ndarray:
@@ -130,31 +37,6 @@ def cap_elements(mesh, c: float) -> np.ndarray:
     corners = mesh.points[mesh.cells[:, :4]]  # (n_el, 4, 3)
     return corners[:, :, 0].mean(axis=1) < c
 
-
-def rubber_material(rubber: str, cap_rubber: str, c10: float, d1: float, cap: np.ndarray) -> IsochoricI1Material:
-    """The rubber of a whisker: one law, or the cap's law on the cap's elements and the body's elsewhere.
-
-    Parameters
-    ----------
-    rubber, cap_rubber : str
-        :attr:`SceneSpec.rubber`, :attr:`SceneSpec.cap_rubber` ('same', or one of :data:`RUBBERS`).
-    c10, d1 : float
-        [MPa], [1/MPa] (:func:`rubber_law`).
-    cap : ndarray of bool, shape (n_el,)
-        The cap's elements (:func:`cap_elements`); not read for one law.
-
-    Returns
-    -------
-    fem.material.IsochoricI1Material
-        :func:`rubber_law` of ``rubber``, or a :class:`fem.material.ElementwiseMaterial` of
-        (body, cap) laws with group 1 on ``cap``.
-    """
-    from fem.material import ElementwiseMaterial
-
-    body = rubber_law(rubber, c10, d1)
-    if cap_rubber in ("same", rubber):
-        return body
-    return ElementwiseMaterial((body, rubber_law(cap_rubber, c10, d1)), np.asarray(cap, dtype=bool).astype(np.int64))
 
 #: How the base face is held (:attr:`SceneSpec.base_support`).
 BASE_SUPPORTS: tuple[str, ...] = ("clamped", "sliding")
@@ -208,10 +90,11 @@ class SceneSpec:
         benchmarks/results/time_vs_error.md, "CalculiX point").
     rubber : str
         Rubber law of the body (every element, or every element outside the cap when
-        ``cap_rubber`` differs): one of :data:`RUBBERS`, 'neo_hookean' (C10 = ``c10``, the
-        default) or a two-term Yeoh fit of a named silicone (:data:`RUBBER_LAWS`). D1 = ``d1`` for all.
+        ``cap_rubber`` differs): one of :data:`whisker_opt.experiment.rubber_laws.RUBBERS`, 'neo_hookean'
+        (C10 = ``c10``, the default) or a law of its own constants (a two-term Yeoh fit of a named silicone,
+        ...). D1 = ``d1`` for all.
     cap_rubber : str
-        'same' (default: the cap is of the body's rubber) or one of :data:`RUBBERS` for the
+        'same' (default: the cap is of the body's rubber) or one of the rubbers for the
         elements of the cap, those whose centroid lies at x < c, bonded to the body.
     base_support : {'clamped', 'sliding'}
         'clamped' (default): every node of the base face fixed in x, y and z. 'sliding':
@@ -251,11 +134,12 @@ class SceneSpec:
     solve_options: SolveOptions = field(default_factory=default_solve_options)
     formulation: str = "mixed"
     rubber: str = parameter(
-        "neo_hookean", "", "rubber law of the body: 'neo_hookean' (C10, D1 of the material section) or a "
-        "two-term Yeoh fit of a named silicone's published uniaxial data (docs/physics.md §1)", choices=RUBBERS)
+        "neo_hookean", "", "rubber law of the body, by name: 'neo_hookean' (C10, D1 of the material section) or "
+        "a registered law of its own constants, e.g. a two-term Yeoh fit of a named silicone's published uniaxial "
+        "data (docs/physics.md §1)", choices=RUBBERS, listed=f"a {_LISTED_RUBBERS}")
     cap_rubber: str = parameter(
         "same", "", "rubber of the cap (elements at x < c), bonded to the body: 'same' as the body, or one of "
-        "the rubber laws", choices=("same",) + RUBBERS)
+        "the rubber laws", choices=("same",) + RUBBERS, listed=f"`same` or a {_LISTED_RUBBERS}")
     base_support: str = parameter(
         "clamped", "", "'clamped': every base node fixed; 'sliding': the base held axially, only its inner "
         "half (r ≤ D/4) also held radially", choices=BASE_SUPPORTS)

@@ -6,22 +6,18 @@ chamber-wall laws of ``optimiser.wall_laws`` (:class:`LawVariants`), or any othe
 evaluates a variant and how it estimates the mean and the spread of a measure over them. The
 :class:`AggregateEvaluator` evaluates the nominal design and every variant, reads every measure of
 :mod:`whisker_opt.experiment.measures` at each, and reduces each measure over the variants by the reduction
-its run names (:data:`REDUCTIONS`):
-
-``mean``
-    The variant set's mean of the measure (the sample's mean, the expansion's f(x0), the mean over laws).
-``worst``
-    The worst value met over the variants: the largest, or the smallest for a measure where smaller is worse
-    (:attr:`whisker_opt.experiment.measures.Measure.worse`).
-``mean_plus_k_std``
-    mean + k·std (:func:`whisker_opt.optimise.robust.robust_objective`, docs/physics.md §10).
+its run names (:data:`REDUCTIONS`). Each reduction is one module of :mod:`whisker_opt.optimise.reductions`
+(``mean``, ``worst``, ``mean_plus_k_std``) with a ``NAME``, an ``ORDER`` and a pure function
+``reduce(spread, k, worse) -> float`` of one measure's :class:`Spread` over the variants, ``k`` of
+``mean_plus_k_std`` and ``worse`` of the measure (:attr:`whisker_opt.experiment.measures.Measure.worse`);
+:func:`_registry` finds every module there, in the order of their ``ORDER``.
 
 The outcome's ``f1`` and ``extra`` are those of the nominal design, so every measure by its own name (``f1``,
 ``sensitivity``, ...) is the nominal design's. The reduced measures are named ``<measure>_<label>`` in the
 outcome's ``measures`` (e.g. ``f1_robust``, ``sensitivity_mean_over_laws``), beside ``f1_mean`` and ``f1_std``,
 the variant set's mean and spread of f1. The GA minimises the aggregate of f1 (:func:`objective_column`).
 
-Adding a reduction: one function ``(spread, k, worse) -> float`` in :data:`REDUCTIONS` (and a test of its value).
+Adding a reduction: one module in ``whisker_opt/optimise/reductions/`` (and a test of its value).
 """
 
 from __future__ import annotations
@@ -59,30 +55,19 @@ class Spread:
     std: float
 
 
-def _mean(spread: Spread, k: float, worse: float) -> float:
-    return float(spread.mean)
+def _registry() -> dict[str, Callable[[Spread, float, float], float]]:
+    """Every module of :mod:`whisker_opt.optimise.reductions`, by ``NAME``, in the order of their ``ORDER``."""
+    import importlib
+    import pkgutil
 
+    import whisker_opt.optimise.reductions as pkg
 
-def _worst(spread: Spread, k: float, worse: float) -> float:
-    v = np.asarray(spread.values, dtype=float)
-    v = v[np.isfinite(v)]
-    if v.size == 0:
-        return math.nan
-    return float(v.max() if worse > 0 else v.min())
-
-
-def _mean_plus_k_std(spread: Spread, k: float, worse: float) -> float:
-    from whisker_opt.optimise.robust import robust_objective
-
-    return float(robust_objective(spread.mean, spread.std, k))
+    mods = [importlib.import_module(f"{pkg.__name__}.{m.name}") for m in pkgutil.iter_modules(pkg.__path__)]
+    return {m.NAME: m.reduce for m in sorted(mods, key=lambda m: (m.ORDER, m.NAME))}
 
 
 #: The reductions over variants, by name: ``reduce(spread, k, worse) -> float`` (module docstring).
-REDUCTIONS: Mapping[str, Callable[[Spread, float, float], float]] = MappingProxyType({
-    "mean": _mean,
-    "worst": _worst,
-    "mean_plus_k_std": _mean_plus_k_std,
-})
+REDUCTIONS: Mapping[str, Callable[[Spread, float, float], float]] = MappingProxyType(_registry())
 
 
 def reduce(name: str, spread: Spread, k: float = 1.0, worse: float = 1.0) -> float:

@@ -111,6 +111,7 @@ class SceneEvaluator:
                                        "design (its wall lies outside the wall table)", {"total": time.perf_counter() - t0})
         timings["total"] = time.perf_counter() - t0
         extra = {
+            "genes": {k: float(v) for k, v in genes.items()},  # the inputs a measure may read (measures/)
             "delta_l": results["intact"].delta_l,
             "eps_i_max": float(eps_i[-1]),
             "eps_c_max": float(eps_c[-1]),

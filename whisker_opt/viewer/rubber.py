@@ -4,7 +4,7 @@ The viewer shows the arrays the solver stored (:mod:`whisker_opt.output.scenes`)
 file lacks one does it compute it, and then with the law the run was solved with: the
 ``material`` section of the run's ``config.yaml`` (``rubber``, ``cap_rubber``, ``C10``, ``D1``)
 made into a law by the one registry of rubbers,
-:func:`whisker_opt.experiment.spec.rubber_material`. A cap of another rubber needs the cap's
+:func:`whisker_opt.experiment.rubber_laws.rubber_material`. A cap of another rubber needs the cap's
 end c [mm]: the file's own ``design_c`` field data, else the scene's design, else the
 config's ``design.c``. Under a wall law other than ``embedded`` that is the rubber alone: the law's
 scaling and frozen stress are in the stored stress only (:func:`fem.post.problem_strain_stress`).
@@ -69,7 +69,8 @@ class RunRubber:
         fem.material.IsochoricI1Material or None
             None (logged) for a cap of another rubber whose end c is unknown.
         """
-        from whisker_opt.experiment.spec import cap_elements, rubber_material
+        from whisker_opt.experiment.rubber_laws import rubber_material
+        from whisker_opt.experiment.spec import cap_elements
 
         c = self.c if c is None else c
         if self.has_cap_law and c is None:

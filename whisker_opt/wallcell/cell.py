@@ -36,7 +36,7 @@ from fem.axisym.quad9 import line_shape
 from fem.material import NeoHookean
 from fem.newton import SolveFailed
 from geometry.materials import FIBRE_DIAMETER
-from whisker_opt.experiment.spec import rubber_law
+from whisker_opt.experiment.rubber_laws import rubber_law
 from whisker_opt.wall.law import mid_chamber_x
 from whisker_opt.wallcell.mechanisms import WallMechanism
 

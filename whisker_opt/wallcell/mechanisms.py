@@ -11,9 +11,9 @@ bond
     unless primed. ``layer``: a compliant interface layer of ``layer_thickness`` and
     ``layer_shear_modulus`` around the fibre (a weak or partly debonded interphase).
 rubber, rubber_outer
-    The body's law (``neo_hookean`` with ``c10``, the thesis' FE value C10 = 0.14 MPa, or a named Yeoh fit
-    of :data:`whisker_opt.experiment.spec.RUBBER_LAWS`, by name); ``rubber_outer`` the coat outside the fibre radius
-    (``same`` = the body's): the thesis moulded an inner layer, wound the fibre, then coated it.
+    The body's law (``neo_hookean`` with ``c10``, the thesis' FE value C10 = 0.14 MPa, or another law of
+    :data:`whisker_opt.experiment.rubber_laws.RUBBER_LAWS`, by name); ``rubber_outer`` the coat outside the
+    fibre radius (``same`` = the body's): the thesis moulded an inner layer, wound the fibre, then coated it.
 section, fibre_law, fibre_modulus, fibre_poisson
     ``round`` (the fibre as made) or ``square`` of equal area (the 3-D cell's section); ``band``: the ring's
     E_f A_f spread along the hoop over a band of the square's width the whole length of the cell (a sleeve,

@@ -1,29 +1,28 @@
-"""The named measures of one evaluation: numbers read from its outcome by name.
+"""The named measures of one evaluation: numbers read from its outcome by name, one module each.
 
 A measure is a small object with a name, a unit, a description and a function from a successful
 :class:`whisker_opt.experiment.outcome.EvalOutcome` (as :class:`whisker_opt.optimise.evaluator.SceneEvaluator`
 fills it) to a float. The GA's penalties, the NSGA-II objectives, the robustness study and ``verify`` read
-them from :data:`MEASURES` by name. The measures:
+them from :data:`MEASURES` by name.
 
-``f1``
-    The compensation error mean_k |ε_i(δ_k) − ε_c(δ_k)| (:mod:`whisker_opt.experiment.objective`): ``outcome.f1``.
-``sensitivity``
-    S = ε_c(δ_max) / δ_max [1/mm]: the gauge reading of the trimmed, vented scene (the run's
-    ``scene.gauge_variant``, relative to contact onset, times ξ) at the largest deflection δ_max, per
-    millimetre of that deflection of the contact: the secant slope of the compensated response through
-    the onset, ``extra["eps_c_max"] / extra["deflection"]``.
-``delta_l``
-    Δl [mm], the axial extension of the intact whisker's tip after pressurisation to Q_i (the mean
-    x-displacement of the tip face's nodes): ``extra["delta_l"]``.
-``von_mises_max``
-    The largest nodal von Mises stress [MPa] of the two deflected states (intact at Q_i and trimmed,
-    vented, both at δ_max; :func:`whisker_opt.experiment.scene.peak_von_mises`):
-    max of ``extra["von_mises_max"]``.
-``eps_i_<variant>``, ``eps_c_<variant>``
-    For every gauge reading of :data:`whisker_opt.experiment.gauge_variants.GAUGE_VARIANTS`, the reading of the
-    intact (i) or the trimmed (c) scene at δ_max: ``extra["readings"][variant]["intact" | "trimmed"]``.
+Each measure is one module of this package (``f1``, ``sensitivity``, ``delta_l``, ``von_mises_max``; the
+module docstring says what it reads), found by :func:`_registry` and ordered by its ``ORDER``. The module has
+a ``NAME``, an ``ORDER``, a ``UNIT`` (``"-"`` for a pure number), a one-line ``DESCRIPTION``, a pure function
+``read(outcome) -> float`` and, where they differ from the defaults, ``CALIBRATED = True`` (proportional to
+the gauge factor ξ) and ``WORSE = -1.0`` (smaller is worse). A module that stands for a family of measures
+has ``family()`` instead, the fields of each (``gauge_readings``: ``eps_i_<variant>`` and ``eps_c_<variant>``
+of every registered gauge reading). A measure module imports nothing of this package's face.
 
-Adding a measure: one entry of :func:`_registry` (and a test of its value against the outcome).
+What a measure may read: the outcome's ``f1``, and its ``extra`` as the evaluator fills it
+(:meth:`whisker_opt.optimise.evaluator.SceneEvaluator.__call__`): ``genes`` (the genome evaluated, by gene
+name, Q_i among them), ``delta_l``, ``eps_i_max``, ``eps_c_max``, ``deflection``, ``readings``
+(``[variant][scene]``), ``von_mises_max`` (``[scene]``) and ``iterations``. A measure is a function of those
+two scenes, intact at Q_i and trimmed, vented: the recovery rate also needs the trimmed whisker left at Q_i,
+a third scene the evaluation does not solve, so it stays with the studies that solve it
+(:mod:`whisker_opt.robustness`, :mod:`whisker_opt.analysis.compensation`).
+
+Adding a measure: one module in ``whisker_opt/experiment/measures/`` (and a test of its value against an
+outcome).
 """
 
 from __future__ import annotations
@@ -33,7 +32,6 @@ from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Callable, Mapping
 
-from whisker_opt.experiment.gauge_variants import GAUGE_VARIANTS
 from whisker_opt.experiment.outcome import EvalOutcome
 
 
@@ -83,40 +81,25 @@ class Measure:
                              f"evaluator?)") from None
 
 
-#: The letter of each scene of an evaluation in the names of its readings (i: intact, c: compensated).
-SCENE_LETTER: dict[str, str] = {"intact": "i", "trimmed": "c"}
-
-
-def _sensitivity(o: EvalOutcome) -> float:
-    return o.extra["eps_c_max"] / o.extra["deflection"]
-
-
-def _peak(o: EvalOutcome) -> float:
-    return max(o.extra["von_mises_max"].values())
-
-
-def _reading(variant: str, scene: str) -> Callable[[EvalOutcome], float]:
-    def read(o: EvalOutcome) -> float:
-        return o.extra["readings"][variant][scene]
-    return read
+def _measures_of(module) -> tuple[Measure, ...]:
+    """The measures a module of this package declares (one, or its ``family()``)."""
+    if hasattr(module, "family"):
+        return tuple(Measure(**fields) for fields in module.family())
+    return (Measure(module.NAME, module.UNIT, module.DESCRIPTION, module.read,
+                    getattr(module, "CALIBRATED", False), getattr(module, "WORSE", 1.0)),)
 
 
 def _registry() -> dict[str, Measure]:
-    fixed = (
-        Measure("f1", "-", "compensation error mean |eps_i - eps_c| over the deflection samples", lambda o: o.f1,
-                calibrated=True),
-        Measure("sensitivity", "1/mm", "gauge reading of the trimmed, vented scene at the largest deflection per "
-                "mm of that deflection, eps_c(delta_max) / delta_max", _sensitivity, calibrated=True, worse=-1.0),
-        Measure("delta_l", "mm", "axial tip extension of the intact whisker after pressurisation to Q_i",
-                lambda o: o.extra["delta_l"]),
-        Measure("von_mises_max", "MPa", "largest nodal von Mises stress of the intact and the trimmed scene at "
-                "the largest deflection", _peak),
-    )
-    readings = tuple(
-        Measure(f"eps_{SCENE_LETTER[s]}_{v}", "-", f"{v} gauge reading of the {s} scene at the largest deflection: {doc}",
-                _reading(v, s), calibrated=True)
-        for v, doc in GAUGE_VARIANTS.items() for s in SCENE_LETTER)
-    return {m.name: m for m in (*fixed, *readings)}
+    """Every measure of every module of this package, the modules in the order of their ``ORDER``."""
+    import importlib
+    import pkgutil
+
+    mods = [importlib.import_module(f"{__name__}.{m.name}") for m in pkgutil.iter_modules(__path__)]
+    measures = [x for m in sorted(mods, key=lambda m: (m.ORDER, m.__name__)) for x in _measures_of(m)]
+    names = [x.name for x in measures]
+    if len(set(names)) != len(names):
+        raise ValueError(f"measures: a name registered twice: {sorted({n for n in names if names.count(n) > 1})}")
+    return {x.name: x for x in measures}
 
 
 #: Every measure by name (read-only).
