@@ -202,7 +202,7 @@ def compensate(cfg: WhiskerConfig, out: Path, step: float = 1.0, delta_ref: floa
                     r.Q, f" (at its bound, {'0' if r.at_bound == 'lower' else 'Q_i'})" if r.at_bound and r.trim > 0
                     else "", r.recovery_rate, r.Q_analytic)
     forces = table_forces(cfg, runner, design, table)
-    record_config(out, cfg)  # only once the table is solved: a failed solve leaves no folder
+    record_config(out, cfg, "compensate")  # only once the table is solved: a failed solve leaves no folder
     paths = write_table(out, table, delta_ref=dref, fidelity=fidelity, forces=forces)
     result = Compensation(design, table, paths, time.perf_counter() - t0)
     if compare:
@@ -437,7 +437,7 @@ def compensate_map(cfg: WhiskerConfig, out: Path | None, step: float = 1.0, a_va
     if out is not None:
         from whisker_opt.output.journal import StudyJournal
 
-        record_config(out, cfg)
+        record_config(out, cfg, "compensate")
         journal = StudyJournal(Path(out), MAP_JOURNAL, "compensation_map", {
             "config": cfg.model_dump(mode="json"), "trims": trims, "a": a.tolist(), "deltas": deltas.tolist(),
             "warm": bool(warm)})

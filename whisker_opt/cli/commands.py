@@ -29,12 +29,12 @@ from whisker_opt.cli.arguments import (
     settings_arguments,
 )
 from whisker_opt.cli.failures import ComputationFailed, computation_errors, describe_failure
+from whisker_opt.cli.outfolder import writing
 from whisker_opt.cli import robustness as _robustness
 from whisker_opt.cli.rundir import check_run_dir
 from whisker_opt.config.model import ConfigError, load_config
 from whisker_opt.experiment.fidelity import PRESET_NAMES
 from whisker_opt.optimise.checkpoint import RunDirectoryError
-from whisker_opt.output.lock import RunDirLock
 
 
 def _user_errors() -> tuple[type[BaseException], ...]:
@@ -98,10 +98,15 @@ def _read(args: argparse.Namespace):
     return load_config(args.config, allow_empty=args.defaults, settings=tuple(args.settings))
 
 
-def _check_output(args: argparse.Namespace, cfg) -> None:
-    """Refuse an output folder that cannot be created or written, before anything is computed."""
+def _check_output(args: argparse.Namespace, cfg, command: str | None = None) -> None:
+    """Refuse an output folder that cannot be created or written, or (``command``) that holds a GA run or another
+    command's results (:func:`~whisker_opt.optimise.rundir.check_output_folder`), before anything is computed."""
     if args.out is not None:
         ensure_writable_dir(args.out, "--out")
+        if command is not None:
+            from whisker_opt.optimise.rundir import check_output_folder
+
+            check_output_folder(args.out, command)
     else:
         ensure_writable_dir(cfg.output.results_dir, f"{args.config}: output.results_dir")
 
@@ -131,11 +136,12 @@ def _mesh_run(args: argparse.Namespace) -> int:
 
     cfg = _read(args)
     wiring.design_from_config(cfg, trim=cfg.scene.trim if args.trim is None else args.trim)  # refuse before mkdir
-    _check_output(args, cfg)
+    _check_output(args, cfg, "mesh")
     out = _out_dir(args, cfg, "mesh")
     try:
-        design, report = workflows.mesh(cfg, out, trim=args.trim, method=args.method, step=args.step,
-                                        progress=not args.no_progress)
+        with writing(out, "mesh"):
+            design, report = workflows.mesh(cfg, out, trim=args.trim, method=args.method, step=args.step,
+                                            progress=not args.no_progress)
     except computation_errors() as exc:
         raise _failed(exc, "mesh") from exc
     width = max(len(k) for k in report)
@@ -158,10 +164,11 @@ def _simulate_run(args: argparse.Namespace) -> int:
 
     cfg = _read(args)
     specs = workflows.simulation_specs(cfg, str(args.config))  # refuse a bad pair before creating the directory
-    _check_output(args, cfg)
+    _check_output(args, cfg, "simulate")
     out = _out_dir(args, cfg, "simulate")
     try:
-        sim = workflows.simulate(cfg, out, str(args.config))
+        with writing(out, "simulate"):
+            sim = workflows.simulate(cfg, out, str(args.config))
     except computation_errors() as exc:
         raise _failed(exc, "simulate", out, list(specs)) from exc
     for name, res in sim.results.items():
@@ -201,11 +208,12 @@ def _export_run(args: argparse.Namespace) -> int:
 
     cfg = _read(args)
     specs = export.check_deckable(cfg, str(args.config))  # refuse before creating the directory
-    _check_output(args, cfg)
+    _check_output(args, cfg, "export")
     out = _out_dir(args, cfg, "export")
     try:
-        res = export.export(cfg, out, str(args.config), n_increments=args.increments, flavour=args.flavour,
-                            bulk_ratio=args.bulk_ratio)
+        with writing(out, "export"):
+            res = export.export(cfg, out, str(args.config), n_increments=args.increments, flavour=args.flavour,
+                                bulk_ratio=args.bulk_ratio)
     except computation_errors() as exc:
         raise _failed(exc, "export", out, list(specs)) from exc
     for name, path in res.decks.items():
@@ -408,11 +416,10 @@ def _compensate_map_run(args: argparse.Namespace, cfg) -> int:
     if len(set(a_values)) < 2:
         raise ArgumentError(f"--a: {' '.join(f'{x:g}' for x in a_values)}: give at least two distinct contact "
                             f"ratios in (0, 1]")
-    _check_output(args, cfg)
+    _check_output(args, cfg, "compensate")
     out = _out_dir(args, cfg, "compensate")
-    Path(out).mkdir(parents=True, exist_ok=True)
     try:
-        with RunDirLock(out, "compensate --map"):
+        with writing(out, "compensate", "compensate --map"):
             res = compensation.compensate_map(cfg, out, step=args.step, a_values=a_values, source=str(args.config),
                                               progress=not args.no_progress)
     except computation_errors() as exc:
@@ -449,12 +456,14 @@ def _compensate_run(args: argparse.Namespace) -> int:
     _check_step(args.step, float(wiring.optimiser_of(cfg).trim), str(args.config))
     if args.map or args.a is not None:
         return _compensate_map_run(args, cfg)
-    _check_output(args, cfg)
+    _check_output(args, cfg, "compensate")
     out = _out_dir(args, cfg, "compensate")
     try:
-        res = compensation.compensate(cfg, out, step=args.step, delta_ref=args.delta_ref, compare_a=args.compare_a,
-                                      compare_Q=args.compare_Q, compare=not args.no_compare, source=str(args.config),
-                                      progress=not args.no_progress)
+        with writing(out, "compensate"):
+            res = compensation.compensate(cfg, out, step=args.step, delta_ref=args.delta_ref,
+                                          compare_a=args.compare_a, compare_Q=args.compare_Q,
+                                          compare=not args.no_compare, source=str(args.config),
+                                          progress=not args.no_progress)
     except computation_errors() as exc:
         raise _failed(exc, "compensate", out) from exc
     print(f"compensation table of {res.design.describe()}, Q_i = {cfg.scene.Q_i:g} MPa ({res.table_seconds:.0f} s; "

@@ -22,6 +22,7 @@ A YAML file has these top-level sections, each optional (an empty file is refuse
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any, Literal, Sequence
 
@@ -403,6 +404,26 @@ def load_config(path: str | Path, allow_empty: bool = False, settings: Sequence[
         raise ConfigError(f"{path}: nested too deeply to read") from None
 
 
-def dump_config(cfg: WhiskerConfig) -> str:
-    """The fully resolved config as YAML (defaults filled in), for storing beside results."""
-    return yaml.safe_dump(cfg.model_dump(mode="json"), sort_keys=False)
+#: First line of the ``config.yaml`` a command writes into its output folder: the folder's command
+#: (:func:`dump_config`, :func:`recorded_command`).
+RECORD_HEADER = "# written by `whisker-opt {command}`: the resolved run file of the results in this folder\n"
+_RECORD = re.compile(r"# written by `whisker-opt ([a-z][a-z-]*)`")
+
+
+def dump_config(cfg: WhiskerConfig, command: str | None = None) -> str:
+    """The fully resolved config as YAML (defaults filled in), for storing beside results; headed by
+    :data:`RECORD_HEADER` (a YAML comment) naming ``command`` when given."""
+    text = yaml.safe_dump(cfg.model_dump(mode="json"), sort_keys=False)
+    return RECORD_HEADER.format(command=command) + text if command else text
+
+
+def recorded_command(path: Path | str) -> str | None:
+    """The command named by the first line of a ``config.yaml`` (:data:`RECORD_HEADER`); None when the file
+    is missing or unreadable or names none (written by hand, or by an earlier version)."""
+    try:
+        with open(path, "rb") as f:
+            first = f.readline(200).decode("utf-8", "replace")
+    except OSError:
+        return None
+    m = _RECORD.match(first)
+    return m.group(1) if m else None
