@@ -29,7 +29,7 @@ from whisker_opt.cli.arguments import (
     settings_arguments,
 )
 from whisker_opt.cli.failures import ComputationFailed, computation_errors, describe_failure
-from whisker_opt.cli.outfolder import writing
+from whisker_opt.cli.outfolder import study_folder, writing
 from whisker_opt.cli import robustness as _robustness
 from whisker_opt.cli.rundir import check_run_dir
 from whisker_opt.config.model import ConfigError, load_config
@@ -253,7 +253,7 @@ def _run_run(args: argparse.Namespace) -> int:
     if args.out is not None and not args.overwrite:
         check_new_run_dir(args.out)  # a run already there: resume it instead
     _check_output(args, cfg)
-    run_dir = _out_dir(args, cfg, "run")
+    run_dir = args.study_out = _out_dir(args, cfg, "run")
     run_dir.mkdir(parents=True, exist_ok=True)
     with RunDirLock(run_dir, "run"):  # the run and its verification: one writer
         try:
@@ -308,6 +308,7 @@ def _resume_run(args: argparse.Namespace) -> int:
         raise ArgumentError(f"--trust-pickle: {args.run_dir} holds no {OLDER_NAME} of an earlier version to convert")
     run_dir = check_run_dir(args.run_dir, need_config=True, load_state=not (args.from_previous or args.trust_pickle),
                             allow_unstarted=True, allow_older=args.trust_pickle)
+    args.study_out = run_dir
     ensure_writable_dir(run_dir, "run_dir")
     with RunDirLock(run_dir, "resume"):
         if args.trust_pickle:
@@ -417,7 +418,8 @@ def _compensate_map_run(args: argparse.Namespace, cfg) -> int:
         raise ArgumentError(f"--a: {' '.join(f'{x:g}' for x in a_values)}: give at least two distinct contact "
                             f"ratios in (0, 1]")
     _check_output(args, cfg, "compensate")
-    out = _out_dir(args, cfg, "compensate")
+    out = study_folder(args, cfg, args.config, "compensate", compensation.MAP_JOURNAL, compensation.MAP_STUDY,
+                       compensation.map_inputs(cfg, args.step, a_values))
     try:
         with writing(out, "compensate", "compensate --map"):
             res = compensation.compensate_map(cfg, out, step=args.step, a_values=a_values, source=str(args.config),

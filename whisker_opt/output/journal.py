@@ -12,10 +12,15 @@ was computed, and the study ends with the same result as one that was never stop
 journal of other inputs (a changed config or option), of another study, or one that cannot
 be read is never mixed in: a warning names it and the study starts from the beginning,
 replacing it. The journal is removed once the study's outputs are written.
+
+A study run without an output folder makes a new one under ``output.results_dir``; run again the same
+way after a stop, it finds the folder of the stopped study by its journal (:func:`find_unfinished`: the
+same kind and inputs, the resolved config among them) and continues there.
 """
 
 from __future__ import annotations
 
+import glob
 import hashlib
 import json
 import logging
@@ -135,3 +140,34 @@ class StudyJournal:
             self.path.unlink()
         except FileNotFoundError:
             pass
+
+
+def find_unfinished(results_dir: Path | str, prefix: str, name: str, kind: str,
+                    inputs: Mapping[str, Any]) -> Path | None:
+    """The folder of a stopped study with these inputs: the newest ``results_dir/prefix*`` holding a journal
+    ``name`` of ``kind`` whose digest is that of ``inputs`` (None when there is none).
+
+    Parameters
+    ----------
+    results_dir : path
+        Where the study makes its folders (``output.results_dir``).
+    prefix : str
+        The start of their names (``<name>-<command>-``).
+    name, kind : str
+        The journal's file name and kind (as :class:`StudyJournal` takes them).
+    inputs : mapping
+        The study's inputs (:func:`inputs_digest`).
+    """
+    digest = inputs_digest(inputs)
+    found = []
+    for folder in Path(results_dir).glob(glob.escape(prefix) + "*"):
+        path = folder / name
+        try:
+            doc = json.loads(path.read_text(encoding="utf-8"))
+            mtime = path.stat().st_mtime
+        except (OSError, ValueError, RecursionError):
+            continue
+        if (isinstance(doc, dict) and doc.get("format") == JOURNAL_FORMAT and doc.get("kind") == kind
+                and doc.get("inputs") == digest):
+            found.append((mtime, folder.name, folder))
+    return max(found)[2] if found else None
