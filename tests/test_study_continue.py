@@ -117,3 +117,44 @@ def test_a_stopped_study_of_other_inputs_is_left_alone(tmp_path, monkeypatch, ca
     cfg.write_text(cfg.read_text().replace("Q_i: 0.2", "Q_i: 0.25"))
     assert main(argv) == 0
     assert len(_folders(tmp_path)) == 2 and (stopped / STUDIES["compensate"][0]).read_bytes() == kept
+
+
+def _stopped_calibration(tmp_path: Path, monkeypatch) -> tuple[list[str], Path]:
+    """A calibration into ``out`` interrupted part-way: (its command line, its journal)."""
+    patch(monkeypatch.setattr)
+    monkeypatch.chdir(tmp_path)
+    argv = [*_argv("calibrate", tmp_path), "--out", "out"]
+    with monkeypatch.context() as m:
+        _interrupt_at(m, "calibrate", 25)
+        assert main(argv) == 130
+    return argv, tmp_path / "out" / STUDIES["calibrate"][0]
+
+
+def _refused(capsys, argv: list[str], journal: Path, *words: str) -> None:
+    capsys.readouterr()
+    before = sorted(p.name for p in journal.parent.iterdir())
+    assert main(argv) == 2
+    err = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
+    shown = f"out/{journal.name}"  # the folder as given: --out out
+    assert len(err) == 1 and err[0].startswith("whisker-opt calibrate: error: ") and shown in err[0], err
+    for w in words:
+        assert w in err[0], (w, err[0])
+    assert sorted(p.name for p in journal.parent.iterdir()) == before  # no outputs written
+
+
+def test_a_doctored_calibration_journal_is_refused(tmp_path, monkeypatch, capsys):
+    """A prediction changed by hand is not believed (its digest no longer matches); a piece forged with a matching
+    digest but not the predictions of the observations asked for is refused too."""
+    from whisker_opt.output.journal import piece_digest
+
+    argv, journal = _stopped_calibration(tmp_path, monkeypatch)
+    doc = json.loads(journal.read_text())
+    key = sorted(doc["done"])[0]
+    good = json.loads(json.dumps(doc))
+    doc["done"][key]["predictions"][0]["value"] *= 1.01  # a plausible number, not the model's
+    journal.write_text(json.dumps(doc))
+    _refused(capsys, argv, journal, "does not match its digest", "none of it is believed", f"delete out/{journal.name}")
+    forged = good["done"][key] = {"predictions": good["done"][key]["predictions"][:1], "scenes": 0}
+    good["sha256"][key] = piece_digest(good["inputs"], key, forged)
+    journal.write_text(json.dumps(good))
+    _refused(capsys, argv, journal, "are not", "predictions of the observations asked for", "not believed")

@@ -43,11 +43,12 @@ def _user_errors() -> tuple[type[BaseException], ...]:
     from geometry.design import InvalidDesignError
     from whisker_opt.analysis.verify import VerifyError
     from whisker_opt.optimise.dask_executor import SchedulerUnreachable
+    from whisker_opt.output.journal import JournalError
     from whisker_opt.output.lock import RunDirectoryBusy
     from whisker_opt.output.storage import UnsafeLink
 
     return (ConfigError, FileNotFoundError, FileExistsError, InvalidDesignError, VerifyError, SchedulerUnreachable,
-            RunDirectoryError, OutputError, ArgumentError, RunDirectoryBusy, UnsafeLink)
+            RunDirectoryError, OutputError, ArgumentError, RunDirectoryBusy, UnsafeLink, JournalError)
 
 
 USER_ERRORS = _user_errors()

@@ -171,6 +171,38 @@ def check_config(run_dir: Path, extra: Mapping[str, Any] | None, generation: int
     return ConfigChange(generation, digest, new_digest, tuple(diffs), optimiser)
 
 
+def check_state_config(run_dir: Path, extra: Mapping[str, Any] | None) -> None:
+    """Refuse a checkpoint written under another config than the run's ``config.yaml`` (what ``report`` reads).
+
+    Nothing is checked when the checkpoint records no config (an earlier version) or ``config.yaml`` is
+    missing or does not load (``report`` does not need it).
+
+    Raises
+    ------
+    ConfigChanged
+        One line naming both files and the keys that differ: the checkpoint is another run's, or
+        ``config.yaml`` was edited since it was written.
+    """
+    from whisker_opt.config.model import ConfigError, load_config
+
+    digest = (extra or {}).get("run_config_sha256")
+    path = Path(run_dir) / CONFIG_YAML
+    if not isinstance(digest, str) or not path.is_file():
+        return
+    try:
+        resolved = load_config(path).model_dump(mode="json")
+    except ConfigError:
+        return
+    old = (extra or {}).get("run_config")
+    if digest == config_digest(resolved) or _same_with_new_defaults(old, resolved):
+        return
+    diffs = config_differences(old if isinstance(old, Mapping) else None, resolved)
+    shown = "; ".join(diffs[:4]) + (f"; and {len(diffs) - 4} more" if len(diffs) > 4 else "")
+    raise ConfigChanged(f"{Path(run_dir) / CHECKPOINT_NAME}: written under another config than {path} ({shown}); "
+                        f"it is another run's checkpoint, or {CONFIG_YAML} was edited since: restore the run's files "
+                        f"(an edit is continued with `whisker-opt resume {run_dir} {ALLOW_FLAG}`)")
+
+
 def _same_with_new_defaults(old: Mapping[str, Any] | None, resolved: Mapping[str, Any]) -> bool:
     """True when the recorded config, read by this version, is ``resolved``: the run directory of an
     earlier version whose ``config.yaml`` was not edited, the keys added since at their defaults."""
