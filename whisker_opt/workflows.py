@@ -54,11 +54,10 @@ def new_run_dir(cfg: WhiskerConfig, config_path: Path | str, kind: str) -> Path:
 
 
 def record_config(folder: Path | str, cfg: WhiskerConfig, command: str | None = None) -> Path:
-    """Write ``folder/config.yaml``: the resolved config a command ran (defaults filled in, so the wall law
-    and the fidelity preset too), the one record of the model that made the folder's files, headed by the
-    ``command`` that wrote them (:func:`whisker_opt.config.model.dump_config`). A FileExistsError when
-    ``folder`` holds a GA run of another config, or, with ``command``, a GA run or another command's results
-    (:func:`whisker_opt.optimise.rundir.check_output_folder`)."""
+    """Write ``folder/config.yaml``: the resolved config a command ran (defaults filled in), the one record of
+    the model that made the folder's files, headed by the ``command`` that wrote them (``dump_config``); a
+    FileExistsError when ``folder`` holds a GA run of another config, or, with ``command``, a GA run or another
+    command's results (:func:`whisker_opt.optimise.rundir.check_output_folder`)."""
     from whisker_opt.optimise.rundir import check_output_folder
 
     folder, path = Path(folder), Path(folder) / CONFIG_YAML

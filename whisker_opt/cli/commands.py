@@ -14,6 +14,7 @@ scene that does not converge, a mesh that cannot be made) becomes a
 from __future__ import annotations
 
 import argparse
+import os
 from pathlib import Path
 from typing import Callable
 
@@ -487,11 +488,22 @@ def _compensate_run(args: argparse.Namespace) -> int:
 
 
 # ----------------------------------------------------------------------------- init
+#: The run file ``init`` writes by default, and into a folder given as ``PATH/``.
+INIT_NAME = "whisker.yaml"
+
+
+def nonempty_text(text: str) -> str:
+    """An argparse type: a non-empty path kept as written (``init PATH``, whose trailing '/' means a folder)."""
+    nonempty_path(text)
+    return text
+
+
 def _init_args(p: argparse.ArgumentParser) -> None:
     from whisker_opt.config.template import CASES
 
-    p.add_argument("path", type=nonempty_path, nargs="?", default=Path("whisker.yaml"), metavar="PATH",
-                   help="run file to write (default: whisker.yaml)")
+    p.add_argument("path", type=nonempty_text, nargs="?", default="whisker.yaml", metavar="PATH",
+                   help="run file to write (default: whisker.yaml); a PATH ending in '/' is a folder, which gets "
+                        "PATH/whisker.yaml")
     p.add_argument("--case", choices=list(CASES), default="demo",
                    help="starting point: demo (a short GA on the coarse preset), case1 (reference case 1), "
                         "simulate (one intact/trimmed pair); default demo")
@@ -503,8 +515,10 @@ def _init_run(args: argparse.Namespace) -> int:
     from whisker_opt.output.storage import atomic_write_text
 
     path = Path(args.path)
+    if args.path.endswith(("/", os.sep)):  # a folder, as the '/' says (Path drops it)
+        path = path / INIT_NAME
     if path.is_dir():
-        raise OutputError(f"{path}: is a folder; give a file name such as {path / 'whisker.yaml'}")
+        raise OutputError(f"{path}: is a folder; give a file name such as {path / INIT_NAME}, or {path}/")
     if path.exists() and not path.is_file():  # a device node, FIFO or socket: never replaced, even with --force
         raise OutputError(f"{path}: not a regular file (a device, FIFO or socket); give the name of a run file "
                           "such as whisker.yaml")
