@@ -227,7 +227,7 @@ def test_the_command_refuses_bad_input_in_one_line_and_runs_on_a_calibrated_file
 def test_parameters_name_real_valued_keys_within_their_range(tmp_path):
     _write_data(tmp_path)
     for params, words in (([{"path": "fidelity.h_wall", "lower": 0.5, "upper": 2}], None),
-                          ([{"path": "design", "lower": 0, "upper": 1}], "pattern"),
+                          ([{"path": "design", "lower": 0, "upper": 1}], "'design' is not the dotted path of a key in a section"),
                           ([{"path": "design.fibre", "lower": 0, "upper": 1}], "is no key of a run file"),
                           ([{"path": "optimiser.ga", "lower": 0, "upper": 1}], "is a section, not a key"),
                           ([{"path": "design.t", "lower": 1, "upper": 12}],

@@ -149,7 +149,7 @@ def test_every_folder_records_the_resolved_config_it_ran(written, command):
     from whisker_opt.config.model import dump_config, load_config
 
     path = written.root / command / "config.yaml"
-    assert path.read_text() == dump_config(load_config(written.files[command]))
+    assert path.read_text() == dump_config(load_config(written.files[command]), command)
     cfg = load_config(path)
     law = ("embedded", 0.0) if command == "export" else ("calibrated", 0.5)
     assert (cfg.material.wall_law, cfg.material.wall_slope) == law

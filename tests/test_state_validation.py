@@ -162,3 +162,28 @@ def test_resume_refuses_a_genome_changed_by_an_allowed_config_change(run, tmp_pa
     for w in ("config.yaml", "optimiser.genes", "(alpha, l, t, Q_i, fibre_pitch)", "another genome"):
         assert w in err[0], (w, err[0])
     assert _digest(d) == before
+
+
+# ----------------------------------------------------------------------------- the checkpoint's config
+def test_report_refuses_the_checkpoint_of_another_config(run, tmp_path, capsys):
+    """A checkpoint copied in from a run of another seed, or a config.yaml edited since: one line, nothing written."""
+    other = tmp_path / "other"
+    other.mkdir()
+    cfg = load_config(run / "config.yaml", settings=("seed=6",))
+    run_optimisation(wiring.optimiser_of(cfg), other, AnalyticFitness(), seed=6, progress=False,
+                     run_config=cfg.model_dump(mode="json"))
+    d = _copy(run, tmp_path)
+    shutil.copy(other / CHECKPOINT_NAME, d / CHECKPOINT_NAME)
+    line = _refused(capsys, "report", d, "written under another config than", "seed: 6 -> 5", "another run's")
+    assert "config.yaml" in line
+    edited = _copy(run, tmp_path / "edited")
+    (edited / "config.yaml").write_text((edited / "config.yaml").read_text().replace("seed: 5", "seed: 7"))
+    _refused(capsys, "report", edited, "seed: 5 -> 7", "whisker-opt resume", "--allow-config-change")
+
+
+def test_report_reads_a_checkpoint_of_the_same_config_in_another_layout(run, tmp_path, capsys):
+    d = _copy(run, tmp_path)
+    doc = yaml.safe_load((d / "config.yaml").read_text())
+    (d / "config.yaml").write_text(yaml.safe_dump(dict(reversed(list(doc.items()))), sort_keys=False))
+    assert cli.main(["report", str(d)]) == 0
+    assert "best design" in capsys.readouterr().out

@@ -224,13 +224,25 @@ def evaluate(cfg: WhiskerConfig, genes: Mapping[str, float] | Sequence[float]) -
         values = list(genes)
         if len(values) != len(names):
             raise ValueError(f"evaluate: expected {len(names)} genes {names}, got {len(values)}")
+        _check_gene_values(dict(zip(names, values)))
         genes = genes_dict(values, names)
     missing = [g for g in names if g not in genes]
     unknown = [g for g in genes if g not in names]
     if missing or unknown:
         raise ValueError(f"evaluate: genes must be exactly {names}, the genome of optimiser.genes (missing {missing}, "
                          f"unknown {unknown})")
+    _check_gene_values(genes)
     return _evaluate(cfg, genes)
+
+
+def _check_gene_values(genes: Mapping[str, Any]) -> None:
+    """Refuse a gene that is not a real number: ``float('3')`` would take a string (or ``True``) silently."""
+    import numpy as np
+
+    for name, v in genes.items():
+        if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)):
+            raise ValueError(f"evaluate: genes[{name!r}] is {v!r} ({type(v).__name__}); a gene is a real number "
+                             f"within its bounds (optimiser.genes.{name})")
 
 
 def run(cfg: WhiskerConfig, out: str | Path | None = None, progress: bool = False) -> RunSummary:

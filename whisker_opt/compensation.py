@@ -202,7 +202,7 @@ def compensate(cfg: WhiskerConfig, out: Path, step: float = 1.0, delta_ref: floa
                     r.Q, f" (at its bound, {'0' if r.at_bound == 'lower' else 'Q_i'})" if r.at_bound and r.trim > 0
                     else "", r.recovery_rate, r.Q_analytic)
     forces = table_forces(cfg, runner, design, table)
-    record_config(out, cfg)  # only once the table is solved: a failed solve leaves no folder
+    record_config(out, cfg, "compensate")  # only once the table is solved: a failed solve leaves no folder
     paths = write_table(out, table, delta_ref=dref, fidelity=fidelity, forces=forces)
     result = Compensation(design, table, paths, time.perf_counter() - t0)
     if compare:
@@ -392,6 +392,23 @@ class _MapProgress:
 
 #: The finished cells of a stopped map, in its output folder (:class:`whisker_opt.output.journal.StudyJournal`).
 MAP_JOURNAL = "compensation_map.partial.json"
+#: The kind of study of :data:`MAP_JOURNAL`.
+MAP_STUDY = "compensation_map"
+
+
+def map_inputs(cfg: WhiskerConfig, step: float = 1.0, a_values=MAP_CONTACT_RATIOS, warm: bool = True) -> dict:
+    """Everything a map depends on, as its journal keeps it: the resolved config, the trims, the contact ratios,
+    the deflections and ``warm``. A ConfigError names ``--a`` when a contact ratio is out of (0, 1]."""
+    from whisker_opt.analysis.compensation_map import check_contact_ratios, map_trims
+
+    try:
+        a = check_contact_ratios(a_values)
+    except ValueError as exc:
+        raise ConfigError(f"--a: {exc}") from None
+    deltas = np.linspace(cfg.scene.deflection / 10, cfg.scene.deflection, 10)
+    return {"config": cfg.model_dump(mode="json"), "trims": map_trims(float(wiring.optimiser_of(cfg).trim),
+                                                                       float(step)),
+            "a": a.tolist(), "deltas": deltas.tolist(), "warm": bool(warm)}
 
 
 def compensate_map(cfg: WhiskerConfig, out: Path | None, step: float = 1.0, a_values=MAP_CONTACT_RATIOS,
@@ -413,22 +430,18 @@ def compensate_map(cfg: WhiskerConfig, out: Path | None, step: float = 1.0, a_va
     ConfigError
         ``scene.Q_i`` not positive, or a contact ratio out of (0, 1] (the message starts with ``source``).
     """
-    from whisker_opt.analysis.compensation_map import check_contact_ratios, map_trims, solve_map
+    from whisker_opt.analysis.compensation_map import solve_map
     from whisker_opt.experiment.scene import SceneRunner
     from whisker_opt.output.compensation import write_map
 
     if cfg.scene.Q_i <= 0:
         raise ConfigError(f"{source}: scene.Q_i: the intact pressure Q_i must be > 0 for compensation (got {cfg.scene.Q_i})")
-    try:
-        a = check_contact_ratios(a_values)
-    except ValueError as exc:
-        raise ConfigError(f"--a: {exc}") from None
+    inputs = map_inputs(cfg, step, a_values, warm)
     wiring.warn_unread_keys(cfg, "compensate")
-    trims = map_trims(float(wiring.optimiser_of(cfg).trim), float(step))
+    trims, a, deltas = inputs["trims"], np.asarray(inputs["a"], dtype=float), np.asarray(inputs["deltas"])
     hook = WarmPressurise() if warm else None
     runner = SceneRunner(memo_size=1024, pressurise_with=hook) if runner is None else runner
     design = wiring.design_from_config(cfg, 0.0)
-    deltas = np.linspace(cfg.scene.deflection / 10, cfg.scene.deflection, 10)
     fidelity = fidelity_of(cfg)
     cells = _MapProgress(len(trims) * a.size, progress)
     response = scene_map_response(cfg, runner)
@@ -437,10 +450,8 @@ def compensate_map(cfg: WhiskerConfig, out: Path | None, step: float = 1.0, a_va
     if out is not None:
         from whisker_opt.output.journal import StudyJournal
 
-        record_config(out, cfg)
-        journal = StudyJournal(Path(out), MAP_JOURNAL, "compensation_map", {
-            "config": cfg.model_dump(mode="json"), "trims": trims, "a": a.tolist(), "deltas": deltas.tolist(),
-            "warm": bool(warm)})
+        record_config(out, cfg, "compensate")
+        journal = StudyJournal(Path(out), MAP_JOURNAL, MAP_STUDY, inputs)
     t0 = time.perf_counter()
     try:
         cmap = solve_map(design, cfg.scene.Q_i, trims, a, response, deltas=deltas,

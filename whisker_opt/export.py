@@ -139,7 +139,7 @@ def export(cfg: WhiskerConfig, out: Path, source: str = "config", n_increments: 
 
     warn_unread_keys(cfg, "export")
     out = Path(out)
-    record_config(out, cfg)
+    record_config(out, cfg, "export")
     decks, solids, entries = {}, {}, {}
     for name, spec in specs.items():
         wm = build_mesh(spec.design, spec.sizing, method=spec.mesh_method)

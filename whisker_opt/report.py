@@ -19,7 +19,7 @@ from whisker_opt.optimise.ga import best_design
 from whisker_opt.optimise.nsga2 import make_algorithm
 from whisker_opt.optimise.recorder import outputs_of, write_plots
 from whisker_opt.optimise.resolution import resolution_warning, run_fidelity, target_warning
-from whisker_opt.optimise.rundir import change_lines
+from whisker_opt.optimise.rundir import change_lines, check_state_config
 from whisker_opt.optimise.runner import load_run
 
 
@@ -83,11 +83,18 @@ def report(run_dir: Path, max_rows: int = 60) -> str:
         D to the nearest better one in column ``apart``) and the per-generation table; ``WARNING``
         lines when the best f1 or ``stopping.target_fp`` lies below the f1 resolution
         (:mod:`whisker_opt.optimise.resolution`).
+
+    Raises
+    ------
+    whisker_opt.optimise.rundir.ConfigChanged
+        The checkpoint was written under another config than the run's ``config.yaml``
+        (:func:`whisker_opt.optimise.rundir.check_state_config`): nothing is shown or written.
     """
     run_dir = Path(run_dir)
     state, cfg, _, seed = load_run(run_dir)
     if state is None or state.generation < 0:
         return f"{run_dir}: no generation completed yet"
+    check_state_config(run_dir, state.extra)  # not another run's checkpoint
     write_plots(run_dir, state, cfg)
     ga = make_algorithm(cfg, seed)
     outputs = outputs_of(cfg)

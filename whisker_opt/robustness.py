@@ -41,6 +41,8 @@ WORSE: tuple[float, ...] = (1.0, -1.0)
 METHODS: tuple[str, ...] = ("expansion", "sample")
 #: The deviated designs solved by a stopped study, in its output folder.
 JOURNAL = "robustness.partial.json"
+#: The kind of study of :data:`JOURNAL`.
+STUDY = "robustness"
 
 
 class RobustnessError(ValueError):
@@ -419,6 +421,14 @@ def format_table(results: Sequence[DesignRobustness]) -> str:
     return "\n".join(lines)
 
 
+def journal_inputs(cfg: WhiskerConfig, designs: Sequence[StudyDesign], methods: Sequence[str] | None = None) -> dict:
+    """Everything a study depends on, as its journal (:data:`JOURNAL`) keeps it: the resolved config, the
+    methods (default ``robustness.method``) and the designs."""
+    methods = check_methods([cfg.robustness.method] if methods is None else methods)
+    return {"config": cfg.model_dump(mode="json"), "methods": list(methods),
+            "designs": [[d.label, sorted(d.genes.items())] for d in designs]}
+
+
 def robustness(cfg: WhiskerConfig, designs: Sequence[StudyDesign], out: Path, methods: Sequence[str] | None = None,
                progress: bool = True) -> tuple[list[DesignRobustness], dict]:
     """Study ``designs`` and write ``robustness.csv``, ``robustness_sensitivities.csv``,
@@ -454,9 +464,7 @@ def robustness(cfg: WhiskerConfig, designs: Sequence[StudyDesign], out: Path, me
     wiring.warn_unread_keys(cfg, "robustness", ("optimiser.trim", "scene.Q_i") if own else None)
     from whisker_opt.output.journal import StudyJournal
 
-    journal = StudyJournal(Path(out), JOURNAL, "robustness", {
-        "config": cfg.model_dump(mode="json"), "methods": list(methods),
-        "designs": [[d.label, sorted(d.genes.items())] for d in designs]}, min_interval=1.0)
+    journal = StudyJournal(Path(out), JOURNAL, STUDY, journal_inputs(cfg, designs, methods), min_interval=1.0)
     try:
         results = study(cfg, designs, methods, progress, journal)
     finally:

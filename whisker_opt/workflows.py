@@ -49,25 +49,24 @@ def new_run_dir(cfg: WhiskerConfig, config_path: Path | str, kind: str) -> Path:
         k += 1
         run_dir = Path(cfg.output.results_dir) / f"{name}-{kind}-{stamp}-{k}"
     run_dir.mkdir(parents=True)
-    record_config(run_dir, cfg)
+    record_config(run_dir, cfg, kind)
     return run_dir
 
 
-def record_config(folder: Path | str, cfg: WhiskerConfig) -> Path:
-    """Write ``folder/config.yaml``: the resolved config a command ran (defaults filled in, so the wall law
-    and the fidelity preset too), the one record of the model that made the folder's files.
+def record_config(folder: Path | str, cfg: WhiskerConfig, command: str | None = None) -> Path:
+    """Write ``folder/config.yaml``: the resolved config a command ran (defaults filled in), the one record of
+    the model that made the folder's files, headed by the ``command`` that wrote them (``dump_config``); a
+    FileExistsError when ``folder`` holds a GA run of another config, or, with ``command``, a GA run or another
+    command's results (:func:`whisker_opt.optimise.rundir.check_output_folder`)."""
+    from whisker_opt.optimise.rundir import check_output_folder
 
-    Raises
-    ------
-    FileExistsError
-        ``folder`` holds a GA run (``optimiser.json``) of another config, whose ``config.yaml`` resume reads.
-    """
-    folder = Path(folder)
-    path = folder / CONFIG_YAML
+    folder, path = Path(folder), Path(folder) / CONFIG_YAML
+    if command is not None:
+        check_output_folder(folder, command)
     if (folder / storage.OPTIMISER_JSON).exists() and path.exists() and not _same_config(path, cfg):
         raise FileExistsError(f"{folder} holds a GA run of another config ({path}): choose another --out")
     folder.mkdir(parents=True, exist_ok=True)
-    storage.atomic_write_text(path, dump_config(cfg))
+    storage.atomic_write_text(path, dump_config(cfg, command))
     return path
 
 
@@ -112,7 +111,7 @@ def mesh(cfg: WhiskerConfig, out: Path, trim: float | None = None, method: str |
     design = wiring.design_from_config(cfg, trim=trim)
     method = method or cfg.fidelity.mesh_method
     out = Path(out)
-    record_config(out, cfg)
+    record_config(out, cfg, "mesh")
     steps = Progress(2 if step else 1, "mesh", "step", progress)
     with steps:
         t0 = time.perf_counter()
@@ -200,7 +199,7 @@ def simulate(cfg: WhiskerConfig, out: Path, source: str = "config") -> Simulatio
     wiring.warn_unread_keys(cfg, "simulate")
     wiring.warn_smeared_on_one_layer(cfg)
     out = Path(out)
-    record_config(out, cfg)
+    record_config(out, cfg, "simulate")
     delta = np.round(np.arange(0.0, sc.deflection + 0.5 * sc.delta_step, sc.delta_step), 10)
     results, summary = solve_scenes(out, specs, sc.gauge_variant)
     cols: dict[str, np.ndarray] = {"delta_mm": delta}
@@ -584,7 +583,7 @@ def run(cfg: WhiskerConfig, run_dir: Path, progress: bool = True, overwrite: boo
         if (run_dir / CONFIG_YAML).exists():  # a run of this config killed before its first checkpoint
             remove_run_temporaries(run_dir)
         else:
-            record_config(run_dir, cfg)
+            record_config(run_dir, cfg, "run")
         fidelity = fidelity_of(cfg)
         with run_log(run_dir):
             logger.info("run of %s at preset %s (f1 resolution %.3g)", run_dir, fidelity["preset"],

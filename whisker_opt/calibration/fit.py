@@ -59,7 +59,8 @@ import logging
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Sequence
+from pathlib import Path
+from typing import Any, Sequence
 
 import numpy as np
 from scipy import optimize
@@ -366,6 +367,23 @@ class FitOutcome:
         return tuple(o for o in self.observations if o.held_out)
 
 
+def _check_stored(stored: Any, n: int, path: Path, key: str) -> None:
+    """Refuse the stored predictions of one parameter set that are not ``n`` predictions (a value, whether it
+    matched, a note) and a count of scenes (:class:`whisker_opt.output.journal.JournalError`, one line)."""
+    from whisker_opt.output.journal import JournalError
+
+    preds = stored.get("predictions") if isinstance(stored, dict) else None
+    scenes = stored.get("scenes") if isinstance(stored, dict) else None
+    ok = (isinstance(preds, list) and len(preds) == n and isinstance(scenes, int) and not isinstance(scenes, bool)
+          and scenes >= 0 and all(isinstance(p, dict) and set(p) == {"value", "matched", "note"}
+                                  and isinstance(p["value"], (int, float)) and not isinstance(p["value"], bool)
+                                  and isinstance(p["matched"], bool) and isinstance(p["note"], str) for p in preds))
+    if not ok:
+        raise JournalError(f"{path}: the predictions stored for {key[:80]!r} are not {n} predictions of the "
+                           f"observations asked for, so they are not believed: delete {path} to start the calibration "
+                           "from the beginning")
+
+
 class Problem:
     """The residual function of a calibration: run file + parameters + observations + a simulator.
 
@@ -425,6 +443,7 @@ class Problem:
             key = f"{np.asarray(theta, dtype=float).tolist()!r} {which}"
             stored = self.journal.get(key)
             if stored is not None:
+                _check_stored(stored, len(obs), self.journal.path, key)
                 if key not in self._replayed:
                     self._replayed.add(key)
                     self.replayed_scenes += int(stored["scenes"])

@@ -26,6 +26,8 @@ from whisker_opt.config.model import ConfigError, WhiskerConfig
 
 #: The model evaluations of a stopped calibration, in its output folder.
 JOURNAL = "calibration.partial.json"
+#: The kind of study of :data:`JOURNAL`.
+STUDY = "calibration"
 #: Largest deflection a measurement may ask for [mm] (the range of ``scene.deflection``).
 MAX_DELTA = 30.0
 
@@ -138,6 +140,14 @@ def simulator(prepared: Prepared):
     return SceneSimulator(deflection=max(deltas) if deltas else 1.0)
 
 
+def journal_inputs(prepared: Prepared, sim=None) -> dict:
+    """Everything a calibration's model evaluations depend on, as its journal (:data:`JOURNAL`) keeps it: the
+    resolved config, the model (``sim``, default :func:`simulator`) and the observations."""
+    sim = simulator(prepared) if sim is None else sim
+    return {"config": prepared.cfg.model_dump(mode="json"), "model": type(sim).__name__,
+            "observations": [repr(w) for w in prepared.fitted + prepared.held_out]}
+
+
 def calibrate(prepared: Prepared, out: str | Path, sim=None, progress: bool = False) -> CalibrationRun:
     """Fit the prepared calibration and write ``calibration.json``, ``calibrated.yaml``, ``calibration.png``.
 
@@ -169,9 +179,7 @@ def calibrate(prepared: Prepared, out: str | Path, sim=None, progress: bool = Fa
     sim = simulator(prepared) if sim is None else sim
     search = RestoreSearch(Q_max=sec.restore_Q_max, scan=sec.restore_scan, xtol=sec.restore_xtol)
     problem = Problem(prepared.data, prepared.parameters, prepared.fitted, sim, search, prepared.source_file)
-    problem.journal = StudyJournal(Path(out), JOURNAL, "calibration", {
-        "config": prepared.cfg.model_dump(mode="json"), "model": type(sim).__name__,
-        "observations": [repr(w) for w in prepared.fitted + prepared.held_out]})
+    problem.journal = StudyJournal(Path(out), JOURNAL, STUDY, journal_inputs(prepared, sim))
     try:
         outcome = fit(problem, prepared.held_out, max_evaluations=sec.max_evaluations, diff_step=sec.diff_step,
                       tolerance=sec.tolerance, progress=progress)

@@ -133,7 +133,7 @@ _RANGES: dict[str, tuple] = {
     "Q": (0.0, 1.0, False, False, "MPa"), "Q_ref": (0.0, 1.0, False, False, "MPa"),
     "ref_Q": (0.0, 1.0, False, False, "MPa"),
     "dl": (-100.0, 100.0, False, False, "mm"), "a": (0.0, 1.0, True, False, "-"),
-    "delta": (0.0, None, True, False, "mm"), "eps": (None, None, False, False, ""),
+    "delta": (0.0, None, True, False, "mm"), "eps": (-1.0, 1.0, False, False, ""),
     "sigma": (SIGMA_MIN, SIGMA_MAX, False, False, "in the unit of the measured value"),
     "trim": (0.0, None, False, True, "mm"), "trim_ref": (0.0, None, False, True, "mm"),
     "length": (0.0, None, True, False, "mm"), "length_ref": (0.0, None, True, False, "mm"),
@@ -223,9 +223,12 @@ class _Rows:
                 raise self.error(f"row {n} (line {line}), column {col}: empty; a number is required")
             return default
         try:
+            if "_" in text:  # float() reads 1_155 as 1155
+                raise ValueError(text)
             x = float(text)
         except ValueError:
-            raise self.error(f"row {n} (line {line}), column {col}: {text!r} is not a number") from None
+            raise self.error(f"row {n} (line {line}), column {col}: {text!r} is not a number"
+                             + (" (no '_' between digits)" if "_" in text else "")) from None
         if not math.isfinite(x):
             raise self.error(f"row {n} (line {line}), column {col}: not a finite number (got {text})")
         r_lo, r_hi, r_lo_open, r_hi_open, r_unit = _RANGES[col]

@@ -20,8 +20,8 @@ from pathlib import Path
 
 from whisker_opt.cli.arguments import ensure_writable_dir, nonempty_path, settings_arguments
 from whisker_opt.cli.failures import ComputationFailed, computation_errors, describe_failure
+from whisker_opt.cli.outfolder import study_folder, writing
 from whisker_opt.config.model import load_config
-from whisker_opt.output.lock import RunDirLock
 
 #: Exit status of a fit that wrote its outputs but did not converge (budget exhausted, nothing moved).
 NOT_CALIBRATED = 4
@@ -44,19 +44,21 @@ def run(args: argparse.Namespace) -> int:
 
     Returns 0, or :data:`NOT_CALIBRATED` when the fit did not converge (its outputs say so).
     """
-    from whisker_opt.calibration.job import calibrate, prepare
-    from whisker_opt.workflows import new_run_dir, record_config
+    from whisker_opt.calibration.job import JOURNAL, STUDY, calibrate, journal_inputs, prepare
+    from whisker_opt.optimise.rundir import check_output_folder
+    from whisker_opt.workflows import record_config
 
     cfg = load_config(args.config, allow_empty=args.defaults, settings=tuple(args.settings))
     prepared = prepare(cfg, args.config)  # every input checked before a folder is made
     if args.out is not None:
         ensure_writable_dir(args.out, "--out")
+        check_output_folder(args.out, "calibrate")
     else:
         ensure_writable_dir(cfg.output.results_dir, f"{args.config}: output.results_dir")
-    out = args.out or new_run_dir(cfg, args.config, "calibrate")
-    record_config(out, cfg)
+    out = study_folder(args, cfg, args.config, "calibrate", JOURNAL, STUDY, journal_inputs(prepared))
     try:
-        with RunDirLock(out, "calibrate"):
+        with writing(out, "calibrate"):
+            record_config(out, cfg, "calibrate")
             result = calibrate(prepared, out, progress=not getattr(args, "no_progress", False))
     except computation_errors() as exc:
         raise ComputationFailed(describe_failure(exc, "calibrate", Path(out))) from exc

@@ -14,6 +14,7 @@ scene that does not converge, a mesh that cannot be made) becomes a
 from __future__ import annotations
 
 import argparse
+import os
 from pathlib import Path
 from typing import Callable
 
@@ -29,12 +30,12 @@ from whisker_opt.cli.arguments import (
     settings_arguments,
 )
 from whisker_opt.cli.failures import ComputationFailed, computation_errors, describe_failure
+from whisker_opt.cli.outfolder import study_folder, writing
 from whisker_opt.cli import robustness as _robustness
 from whisker_opt.cli.rundir import check_run_dir
 from whisker_opt.config.model import ConfigError, load_config
 from whisker_opt.experiment.fidelity import PRESET_NAMES
 from whisker_opt.optimise.checkpoint import RunDirectoryError
-from whisker_opt.output.lock import RunDirLock
 
 
 def _user_errors() -> tuple[type[BaseException], ...]:
@@ -43,11 +44,12 @@ def _user_errors() -> tuple[type[BaseException], ...]:
     from geometry.design import InvalidDesignError
     from whisker_opt.analysis.verify import VerifyError
     from whisker_opt.optimise.dask_executor import SchedulerUnreachable
+    from whisker_opt.output.journal import JournalError
     from whisker_opt.output.lock import RunDirectoryBusy
     from whisker_opt.output.storage import UnsafeLink
 
     return (ConfigError, FileNotFoundError, FileExistsError, InvalidDesignError, VerifyError, SchedulerUnreachable,
-            RunDirectoryError, OutputError, ArgumentError, RunDirectoryBusy, UnsafeLink)
+            RunDirectoryError, OutputError, ArgumentError, RunDirectoryBusy, UnsafeLink, JournalError)
 
 
 USER_ERRORS = _user_errors()
@@ -98,10 +100,15 @@ def _read(args: argparse.Namespace):
     return load_config(args.config, allow_empty=args.defaults, settings=tuple(args.settings))
 
 
-def _check_output(args: argparse.Namespace, cfg) -> None:
-    """Refuse an output folder that cannot be created or written, before anything is computed."""
+def _check_output(args: argparse.Namespace, cfg, command: str | None = None) -> None:
+    """Refuse an output folder that cannot be created or written, or (``command``) that holds a GA run or another
+    command's results (:func:`~whisker_opt.optimise.rundir.check_output_folder`), before anything is computed."""
     if args.out is not None:
         ensure_writable_dir(args.out, "--out")
+        if command is not None:
+            from whisker_opt.optimise.rundir import check_output_folder
+
+            check_output_folder(args.out, command)
     else:
         ensure_writable_dir(cfg.output.results_dir, f"{args.config}: output.results_dir")
 
@@ -131,11 +138,12 @@ def _mesh_run(args: argparse.Namespace) -> int:
 
     cfg = _read(args)
     wiring.design_from_config(cfg, trim=cfg.scene.trim if args.trim is None else args.trim)  # refuse before mkdir
-    _check_output(args, cfg)
+    _check_output(args, cfg, "mesh")
     out = _out_dir(args, cfg, "mesh")
     try:
-        design, report = workflows.mesh(cfg, out, trim=args.trim, method=args.method, step=args.step,
-                                        progress=not args.no_progress)
+        with writing(out, "mesh"):
+            design, report = workflows.mesh(cfg, out, trim=args.trim, method=args.method, step=args.step,
+                                            progress=not args.no_progress)
     except computation_errors() as exc:
         raise _failed(exc, "mesh") from exc
     width = max(len(k) for k in report)
@@ -158,10 +166,11 @@ def _simulate_run(args: argparse.Namespace) -> int:
 
     cfg = _read(args)
     specs = workflows.simulation_specs(cfg, str(args.config))  # refuse a bad pair before creating the directory
-    _check_output(args, cfg)
+    _check_output(args, cfg, "simulate")
     out = _out_dir(args, cfg, "simulate")
     try:
-        sim = workflows.simulate(cfg, out, str(args.config))
+        with writing(out, "simulate"):
+            sim = workflows.simulate(cfg, out, str(args.config))
     except computation_errors() as exc:
         raise _failed(exc, "simulate", out, list(specs)) from exc
     for name, res in sim.results.items():
@@ -201,11 +210,12 @@ def _export_run(args: argparse.Namespace) -> int:
 
     cfg = _read(args)
     specs = export.check_deckable(cfg, str(args.config))  # refuse before creating the directory
-    _check_output(args, cfg)
+    _check_output(args, cfg, "export")
     out = _out_dir(args, cfg, "export")
     try:
-        res = export.export(cfg, out, str(args.config), n_increments=args.increments, flavour=args.flavour,
-                            bulk_ratio=args.bulk_ratio)
+        with writing(out, "export"):
+            res = export.export(cfg, out, str(args.config), n_increments=args.increments, flavour=args.flavour,
+                                bulk_ratio=args.bulk_ratio)
     except computation_errors() as exc:
         raise _failed(exc, "export", out, list(specs)) from exc
     for name, path in res.decks.items():
@@ -245,7 +255,7 @@ def _run_run(args: argparse.Namespace) -> int:
     if args.out is not None and not args.overwrite:
         check_new_run_dir(args.out)  # a run already there: resume it instead
     _check_output(args, cfg)
-    run_dir = _out_dir(args, cfg, "run")
+    run_dir = args.study_out = _out_dir(args, cfg, "run")
     run_dir.mkdir(parents=True, exist_ok=True)
     with RunDirLock(run_dir, "run"):  # the run and its verification: one writer
         try:
@@ -300,6 +310,7 @@ def _resume_run(args: argparse.Namespace) -> int:
         raise ArgumentError(f"--trust-pickle: {args.run_dir} holds no {OLDER_NAME} of an earlier version to convert")
     run_dir = check_run_dir(args.run_dir, need_config=True, load_state=not (args.from_previous or args.trust_pickle),
                             allow_unstarted=True, allow_older=args.trust_pickle)
+    args.study_out = run_dir
     ensure_writable_dir(run_dir, "run_dir")
     with RunDirLock(run_dir, "resume"):
         if args.trust_pickle:
@@ -408,11 +419,11 @@ def _compensate_map_run(args: argparse.Namespace, cfg) -> int:
     if len(set(a_values)) < 2:
         raise ArgumentError(f"--a: {' '.join(f'{x:g}' for x in a_values)}: give at least two distinct contact "
                             f"ratios in (0, 1]")
-    _check_output(args, cfg)
-    out = _out_dir(args, cfg, "compensate")
-    Path(out).mkdir(parents=True, exist_ok=True)
+    _check_output(args, cfg, "compensate")
+    out = study_folder(args, cfg, args.config, "compensate", compensation.MAP_JOURNAL, compensation.MAP_STUDY,
+                       compensation.map_inputs(cfg, args.step, a_values))
     try:
-        with RunDirLock(out, "compensate --map"):
+        with writing(out, "compensate", "compensate --map"):
             res = compensation.compensate_map(cfg, out, step=args.step, a_values=a_values, source=str(args.config),
                                               progress=not args.no_progress)
     except computation_errors() as exc:
@@ -449,12 +460,14 @@ def _compensate_run(args: argparse.Namespace) -> int:
     _check_step(args.step, float(wiring.optimiser_of(cfg).trim), str(args.config))
     if args.map or args.a is not None:
         return _compensate_map_run(args, cfg)
-    _check_output(args, cfg)
+    _check_output(args, cfg, "compensate")
     out = _out_dir(args, cfg, "compensate")
     try:
-        res = compensation.compensate(cfg, out, step=args.step, delta_ref=args.delta_ref, compare_a=args.compare_a,
-                                      compare_Q=args.compare_Q, compare=not args.no_compare, source=str(args.config),
-                                      progress=not args.no_progress)
+        with writing(out, "compensate"):
+            res = compensation.compensate(cfg, out, step=args.step, delta_ref=args.delta_ref,
+                                          compare_a=args.compare_a, compare_Q=args.compare_Q,
+                                          compare=not args.no_compare, source=str(args.config),
+                                          progress=not args.no_progress)
     except computation_errors() as exc:
         raise _failed(exc, "compensate", out) from exc
     print(f"compensation table of {res.design.describe()}, Q_i = {cfg.scene.Q_i:g} MPa ({res.table_seconds:.0f} s; "
@@ -475,11 +488,22 @@ def _compensate_run(args: argparse.Namespace) -> int:
 
 
 # ----------------------------------------------------------------------------- init
+#: The run file ``init`` writes by default, and into a folder given as ``PATH/``.
+INIT_NAME = "whisker.yaml"
+
+
+def nonempty_text(text: str) -> str:
+    """An argparse type: a non-empty path kept as written (``init PATH``, whose trailing '/' means a folder)."""
+    nonempty_path(text)
+    return text
+
+
 def _init_args(p: argparse.ArgumentParser) -> None:
     from whisker_opt.config.template import CASES
 
-    p.add_argument("path", type=nonempty_path, nargs="?", default=Path("whisker.yaml"), metavar="PATH",
-                   help="run file to write (default: whisker.yaml)")
+    p.add_argument("path", type=nonempty_text, nargs="?", default="whisker.yaml", metavar="PATH",
+                   help="run file to write (default: whisker.yaml); a PATH ending in '/' is a folder, which gets "
+                        "PATH/whisker.yaml")
     p.add_argument("--case", choices=list(CASES), default="demo",
                    help="starting point: demo (a short GA on the coarse preset), case1 (reference case 1), "
                         "simulate (one intact/trimmed pair); default demo")
@@ -491,8 +515,10 @@ def _init_run(args: argparse.Namespace) -> int:
     from whisker_opt.output.storage import atomic_write_text
 
     path = Path(args.path)
+    if args.path.endswith(("/", os.sep)):  # a folder, as the '/' says (Path drops it)
+        path = path / INIT_NAME
     if path.is_dir():
-        raise OutputError(f"{path}: is a folder; give a file name such as {path / 'whisker.yaml'}")
+        raise OutputError(f"{path}: is a folder; give a file name such as {path / INIT_NAME}, or {path}/")
     if path.exists() and not path.is_file():  # a device node, FIFO or socket: never replaced, even with --force
         raise OutputError(f"{path}: not a regular file (a device, FIFO or socket); give the name of a run file "
                           "such as whisker.yaml")

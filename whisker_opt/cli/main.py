@@ -28,9 +28,11 @@ import argparse
 import contextlib
 import errno
 import logging
+import shlex
 import signal
 import sys
 import threading
+from pathlib import Path
 
 from whisker_opt.cli import commands
 from whisker_opt.output.progress import show_progress_lines
@@ -213,10 +215,27 @@ def main(argv: list[str] | None = None) -> int:
         return 3 if exc.errno in _NO_SPACE_ERRNOS else 2
     except KeyboardInterrupt as exc:
         signum = getattr(exc, "signum", signal.SIGINT)
-        hint = ("; continue from its last checkpoint with `whisker-opt resume RUN_DIR` (or run it again if no "
-                "generation had finished)") if args.command in ("run", "resume") else ""
-        print(f"whisker-opt {args.command}: interrupted by {signal.Signals(signum).name}{hint}", file=sys.stderr)
+        print(f"whisker-opt {args.command}: interrupted by {signal.Signals(signum).name}{_continue_hint(args, argv)}",
+              file=sys.stderr)
         return 128 + int(signum)
+
+
+def _continue_hint(args: argparse.Namespace, argv: list[str] | None) -> str:
+    """What the interrupt line adds: how to continue. A run or resume continues from its last checkpoint; a study
+    with a journal (``compensate --map``, ``calibrate``, ``robustness``), whose command stored its folder in
+    ``args.study_out``, continues there when the same command runs again (given that folder as ``--out``)."""
+    out = getattr(args, "study_out", None)
+    if args.command in ("run", "resume"):
+        where = shlex.quote(str(out)) if out is not None else "RUN_DIR"
+        return (f"; continue from its last checkpoint with `whisker-opt resume {where}` (or run it again if no "
+                "generation had finished)")
+    if out is None or not Path(out).is_dir():
+        return ""
+    words = list(sys.argv[1:] if argv is None else argv)
+    source = getattr(args, "source", None)  # robustness RUN_DIR writes into RUN_DIR
+    if getattr(args, "out", None) is None and not (source is not None and Path(source).resolve() == Path(out).resolve()):
+        words += ["--out", str(out)]
+    return f"; its finished work is kept in {out}: continue with `whisker-opt {shlex.join(words)}`"
 
 
 if __name__ == "__main__":  # pragma: no cover

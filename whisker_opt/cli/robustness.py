@@ -15,6 +15,7 @@ continues where it stopped when started again into the same folder
 from __future__ import annotations
 
 import argparse
+import contextlib
 from pathlib import Path
 
 from whisker_opt.cli.arguments import (
@@ -26,6 +27,7 @@ from whisker_opt.cli.arguments import (
     settings_arguments,
 )
 from whisker_opt.cli.failures import ComputationFailed, computation_errors, describe_failure
+from whisker_opt.cli.outfolder import study_folder, writing
 from whisker_opt.output.lock import RunDirLock
 
 HELP = "propagate fabrication tolerances to f1 and the recovery rate of a run's best designs or a config's design"
@@ -83,7 +85,8 @@ def run(args: argparse.Namespace) -> int:
     import whisker_opt.wiring as wiring
     from whisker_opt.cli.rundir import check_run_dir
     from whisker_opt.config.model import load_config
-    from whisker_opt.workflows import CONFIG_YAML, new_run_dir, record_config
+    from whisker_opt.optimise.rundir import check_output_folder
+    from whisker_opt.workflows import CONFIG_YAML, record_config
 
     source = Path(args.source)
     settings = _settings(args)
@@ -104,18 +107,23 @@ def run(args: argparse.Namespace) -> int:
     wiring.tolerance_half_widths(cfg)
     for d in designs:  # an impossible genome is refused before anything is solved
         wiring.design_scene_specs(cfg, d.genes)
-    if args.out is not None:
-        out = ensure_writable_dir(args.out, "--out")
-        if not (source.is_dir() and Path(out).resolve() == source.resolve()):  # RUN_DIR keeps its own config.yaml
-            record_config(out, cfg)
-    elif source.is_dir():
-        out = ensure_writable_dir(source, "RUN_DIR (robustness.* are written there)")
+    # own_run: the study of a run written into its run directory, which keeps its own config.yaml
+    own_run = source.is_dir() and (args.out is None or Path(args.out).resolve() == source.resolve())
+    if own_run:
+        out = args.study_out = ensure_writable_dir(source, "RUN_DIR (robustness.* are written there)")
     else:
-        ensure_writable_dir(cfg.output.results_dir, f"{source}: output.results_dir")
-        out = new_run_dir(cfg, source, "robustness")
-    Path(out).mkdir(parents=True, exist_ok=True)
+        if args.out is not None:
+            ensure_writable_dir(args.out, "--out")
+            check_output_folder(args.out, "robustness")
+        else:
+            ensure_writable_dir(cfg.output.results_dir, f"{source}: output.results_dir")
+        out = study_folder(args, cfg, source, "robustness", rb.JOURNAL, rb.STUDY, rb.journal_inputs(cfg, designs))
+    # one writer: a run or resume of a run directory, another study
+    folder = contextlib.nullcontext(out) if own_run else writing(out, "robustness")
     try:
-        with RunDirLock(out, "robustness"):  # one writer: a run or resume of a run directory, another study
+        with folder, RunDirLock(out, "robustness"):
+            if not own_run:
+                record_config(out, cfg, "robustness")
             results, paths = rb.robustness(cfg, designs, out, progress=not getattr(args, "no_progress", False))
     except computation_errors() as exc:
         raise ComputationFailed(f"the nominal design failed: {describe_failure(exc, 'robustness')}") from exc

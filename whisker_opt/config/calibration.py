@@ -23,6 +23,7 @@ model. Measurement files are read relative to the run file (:mod:`whisker_opt.ca
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Literal
 
@@ -48,6 +49,14 @@ class CalibrationParameter(StrictModel):
                          json_schema_extra=KEY_UNIT)
     start: float | None = Field(None, ge=-1e12, le=1e12, description="start value of the fit; null = the value "
                                 "the run file gives the key", json_schema_extra=KEY_UNIT)
+
+    @field_validator("path", mode="before")
+    @classmethod
+    def _dotted(cls, v):
+        if isinstance(v, str) and not re.fullmatch(PATH_PATTERN, v):
+            raise ValueError(f"{v!r} is not the dotted path of a key in a section (section.key, e.g. material.C10 or "
+                             "scene.calibration); a top-level key such as seed is not a model parameter")
+        return v
 
     @model_validator(mode="after")
     def _ordered(self) -> "CalibrationParameter":

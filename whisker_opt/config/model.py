@@ -22,6 +22,8 @@ A YAML file has these top-level sections, each optional (an empty file is refuse
 
 from __future__ import annotations
 
+import os
+import re
 from pathlib import Path
 from typing import Any, Literal, Sequence
 
@@ -172,7 +174,22 @@ class OutputConfig(StrictModel):
         if v is not None and (v.strip() in ("", ".", "..") or any(c in v for c in "/\\\0")):
             raise ValueError(f"{v!r} is not a plain name: the run directories are made in output.results_dir, so a "
                              "name holds no '/', '\\' or NUL and is not '.' or '..'")
+        if v is not None and any(ord(c) < 32 or ord(c) == 127 for c in v):
+            raise ValueError(f"{v!r} holds a line break or another control character; a run name is one line of "
+                             "printable characters")
         return v
+
+    @field_validator("results_dir")
+    @classmethod
+    def _home(cls, v: Path) -> Path:
+        """``~`` and ``~user`` at the start are the home folder, as a shell reads them."""
+        if not str(v).startswith("~"):
+            return v
+        expanded = Path(os.path.expanduser(v))  # Path.expanduser raises on an unknown ~user
+        if str(expanded).startswith("~"):
+            raise ValueError(f"{str(v)!r}: {str(v).split('/')[0]!r} names no home folder here; give the folder "
+                             "without '~'")
+        return expanded
 
 
 class WhiskerConfig(StrictModel):
@@ -311,6 +328,17 @@ def _parse(path: Path, text: str) -> Any:
         raise ConfigError(f"{path}: a YAML value cannot be read: {what}".replace("\n", " ")) from None
 
 
+def _refuse_binary(path: Path, data: Any, where: str = "") -> None:
+    """Refuse a YAML ``!!binary`` value anywhere in a run file: no key takes binary data, and a text key
+    would otherwise take its decoded bytes silently."""
+    if isinstance(data, (bytes, bytearray)):
+        raise ConfigError(f"{path}: {where or 'the top level'}: a YAML !!binary value ({len(data)} bytes); no key of a "
+                          "run file takes binary data: write the value as text or a number")
+    items = data.items() if isinstance(data, dict) else enumerate(data) if isinstance(data, list) else ()
+    for k, v in items:
+        _refuse_binary(path, v, f"{where}.{k}" if where else str(k))
+
+
 def apply_settings(data: dict, settings: Sequence[str]) -> dict:
     """``data`` (a run file's content) with ``KEY=VALUE`` settings applied, as ``--set`` does.
 
@@ -391,6 +419,8 @@ def load_config(path: str | Path, allow_empty: bool = False, settings: Sequence[
         YAML syntax error, a top level or section that is not a mapping, or a validation
         problem. The message names the file and, one line per problem, the key.
     """
+    if not str(path).strip():
+        raise ConfigError(f"config path: {str(path)!r} is empty; give the path of a YAML run file")
     path = Path(path)
     data = _parse(path, _read_text(path))
     if data is None or data == {}:
@@ -403,13 +433,35 @@ def load_config(path: str | Path, allow_empty: bool = False, settings: Sequence[
     if settings:
         data = apply_settings(data, settings)
     try:
-        return WhiskerConfig.model_validate(data)
+        cfg = WhiskerConfig.model_validate(data)
     except ValidationError as exc:
         raise ConfigError(format_validation_error(exc, str(path), data)) from None
     except RecursionError:
         raise ConfigError(f"{path}: nested too deeply to read") from None
+    _refuse_binary(path, data)  # a text key takes !!binary bytes as their text: refused, not decoded
+    return cfg
 
 
-def dump_config(cfg: WhiskerConfig) -> str:
-    """The fully resolved config as YAML (defaults filled in), for storing beside results."""
-    return yaml.safe_dump(cfg.model_dump(mode="json"), sort_keys=False)
+#: First line of the ``config.yaml`` a command writes into its output folder: the folder's command
+#: (:func:`dump_config`, :func:`recorded_command`).
+RECORD_HEADER = "# written by `whisker-opt {command}`: the resolved run file of the results in this folder\n"
+_RECORD = re.compile(r"# written by `whisker-opt ([a-z][a-z-]*)`")
+
+
+def dump_config(cfg: WhiskerConfig, command: str | None = None) -> str:
+    """The fully resolved config as YAML (defaults filled in), for storing beside results; headed by
+    :data:`RECORD_HEADER` (a YAML comment) naming ``command`` when given."""
+    text = yaml.safe_dump(cfg.model_dump(mode="json"), sort_keys=False)
+    return RECORD_HEADER.format(command=command) + text if command else text
+
+
+def recorded_command(path: Path | str) -> str | None:
+    """The command named by the first line of a ``config.yaml`` (:data:`RECORD_HEADER`); None when the file
+    is missing or unreadable or names none (written by hand, or by an earlier version)."""
+    try:
+        with open(path, "rb") as f:
+            first = f.readline(200).decode("utf-8", "replace")
+    except OSError:
+        return None
+    m = _RECORD.match(first)
+    return m.group(1) if m else None

@@ -347,13 +347,21 @@ def restore_previous(run_dir: Path) -> int:
     FileNotFoundError
         No ``checkpoint.prev.json``.
     RunDirectoryError
-        It is damaged too.
+        It is damaged too, or the current checkpoint is not damaged (it reads back).
     """
     run_dir = Path(run_dir)
     state, _ = load_checkpoint(run_dir, previous=True)
     current = run_dir / CHECKPOINT_NAME
     if current.exists() and not current.is_file():
         raise RunDirectoryError(f"{current}: not a file; move it away, then resume with --from-previous again")
+    if current.is_file():
+        try:
+            good = load_checkpoint(run_dir)[0].generation
+        except Exception:  # noqa: BLE001 - whatever stops it reading back is the damage --from-previous is for
+            good = None
+        if good is not None:  # it is not damaged: rolling it back would lose its generations
+            raise RunDirectoryError(f"--from-previous: {current} is not damaged (it reads back, generation {good}); "
+                                    f"resume without --from-previous: `whisker-opt resume {run_dir}`")
     if current.is_file():
         shutil.copyfile(current, run_dir / DAMAGED_NAME)
     atomic_write_bytes(current, (run_dir / PREVIOUS_NAME).read_bytes())

@@ -14,7 +14,14 @@ Target folder of ``run``
     :func:`check_run_target` accepts a missing or empty folder, or one holding only a run of the
     same config killed before its first checkpoint (which starts again). A folder holding a run
     is refused unless ``overwrite`` is given, which empties it first (:func:`clear_run_dir`); a
-    non-empty folder holding no run is refused, and is never emptied.
+    non-empty folder holding no run is refused, and is never emptied. A folder whose ``config.yaml``
+    names another command (:func:`whisker_opt.config.model.recorded_command`) holds no run.
+
+Target folder of the other commands
+    :func:`check_output_folder` refuses, for a command that writes into an output folder (``export``,
+    ``compensate``, ``calibrate``, ...), a folder holding a GA run or the results of another command, as
+    the first line of its ``config.yaml`` names it; a new or empty folder, one of the same command's, or
+    one of an earlier version (its ``config.yaml`` names no command) is accepted.
 """
 
 from __future__ import annotations
@@ -27,6 +34,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
+from whisker_opt.config.model import recorded_command
 from whisker_opt.config.optimiser import OptimiserConfig
 from whisker_opt.genes import GENE_NAMES
 from whisker_opt.optimise.checkpoint import CHECKPOINT_NAME, OLDER_NAME, RunDirectoryError, has_checkpoint
@@ -163,6 +171,38 @@ def check_config(run_dir: Path, extra: Mapping[str, Any] | None, generation: int
     return ConfigChange(generation, digest, new_digest, tuple(diffs), optimiser)
 
 
+def check_state_config(run_dir: Path, extra: Mapping[str, Any] | None) -> None:
+    """Refuse a checkpoint written under another config than the run's ``config.yaml`` (what ``report`` reads).
+
+    Nothing is checked when the checkpoint records no config (an earlier version) or ``config.yaml`` is
+    missing or does not load (``report`` does not need it).
+
+    Raises
+    ------
+    ConfigChanged
+        One line naming both files and the keys that differ: the checkpoint is another run's, or
+        ``config.yaml`` was edited since it was written.
+    """
+    from whisker_opt.config.model import ConfigError, load_config
+
+    digest = (extra or {}).get("run_config_sha256")
+    path = Path(run_dir) / CONFIG_YAML
+    if not isinstance(digest, str) or not path.is_file():
+        return
+    try:
+        resolved = load_config(path).model_dump(mode="json")
+    except ConfigError:
+        return
+    old = (extra or {}).get("run_config")
+    if digest == config_digest(resolved) or _same_with_new_defaults(old, resolved):
+        return
+    diffs = config_differences(old if isinstance(old, Mapping) else None, resolved)
+    shown = "; ".join(diffs[:4]) + (f"; and {len(diffs) - 4} more" if len(diffs) > 4 else "")
+    raise ConfigChanged(f"{Path(run_dir) / CHECKPOINT_NAME}: written under another config than {path} ({shown}); "
+                        f"it is another run's checkpoint, or {CONFIG_YAML} was edited since: restore the run's files "
+                        f"(an edit is continued with `whisker-opt resume {run_dir} {ALLOW_FLAG}`)")
+
+
 def _same_with_new_defaults(old: Mapping[str, Any] | None, resolved: Mapping[str, Any]) -> bool:
     """True when the recorded config, read by this version, is ``resolved``: the run directory of an
     earlier version whose ``config.yaml`` was not edited, the keys added since at their defaults."""
@@ -284,7 +324,12 @@ def check_run_target(run_dir: Path, same_config: Callable[[Path], bool], overwri
     if not names:
         return False
     cfg_path = run_dir / CONFIG_YAML
-    is_run = cfg_path.is_file() or (run_dir / storage.OPTIMISER_JSON).is_file() or has_checkpoint(run_dir)
+    other = recorded_command(cfg_path)
+    is_run = ((cfg_path.is_file() and other in (None, "run")) or (run_dir / storage.OPTIMISER_JSON).is_file()
+              or has_checkpoint(run_dir))
+    if not is_run and other is not None:
+        raise FileExistsError(f"--out {run_dir}: holds the results of `whisker-opt {other}` (named in {cfg_path}); "
+                              f"a run needs a new or empty folder: choose another --out")
     if not is_run:
         shown = ", ".join(names[:5]) + (", ..." if len(names) > 5 else "")
         raise FileExistsError(f"{run_dir}: not empty ({len(names)} entries: {shown}) and not a run directory; "
@@ -318,3 +363,42 @@ def clear_run_dir(run_dir: Path) -> int:
         n += 1
     logger.warning("%s: deleted the %d entries of the run it held (--overwrite)", run_dir, n)
     return n
+
+
+def _ga_run_file(folder: Path) -> str | None:
+    """The file that makes ``folder`` a GA run directory (None: it is none)."""
+    for name in (storage.OPTIMISER_JSON, CHECKPOINT_NAME, OLDER_NAME):
+        if (folder / name).exists() or (folder / name).is_symlink():
+            return name
+    return CONFIG_YAML if recorded_command(folder / CONFIG_YAML) == "run" else None
+
+
+def check_output_folder(folder: Path, command: str, what: str = "--out") -> None:
+    """Refuse an output folder that holds a GA run or another command's results (module docstring).
+
+    Parameters
+    ----------
+    folder : Path
+    command : str
+        The command about to write there, as :func:`whisker_opt.config.model.dump_config` names it
+        (``export``, ``compensate``, ...; ``run`` is checked by :func:`check_run_target`).
+    what : str
+        How the message names the folder (``--out``).
+
+    Raises
+    ------
+    FileExistsError
+        One line naming the folder, what it holds and what is accepted.
+    """
+    folder = Path(folder)
+    if command == "run" or not folder.is_dir() or not any(not _ignored(p.name) for p in folder.iterdir()):
+        return
+    accepted = f"`whisker-opt {command}` writes into a new or empty folder or one it wrote before: choose another {what}"
+    ga = _ga_run_file(folder)
+    if ga is not None:
+        raise FileExistsError(f"{what} {folder}: holds a GA run ({ga}), not the results of `whisker-opt {command}`; "
+                              + accepted)
+    other = recorded_command(folder / CONFIG_YAML)
+    if other is not None and other != command:
+        raise FileExistsError(f"{what} {folder}: holds the results of `whisker-opt {other}` (named in {CONFIG_YAML}); "
+                              + accepted)

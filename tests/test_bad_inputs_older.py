@@ -1,0 +1,103 @@
+"""Older bad inputs, each refused in one line naming the field, the value and what is allowed (or, for ``~`` in
+``output.results_dir`` and ``init DIR/``, read as a user means them)."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+
+from tests.test_rundir_safety import _analytic_run_dir
+from whisker_opt.cli.main import main
+from whisker_opt.config.model import ConfigError, WhiskerConfig, load_config
+
+
+def _one_line(capsys, rc: int, command: str, *words: str) -> str:
+    err = capsys.readouterr().err
+    lines = [ln for ln in err.splitlines() if ln.startswith("whisker-opt ")]
+    assert rc == 2 and "Traceback" not in err and len(lines) == 1, (rc, err)
+    assert lines[0].startswith(f"whisker-opt {command}: error: "), err
+    for w in words:
+        assert w in lines[0], (w, lines[0])
+    return lines[0]
+
+
+def _config(tmp_path: Path, text: str):
+    path = tmp_path / "c.yaml"
+    path.write_text(text)
+    return load_config(path)
+
+
+@pytest.mark.parametrize("column, value, words", [
+    ("delta", "1_5", ["column delta", "'1_5' is not a number", "no '_' between digits"]),
+    ("eps", "1e308", ["column eps", "1e308 is outside the allowed range [-1, 1]"]),
+])
+def test_a_measurement_file_refuses_underscores_and_an_impossible_strain(tmp_path, capsys, column, value, words):
+    from tests.test_calibration import _config as calibration_config, _write_data
+
+    _write_data(tmp_path)
+    resp = tmp_path / "data" / "resp.csv"
+    lines = resp.read_text().splitlines()
+    header, row = lines[0].split(","), lines[1].split(",")
+    row[header.index(column)] = value
+    resp.write_text("\n".join([lines[0], ",".join(row), *lines[2:]]) + "\n")
+    out = tmp_path / "out"
+    _one_line(capsys, main(["calibrate", str(calibration_config(tmp_path)), "--out", str(out)]), "calibrate",
+              "resp.csv: row 1 (line 2)", *words)
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("text, words", [
+    ('output:\n  name: "run\\nrm -rf"\n', ["output.name", "line break", "one line"]),
+    ("output:\n  name: !!binary aGVsbG8=\n", ["output.name", "!!binary", "binary data"]),
+    ("seed: !!binary aGVsbG8=\n", ["seed", "0..4294967295", "binary data"]),
+    ('output:\n  results_dir: "~nosuchuser9/res"\n', ["output.results_dir", "'~nosuchuser9' names no home folder"]),
+    ("calibration:\n  source: x\n  parameters:\n    - {path: seed, lower: 1, upper: 2}\n",
+     ["calibration.parameters.0.path", "'seed' is not the dotted path", "material.C10"]),
+])
+def test_run_file_values_refused_in_one_line(tmp_path, text, words):
+    with pytest.raises(ConfigError) as exc:
+        _config(tmp_path, text)
+    msg = str(exc.value)
+    assert "\n" not in msg and "Input should" not in msg and "String should" not in msg, msg
+    for w in words:
+        assert w in msg, (w, msg)
+
+
+def test_a_home_folder_in_results_dir_is_expanded(tmp_path, monkeypatch):
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    assert _config(tmp_path, 'output:\n  results_dir: "~/res"\n').output.results_dir == tmp_path / "home" / "res"
+    assert _config(tmp_path, "output:\n  results_dir: res~\n").output.results_dir == Path("res~")
+
+
+def test_an_empty_config_path_is_named():
+    with pytest.raises(ConfigError, match=r"^config path: '' is empty; give the path of a YAML run file$"):
+        load_config("")
+
+
+@pytest.mark.parametrize("genes", [{"alpha": "3", "l": 12.0, "t": 3.0, "Q_i": 0.1}, [3.0, 12.0, True, 0.1]])
+def test_the_api_refuses_a_gene_that_is_not_a_number(genes):
+    from whisker_opt import api
+
+    name, value = ("alpha", "'3'") if isinstance(genes, dict) else ("t", "True")
+    with pytest.raises(ValueError, match=rf"genes\['{name}'\] is {value} .*a gene is a real number"):
+        api.evaluate(WhiskerConfig(), genes)
+
+
+def test_init_into_a_folder_given_with_a_slash(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(["init", "new/"]) == 0
+    assert (tmp_path / "new" / "whisker.yaml").is_file() and load_config(tmp_path / "new" / "whisker.yaml")
+    assert main(["init", "new/"]) == 2  # there now: refused without --force
+    capsys.readouterr()
+    _one_line(capsys, main(["init", "new"]), "init", "new: is a folder", "new/whisker.yaml")
+
+
+def test_resume_from_previous_refuses_to_roll_back_a_good_checkpoint(tmp_path, capsys):
+    run_dir = _analytic_run_dir(tmp_path)
+    assert (run_dir / "checkpoint.prev.json").is_file()
+    before = {p.name: p.read_bytes() for p in run_dir.iterdir()}
+    _one_line(capsys, main(["resume", str(run_dir), "--from-previous", "--no-progress"]), "resume",
+              "--from-previous", "checkpoint.json is not damaged", "generation 3", f"`whisker-opt resume {run_dir}`")
+    assert {p.name: p.read_bytes() for p in run_dir.iterdir()} == before
