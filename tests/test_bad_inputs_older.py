@@ -101,3 +101,25 @@ def test_resume_from_previous_refuses_to_roll_back_a_good_checkpoint(tmp_path, c
     _one_line(capsys, main(["resume", str(run_dir), "--from-previous", "--no-progress"]), "resume",
               "--from-previous", "checkpoint.json is not damaged", "generation 3", f"`whisker-opt resume {run_dir}`")
     assert {p.name: p.read_bytes() for p in run_dir.iterdir()} == before
+
+
+@pytest.mark.parametrize("column, value, words", [
+    ("length", "0.0001", ["column length: 0.0001 is outside the allowed range [20, 70] mm", "design.l = 15"]),
+    ("length", "19.5", ["column length: 19.5 is outside the allowed range [20, 70] mm"]),
+    ("trim", "60", ["column trim: 60 is outside the allowed range [0, 50] mm", "design.L = 70"]),
+])
+def test_a_measured_length_that_leaves_no_whisker_names_its_row(tmp_path, capsys, column, value, words):
+    from tests.test_calibration import _config as calibration_config, _write_data
+
+    _write_data(tmp_path)
+    resp = tmp_path / "data" / "resp.csv"
+    lines = resp.read_text().splitlines()
+    header, row = lines[0].split(","), lines[2].split(",")
+    header[header.index("length")] = column
+    row[header.index(column)] = value
+    resp.write_text("\n".join([",".join(header), lines[1] if column == "length" else lines[1].rsplit(",", 1)[0] + ",0",
+                               ",".join(row), *lines[3:]]) + "\n")
+    out = tmp_path / "out"
+    _one_line(capsys, main(["calibrate", str(calibration_config(tmp_path)), "--out", str(out)]), "calibrate",
+              "resp.csv: row 2 (line 3)", *words)
+    assert not out.exists()

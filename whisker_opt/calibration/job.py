@@ -18,7 +18,7 @@ from geometry.design import InvalidDesignError
 import whisker_opt.wiring as wiring
 from whisker_opt.calibration.fit import FitOutcome, Problem, Weighted, fit
 from whisker_opt.calibration.forward import BeamSimulator, RestoreSearch, SceneSimulator
-from whisker_opt.calibration.measurements import check_names, read_measurements
+from whisker_opt.calibration.measurements import check_names, cut_column, read_measurements
 from whisker_opt.calibration.parameters import ModelParameter, configure, resolve_parameters
 from whisker_opt.calibration.report import format_summary, write_outputs
 from whisker_opt.config.model import ConfigError, WhiskerConfig
@@ -114,22 +114,54 @@ def prepare(cfg: WhiskerConfig, config_path: str | Path) -> Prepared:
 
 
 def _check_designs(data: dict, params, weighted, source: str) -> None:
-    """Every trim of the data must leave a whisker at each parameter's bounds (the others at their start)."""
-    trims = sorted({float(getattr(w.observation, k)) for w in weighted for k in ("trim", "trim_ref")
-                    if hasattr(w.observation, k)})
+    """Every trim of the data must leave a whisker: at the parameters' starts, where a row that cuts too much is
+    named with the range its column allows, then at each parameter's bounds (the others at their start)."""
+    cuts = {}  # trim -> the first row and column that asks for it
+    for w in weighted:
+        for k in ("trim", "trim_ref"):
+            if hasattr(w.observation, k):
+                cuts.setdefault(float(getattr(w.observation, k)), (w.observation, k))
     start = np.array([p.start for p in params])
+    cfg = configure(data, params, start, source)
+    for trim, (ob, k) in sorted(cuts.items()):
+        try:
+            wiring.design_from_config(cfg, trim, trim_key="the trim of a measurement")
+        except InvalidDesignError:
+            if _is_whisker(cfg):  # else the design itself is wrong: named at a parameter's bound below
+                raise ConfigError(_cut_message(ob, k, trim, cfg)) from None
     for k, p in enumerate(params):
         for end in (p.lower, p.upper):
             theta = start.copy()
             theta[k] = end
             cfg = configure(data, params, theta, source)
-            for trim in trims:
+            for trim, (ob, col) in sorted(cuts.items()):
                 try:
                     wiring.design_from_config(cfg, trim, trim_key="the trim of a measurement")
                 except InvalidDesignError as exc:
                     bound = "lower" if end == p.lower else "upper"
                     raise ConfigError(f"{source}: calibration.parameters[{k}].{bound}: {p.path} = {end:g} leaves "
-                                      f"no whisker at the trim {trim:g} mm of a measurement: {exc}") from None
+                                      f"no whisker at the trim {trim:g} mm of {ob.where}, column "
+                                      f"{cut_column(ob, col)}: {exc}") from None
+
+
+def _is_whisker(cfg) -> bool:
+    try:
+        wiring.design_from_config(cfg, 0.0)
+        return True
+    except InvalidDesignError:
+        return False
+
+
+def _cut_message(ob, attribute: str, trim: float, cfg) -> str:
+    """A row whose trim (or length) leaves no whisker of the run file's design: its place, value and the range."""
+    d = wiring.design_from_config(cfg, 0.0, validate=False)
+    max_trim = d.L - d.l - d.tip_clearance  # L - trim - l >= tip_clearance
+    col = cut_column(ob, attribute)
+    why = f"(design.l = {d.l:g} and {d.tip_clearance:g} mm of solid tip, of design.L = {d.L:g})"
+    if col.startswith("length"):
+        return (f"{ob.where}, column {col}: {d.L - trim:g} is outside the allowed range [{d.L - max_trim:g}, "
+                f"{d.L:g}] mm {why}")
+    return f"{ob.where}, column {col}: {trim:g} is outside the allowed range [0, {max(max_trim, 0.0):g}] mm {why}"
 
 
 def simulator(prepared: Prepared):

@@ -33,7 +33,7 @@ from __future__ import annotations
 import csv
 import logging
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterable, Union
 
@@ -62,6 +62,7 @@ class Extension:
     dl: float
     sigma: float
     trim: float = 0.0
+    cut_columns: tuple = field(default=(), repr=False, compare=False)
 
     kind = "extension"
 
@@ -88,6 +89,7 @@ class Response:
     sigma: float
     trim: float = 0.0
     ref_Q: float | None = None
+    cut_columns: tuple = field(default=(), repr=False, compare=False)
 
     kind = "response"
 
@@ -114,6 +116,7 @@ class Restore:
     a: float
     delta: float
     sigma: float
+    cut_columns: tuple = field(default=(), repr=False, compare=False)
 
     kind = "restore"
 
@@ -127,6 +130,12 @@ class Restore:
 
 
 Observation = Union[Extension, Response, Restore]
+
+
+def cut_column(ob: Observation, attribute: str) -> str:
+    """The column of the file that gave the trim ``attribute`` (``trim`` or ``trim_ref``) of an observation:
+    that column itself, or ``length``/``length_ref`` (the whisker's length ``design.L - trim``)."""
+    return dict(ob.cut_columns).get(attribute, attribute)
 
 #: (low, high, low open, high open, unit) of each column; None = unbounded on that side.
 _RANGES: dict[str, tuple] = {
@@ -287,6 +296,7 @@ def read_measurements(path: str | Path, kind: str, *, length_L: float, max_delta
     for n, line, row in rows.rows:
         name = row.get("name") or f"{path.stem}:{n}"
         where = f"{rows.shown}: row {n} (line {line})"
+        cuts = tuple((f"trim{sfx}", f"length{sfx}") for sfx in ("", "_ref") if row.get(f"length{sfx}", "") != "")
 
         def num(col: str, **kw) -> float:
             return rows.number(n, line, row, col, **kw)
@@ -298,15 +308,16 @@ def read_measurements(path: str | Path, kind: str, *, length_L: float, max_delta
 
         if kind == "extension":
             out.append(Extension(name, where, Q=num("Q"), dl=num("dl"), sigma=num("sigma"),
-                                 trim=rows.trim(n, line, row, "", length_L)))
+                                 trim=rows.trim(n, line, row, "", length_L), cut_columns=cuts))
         elif kind == "response":
             ref = rows.number(n, line, row, "ref_Q", default=None) if "ref_Q" in row else None
             out.append(Response(name, where, Q=num("Q"), a=num("a"), delta=delta(), eps=num("eps"),
-                                sigma=num("sigma"), trim=rows.trim(n, line, row, "", length_L), ref_Q=ref))
+                                sigma=num("sigma"), trim=rows.trim(n, line, row, "", length_L), ref_Q=ref,
+                                cut_columns=cuts))
         else:
             out.append(Restore(name, where, trim_ref=rows.trim(n, line, row, "_ref", length_L), Q_ref=num("Q_ref"),
                                trim=rows.trim(n, line, row, "", length_L), Q=num("Q"), a=num("a"), delta=delta(),
-                               sigma=num("sigma")))
+                               sigma=num("sigma"), cut_columns=cuts))
     for ob in out:
         if ob.sigma < SIGMA_RELATIVE_WARN * abs(ob.value):
             logger.warning("%s, column sigma: %g is %.1e of the measured value %g: a relative uncertainty below %g, "
