@@ -123,3 +123,29 @@ def test_a_measured_length_that_leaves_no_whisker_names_its_row(tmp_path, capsys
     _one_line(capsys, main(["calibrate", str(calibration_config(tmp_path)), "--out", str(out)]), "calibrate",
               "resp.csv: row 2 (line 3)", *words)
     assert not out.exists()
+
+
+@pytest.mark.parametrize("genes, words", [
+    ({"alpha": 3.0, "l": 12.0, "t": 3.0, "Q_i": -0.1}, ["genes['Q_i'] = -0.1", "[0, 1] MPa", "scene.Q_i"]),
+    ([3.0, 12.0, 3.0, 1.5], ["genes['Q_i'] = 1.5", "[0, 1] MPa"]),
+    ([3.0, 12.0, 3.0, float("nan")], ["genes['Q_i'] = nan", "[0, 1] MPa"]),
+    ({"alpha": -3.0, "l": 12.0, "t": 3.0, "Q_i": 0.1}, ["genes['alpha'] = -3.0", "[0, 45) deg", "design.alpha"]),
+])
+def test_the_api_refuses_a_gene_outside_its_keys_range(genes, words):
+    from whisker_opt import api
+
+    with pytest.raises(ValueError) as exc:
+        api.evaluate(WhiskerConfig(), genes)
+    msg = str(exc.value)
+    assert "\n" not in msg and "SceneSpec" not in msg, msg
+    for w in words:
+        assert w in msg, (w, msg)
+
+
+@pytest.mark.parametrize("Q", [-0.1, 1.5, float("nan")])
+def test_a_scene_refuses_a_pressure_outside_the_range_of_scene_q_i(Q):
+    import whisker_opt.wiring as wiring
+    from whisker_opt.experiment.spec import SceneSpec
+
+    with pytest.raises(ValueError, match=r"^SceneSpec\.Q=.*: must be in the allowed range \[0, 1\] MPa"):
+        SceneSpec(wiring.design_from_config(WhiskerConfig()), Q=Q)

@@ -236,13 +236,21 @@ def evaluate(cfg: WhiskerConfig, genes: Mapping[str, float] | Sequence[float]) -
 
 
 def _check_gene_values(genes: Mapping[str, Any]) -> None:
-    """Refuse a gene that is not a real number: ``float('3')`` would take a string (or ``True``) silently."""
+    """Refuse a gene that is not a real number (``float('3')`` would take a string, or ``True``, silently) or
+    that leaves the range of the key it sets (a negative Q_i, a NaN)."""
     import numpy as np
+
+    from whisker_opt.genes import gene_key
 
     for name, v in genes.items():
         if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)):
             raise ValueError(f"evaluate: genes[{name!r}] is {v!r} ({type(v).__name__}); a gene is a real number "
                              f"within its bounds (optimiser.genes.{name})")
+        key = gene_key(name)
+        if not key.admits(v):
+            where = "scene.Q_i" if key.section == "load" else f"{key.section}.{name}"
+            raise ValueError(f"evaluate: genes[{name!r}] = {float(v)!r} is outside the allowed range "
+                             f"{key.range_text()} {key.unit} of {where}")
 
 
 def run(cfg: WhiskerConfig, out: str | Path | None = None, progress: bool = False) -> RunSummary:

@@ -85,11 +85,11 @@ def gene_keys() -> Mapping[str, GeneKey]:
     """Every key a gene may take, by name: the four default genes, then the design's and the material's
     real numbers (read-only; built once per process from the declared fields)."""
     from geometry.design import WhiskerDesign
-    from whisker_opt.experiment.spec import SceneSpec
+    from whisker_opt.experiment.spec import Q_RANGE, SceneSpec
 
     design = _real_keys(WhiskerDesign, "design")
     material = _real_keys(SceneSpec, "material", MATERIAL_GENE_FIELDS)
-    q = GeneKey("Q_i", "load", "Q", "MPa", (("ge", 0.0), ("le", 1.0)))
+    q = GeneKey("Q_i", "load", "Q", "MPa", (("ge", Q_RANGE[0]), ("le", Q_RANGE[1])))
     head = {g: design[g] for g in GEOMETRY_GENES}
     return MappingProxyType({**head, "Q_i": q, **design, **material})
 

@@ -42,7 +42,7 @@ from whisker_opt.config.robustness import RobustnessConfig
 from whisker_opt.config.wall_ranges import check_wall_laws
 from whisker_opt.experiment.fidelity import PRESET_NAMES
 from whisker_opt.experiment.gauge_variants import GAUGE_VARIANTS
-from whisker_opt.experiment.spec import SceneSpec
+from whisker_opt.experiment.spec import Q_RANGE, SceneSpec
 
 
 class ConfigError(ValueError):
@@ -102,7 +102,7 @@ class _SceneSection(StrictModel):
 
 _SCENE_OWN: dict[str, Any] = {
     "Q_i": (float, Field(
-        0.0, ge=0, le=1.0,
+        0.0, ge=Q_RANGE[0], le=Q_RANGE[1],
         description="initial (intact) chamber pressure Q_i of `simulate`, `export`, `compensate` and `robustness` "
         "of the config's design; the pressure of the single scene when `pair` is false (the GA takes Q_i from its "
         "genes; see Keys read by each command)",

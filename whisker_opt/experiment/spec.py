@@ -38,6 +38,9 @@ def cap_elements(mesh, c: float) -> np.ndarray:
     return corners[:, :, 0].mean(axis=1) < c
 
 
+#: The chamber pressures a scene may take [MPa]: ``scene.Q_i`` and the gene Q_i read this range.
+Q_RANGE: tuple[float, float] = (0.0, 1.0)
+
 #: How the base face is held (:attr:`SceneSpec.base_support`).
 BASE_SUPPORTS: tuple[str, ...] = ("clamped", "sliding")
 FIBRE_MODELS: tuple[str, ...] = ("embedded", "smeared")
@@ -159,7 +162,8 @@ class SceneSpec:
     def __post_init__(self) -> None:
         bad = parameter_violations(self)  # the ranges and choices declared with each parameter
         checks = [
-            ("Q", self.Q, self.Q >= 0, ">= 0 MPa"),
+            ("Q", self.Q, Q_RANGE[0] <= self.Q <= Q_RANGE[1],
+             f"in the allowed range [{Q_RANGE[0]:g}, {Q_RANGE[1]:g}] MPa (the chamber pressure)"),
             ("formulation", self.formulation, self.formulation in ("mixed", "displacement"),
              "'mixed' or 'displacement'"),
             ("n_pressure_steps", self.n_pressure_steps, self.n_pressure_steps >= 1, ">= 1"),
