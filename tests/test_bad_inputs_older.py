@@ -149,3 +149,44 @@ def test_a_scene_refuses_a_pressure_outside_the_range_of_scene_q_i(Q):
 
     with pytest.raises(ValueError, match=r"^SceneSpec\.Q=.*: must be in the allowed range \[0, 1\] MPa"):
         SceneSpec(wiring.design_from_config(WhiskerConfig()), Q=Q)
+
+
+def _direct(build):
+    """The message of a config model validated directly from Python."""
+    from pydantic import ValidationError
+
+    with pytest.raises(ConfigError) as exc:
+        build()
+    assert isinstance(exc.value, ValidationError)  # still pydantic's error for code that catches it
+    return str(exc.value)
+
+
+@pytest.mark.parametrize("build, words", [
+    (lambda g: g.GenesConfig.model_validate({"alpha": "x"}), ["optimiser.genes.alpha: expected [lo, hi]", "'x'"]),
+    (lambda g: g.GenesConfig(alpha=3), ["optimiser.genes.alpha: expected [lo, hi]", "got 3"]),
+    (lambda g: g.GenesConfig(alpha=g.AlphaBounds(), l=g.AlphaBounds()),
+     ["optimiser.genes.l", "got a section {'hi': 6.0, 'lo': 2.5}"]),
+    (lambda g: g.GenesConfig.model_validate({"fibre_pitch": "abc"}), ["gene fibre_pitch: expected [lo, hi]"]),
+    (lambda g: g.GenesConfig.model_validate({"fibre_pitch": [1, "a"]}), ["gene fibre_pitch: hi: expected a number"]),
+    (lambda g: g.OptimiserConfig(genes=3), ["optimiser.genes: expected a mapping", "got 3"]),
+    (lambda g: g.OptimiserConfig(wall_laws={"laws": "x"}), ["optimiser.wall_laws.laws: expected a list"]),
+    (lambda g: WhiskerConfig(scene={"Q_i": -0.1}), ["scene.Q_i: -0.1 is outside the allowed range [0, 1] (MPa)"]),
+    (lambda g: WhiskerConfig(optimiser=g.GenesConfig()), ["optimiser: expected a mapping", "got a section"]),
+])
+def test_config_models_validated_from_python_name_key_paths_not_classes(build, words):
+    import whisker_opt.config.optimiser as g
+
+    msg = _direct(lambda: build(g))
+    assert "\n" not in msg and "Bounds" not in msg and "Config" not in msg and "instance of" not in msg, msg
+    for w in words:
+        assert w in msg, (w, msg)
+
+
+def test_a_run_file_shows_a_section_given_in_python_by_its_keys():
+    from whisker_opt import api
+    from whisker_opt.config.optimiser import AlphaBounds
+
+    with pytest.raises(ConfigError) as exc:
+        api.load_config({"optimiser": {"genes": {"fibre_pitch": "abc", "l": AlphaBounds()}}})
+    assert "GeneBounds" not in str(exc.value) and "AlphaBounds" not in str(exc.value), str(exc.value)
+

@@ -73,7 +73,7 @@ def load_config(path_or_mapping: str | Path | Mapping[str, Any] | WhiskerConfig)
     >>> load_config({"design": {"alpah": 4.0}})
     Traceback (most recent call last):
     ...
-    whisker_opt.config.model.ConfigError: <mapping>: design.alpah: unknown key 'alpah'; did you mean 'alpha'?
+    whisker_opt.config.base.ConfigError: <mapping>: design.alpah: unknown key 'alpah'; did you mean 'alpha'?
     """
     from pydantic import ValidationError
 

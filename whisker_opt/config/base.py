@@ -17,9 +17,44 @@ import typing
 import warnings
 from typing import Any, ClassVar
 
-from pydantic import BaseModel, ConfigDict, model_validator
+from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
 
 logger = logging.getLogger(__name__)
+
+
+class ConfigError(ValueError):
+    """A configuration file that cannot be used; the message names the key and the problem."""
+
+
+class InvalidValues(ValidationError, ConfigError):
+    """A model of a run file validated directly (``GenesConfig(...)``, ``WhiskerConfig.model_validate(...)``)
+    with values it refuses: still pydantic's error (``errors()``, ``title``), and a :class:`ConfigError` whose
+    text names each problem by its key path in a run file (``optimiser.genes.alpha: expected ...``), never
+    by a class name."""
+
+    text: str = ""
+
+    def __str__(self) -> str:
+        return self.text
+
+    @classmethod
+    def of(cls, err: ValidationError, model: type[BaseModel], data: Any) -> "InvalidValues":
+        from whisker_opt.config.messages import describe
+
+        root, prefix = KEY_PATHS.get(model, (model, ()))
+        lines: list[str] = []
+        for e in err.errors():
+            line = describe({**e, "loc": (*prefix, *e["loc"])}, root, None)
+            if line not in lines:
+                lines.append(line)
+        out = cls.from_exception_data(err.title, err.errors(include_url=False))
+        out.text = "; ".join(lines)
+        return out
+
+
+#: Where each model of a run file stands: model -> (the run file's model, the key path of its section), filled
+#: in by :mod:`whisker_opt.config.model` once the run file's model is defined.
+KEY_PATHS: dict[type, tuple[type, tuple[str, ...]]] = {}
 
 
 class StrictModel(BaseModel):
@@ -39,6 +74,23 @@ class StrictModel(BaseModel):
     RENAMED: ClassVar[dict[str, str]] = {}
     SECTION: ClassVar[str] = ""
     SHAPE: ClassVar[str] = "a mapping of keys"
+
+    def __init__(self, /, **data: Any) -> None:
+        try:
+            super().__init__(**data)
+        except ValidationError as exc:
+            if isinstance(exc, InvalidValues):
+                raise
+            raise InvalidValues.of(exc, type(self), data) from None
+
+    @classmethod
+    def model_validate(cls, obj: Any, *args: Any, **kwargs: Any):
+        try:
+            return super().model_validate(obj, *args, **kwargs)
+        except ValidationError as exc:
+            if isinstance(exc, InvalidValues):
+                raise
+            raise InvalidValues.of(exc, cls, obj) from None
 
     @model_validator(mode="before")
     @classmethod

@@ -21,7 +21,7 @@ import math
 import re
 import reprlib
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Sequence, get_origin
 
 from pydantic import BaseModel, ValidationError
 from pydantic.fields import FieldInfo
@@ -84,6 +84,8 @@ def show(value: Any) -> str:
         return "a list " + _cut(_REPR.repr(list(value)), MAX_SHOWN - 7)
     if isinstance(value, (bytes, bytearray)):
         return "binary data"
+    if isinstance(value, BaseModel):  # a section built in Python: shown by its keys, not by its class
+        return "a section " + _cut(_REPR.repr(value.model_dump(mode="json")), MAX_SHOWN - 10)
     return f"a {type(value).__name__} {_cut(_REPR.repr(value), MAX_SHOWN - 10)}"
 
 
@@ -186,6 +188,8 @@ def _expected(cls: type[BaseModel] | None, info: FieldInfo | None) -> str:
         text = f"text of {rng}" if rng else "text"
     elif isinstance(tp, type) and issubclass(tp, Path):
         text = "a path (text)"
+    elif get_origin(tp) in (tuple, list):
+        text = "a list"
     else:
         text = f"a {getattr(tp, '__name__', str(tp))}"
     return f"{text} or null" if optional else text

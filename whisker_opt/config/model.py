@@ -33,7 +33,7 @@ from pydantic import BaseModel, Field, ValidationError, create_model, field_vali
 from geometry.design import WhiskerDesign, user_parameters
 from geometry.sizing import H_BODY_RANGE, H_WALL_RANGE
 from fem.linsolve import SOLVER_NAMES
-from whisker_opt.config.base import StrictModel
+from whisker_opt.config.base import KEY_PATHS, ConfigError, StrictModel
 from whisker_opt.config.calibration import CalibrationConfig
 from whisker_opt.config.fields import is_model, item_model, strip_optional
 from whisker_opt.config.messages import describe_errors, show
@@ -43,10 +43,6 @@ from whisker_opt.config.wall_ranges import check_wall_laws
 from whisker_opt.experiment.fidelity import PRESET_NAMES
 from whisker_opt.experiment.gauge_variants import GAUGE_VARIANTS
 from whisker_opt.experiment.spec import Q_RANGE, SceneSpec
-
-
-class ConfigError(ValueError):
-    """A configuration file that cannot be used; the message names the key and the problem."""
 
 
 class _DesignSection(StrictModel):
@@ -215,6 +211,18 @@ class WhiskerConfig(StrictModel):
     def _wall_laws_can_be_evaluated(self) -> "WhiskerConfig":
         check_wall_laws(self)  # the slope, the design, scene.Q_i and the gene box against the laws
         return self
+
+
+def _key_paths(model: type[BaseModel], prefix: tuple[str, ...] = ()) -> None:
+    """Fill :data:`whisker_opt.config.base.KEY_PATHS`: each section's model and its key path in a run file."""
+    KEY_PATHS.setdefault(model, (WhiskerConfig, prefix))
+    for name, info in model.model_fields.items():
+        tp, _ = strip_optional(info.annotation)
+        if is_model(tp) and tp not in KEY_PATHS:
+            _key_paths(tp, (*prefix, name))
+
+
+_key_paths(WhiskerConfig)
 
 
 def _models(root: type[BaseModel] | None = None) -> dict[str, type[BaseModel]]:

@@ -31,6 +31,7 @@ from typing import Any, Literal
 from pydantic import ConfigDict, Field, field_validator, model_validator
 
 from whisker_opt.config.base import StrictModel
+from whisker_opt.config.messages import describe
 from whisker_opt.config.robustness import RobustObjectiveConfig
 from whisker_opt.wall.law import WALL_LAW_NAMES
 from whisker_opt.experiment.measures import MEASURE_NAMES
@@ -142,12 +143,11 @@ class GenesConfig(StrictModel):
 
 
 def _first_error(exc: ValueError) -> str:
-    """The first message of a pydantic validation error (or the error's text)."""
+    """The first problem of a validation error of :class:`GeneBounds`, in the words of a run file (or the error's
+    text)."""
     errors = getattr(exc, "errors", None)
     if callable(errors):
-        e = errors()[0]
-        where = ".".join(map(str, e.get("loc", ())))
-        return f"{where + ': ' if where else ''}{e['msg']}"
+        return describe(errors()[0], GeneBounds).removeprefix("(top level): ")
     return str(exc)
 
 
