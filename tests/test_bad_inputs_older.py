@@ -190,3 +190,15 @@ def test_a_run_file_shows_a_section_given_in_python_by_its_keys():
         api.load_config({"optimiser": {"genes": {"fibre_pitch": "abc", "l": AlphaBounds()}}})
     assert "GeneBounds" not in str(exc.value) and "AlphaBounds" not in str(exc.value), str(exc.value)
 
+
+def test_a_ratio_of_readings_may_exceed_one_but_not_a_thousand(tmp_path):
+    from whisker_opt.calibration.measurements import MeasurementError, read_measurements
+
+    path = tmp_path / "ratio.csv"
+    path.write_text("a,Q,ref_Q,delta,eps,sigma\n1,0.2,0,1,1.367,0.03\n")
+    (ob,) = read_measurements(path, "response", length_L=70.0)
+    assert ob.eps == 1.367 and ob.unit == "-"
+    path.write_text("a,Q,ref_Q,delta,eps,sigma\n1,0.2,0,1,1e5,0.03\n")
+    with pytest.raises(MeasurementError, match=r"row 1 \(line 2\), column eps: 1e5 is outside the allowed range "
+                                               r"\[-1000, 1000\] \(a ratio of two readings, with ref_Q\)"):
+        read_measurements(path, "response", length_L=70.0)

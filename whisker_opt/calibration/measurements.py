@@ -44,6 +44,8 @@ logger = logging.getLogger(__name__)
 
 #: Smallest and largest uncertainty a row may state, in the unit of its measured value.
 SIGMA_MIN, SIGMA_MAX = 1e-12, 1e3
+#: Largest magnitude of a ratio of two readings (``eps`` of a row with ``ref_Q``); a strain lies in [-1, 1].
+RATIO_MAX = 1e3
 #: A sigma below this fraction of the measured value is warned about.
 SIGMA_RELATIVE_WARN = 1e-6
 
@@ -311,7 +313,9 @@ def read_measurements(path: str | Path, kind: str, *, length_L: float, max_delta
                                  trim=rows.trim(n, line, row, "", length_L), cut_columns=cuts))
         elif kind == "response":
             ref = rows.number(n, line, row, "ref_Q", default=None) if "ref_Q" in row else None
-            out.append(Response(name, where, Q=num("Q"), a=num("a"), delta=delta(), eps=num("eps"),
+            eps = num("eps") if ref is None else num("eps", lo=-RATIO_MAX, hi=RATIO_MAX,
+                                                      unit="(a ratio of two readings, with ref_Q)")
+            out.append(Response(name, where, Q=num("Q"), a=num("a"), delta=delta(), eps=eps,
                                 sigma=num("sigma"), trim=rows.trim(n, line, row, "", length_L), ref_Q=ref,
                                 cut_columns=cuts))
         else:
