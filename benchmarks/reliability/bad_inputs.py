@@ -32,6 +32,12 @@ The fixtures (a tiny run made with ``whisker-opt run`` on a coarse, 2-individual
 ``--skip-slow`` leaves out the two solve-failure cases, which compute for 20-60 s each, and
 the silent scheduler, which is refused after the 20 s connection timeout.
 
+``--families`` runs the families of :mod:`tests.bad_input_families` instead: wall laws and law sets, genes
+over wall-law keys, writers into a run directory or another command's folder, doctored checkpoints, and
+``compensate --map`` and ``calibrate`` interrupted with SIGINT (a doctored journal refused, then the same
+command continuing in its folder); a last line sums up the tracebacks, wrong exits and writes by refused
+commands.
+
 The cases, their fixtures and the check of one case are the test harness
 :mod:`tests.bad_input_harness` and :mod:`tests.bad_input_cases`; ``tests/test_bad_inputs_sample.py``
 runs a cheap sample of them in the test suite.
@@ -49,6 +55,7 @@ import time
 from pathlib import Path
 
 from tests.bad_input_cases import build_cases
+from tests.bad_input_families import build_family_cases, interrupted_studies
 from tests.bad_input_harness import FixtureError, Workspace, run_case
 
 
@@ -57,6 +64,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--jobs", type=int, default=2, help="cases run at once (default 2)")
     ap.add_argument("--skip-slow", action="store_true", help="leave out the cases that compute before failing")
     ap.add_argument("--only", default=None, help="run only the cases whose name contains this")
+    ap.add_argument("--families", action="store_true",
+                    help="run the families of tests/bad_input_families.py instead (wall laws, genes, writers, state "
+                         "files, interrupted studies)")
     ap.add_argument("--timeout", type=float, default=300.0, help="seconds before a case counts as hung")
     ap.add_argument("--workdir", type=Path, default=None, help="fixture folder (default: a temporary one)")
     ap.add_argument("--keep", action="store_true", help="keep the fixture folder")
@@ -75,7 +85,7 @@ def main(argv: list[str] | None = None) -> int:
             w.make_run()
         except FixtureError as exc:
             sys.exit(str(exc))
-        cases = build_cases(w)
+        cases = build_family_cases(w) if args.families else build_cases(w)
         n_all = len(cases)
         if args.skip_slow:
             cases = [c for c in cases if not c.slow]
@@ -84,18 +94,29 @@ def main(argv: list[str] | None = None) -> int:
         t0 = time.perf_counter()
         with concurrent.futures.ThreadPoolExecutor(max(1, args.jobs)) as ex:
             outcomes = list(ex.map(lambda c: run_case(c, w, args.timeout), cases))
+        studies = interrupted_studies(root / "studies") if args.families and not args.only else []
         wall = time.perf_counter() - t0
         width = max(len(o.case.name) for o in outcomes)
-        print(f"{'case':<{width}}  exit  exp lines  tb    s  first stderr line")
+        print(f"{'case':<{width}}  exit  exp lines  tb    s  written  first stderr line")
         for o in outcomes:
             first = o.lines[0] if o.lines else ""
             if len(first) > 150:
                 first = first[:147] + "..."
             flag = "" if not o.problems else "  <-- " + "; ".join(o.problems)
+            wrote = any(p.startswith(("wrote", "changed")) for p in o.problems)
             print(f"{o.case.name:<{width}}  {str(o.rc):>4}  {o.case.expect:>3} {len(o.lines):>5}  "
-                  f"{'yes' if o.traceback else 'no':<3} {o.seconds:>5.1f}  {first}{flag}")
+                  f"{'yes' if o.traceback else 'no':<3} {o.seconds:>5.1f}  {'yes' if wrote else 'no':<7}  "
+                  f"{first}{flag}")
             if args.verbose and o.problems:
                 print("    " + o.stderr.replace("\n", "\n    ").rstrip())
+        for st in studies:
+            for label, rc, expect, err in st.steps:
+                tb = "yes" if "Traceback (most recent" in err else "no"
+                first = next((ln for ln in err.splitlines() if ln.strip()), "")[:150]
+                print(f"{st.name + ': ' + label:<{width}}  {str(rc):>4}  {expect:>3}     -  {tb:<3} {st.seconds:>5.1f}  "
+                      f"{'yes' if st.wrote_refused and label == 'doctored journal' else 'no':<7}  {first}")
+            if st.problems:
+                print(f"    <-- {'; '.join(st.problems)}")
         n = len(outcomes)
         tot = {
             "cases": f"{n} (of {n_all})",
@@ -119,7 +140,13 @@ def main(argv: list[str] | None = None) -> int:
         print()
         for k, v in tot.items():
             print(f"{k:<32} {v}")
-        return 0 if not any(o.problems for o in outcomes) else 1
+        tracebacks = sum(o.traceback for o in outcomes) + sum(st.traceback for st in studies)
+        wrong = sum(o.rc != o.case.expect for o in outcomes) + sum(st.wrong_exits for st in studies)
+        writes = tot["wrote or changed files"] + sum(st.wrote_refused for st in studies)
+        print(f"summary: {n + sum(len(st.steps) for st in studies)} commands, {tracebacks} tracebacks, {wrong} wrong "
+              f"exits, {writes} writes by refused commands, "
+              f"{sum(bool(o.problems) for o in outcomes) + sum(bool(st.problems) for st in studies)} with any problem")
+        return 0 if not any(o.problems for o in outcomes) and not any(st.problems for st in studies) else 1
     finally:
         if not args.keep and args.workdir is None:
             shutil.rmtree(root, ignore_errors=True)
