@@ -230,6 +230,39 @@ def _check_genomes(path: Path, state: GAState, config: dict[str, Any]) -> None:
                     raise RunDirectoryError(f"{path}: {group}[{i}] gene {j} ({name}) is {why}")
 
 
+def _differing_keys(a: Any, b: Any, prefix: str = "") -> list[str]:
+    """Dotted keys at which two JSON documents differ (a key missing on one side counts)."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        out: list[str] = []
+        for k in sorted(set(a) | set(b), key=str):
+            out += _differing_keys(a.get(k), b.get(k), f"{prefix}{k}.")
+        return out
+    return [] if a == b else [prefix.rstrip(".") or "(the whole section)"]
+
+
+def _check_own_config(path: Path, state: GAState, config: dict[str, Any]) -> None:
+    """Refuse a checkpoint whose optimiser section is not the one of the run config its state records.
+
+    A checkpoint keeps the optimiser section twice: as its ``config`` (what a resume breeds with) and inside
+    ``state.extra["run_config"]`` (the resolved run file, with its SHA-256, that resume and report compare with
+    ``config.yaml``). A resume with an allowed config change rewrites both; two that differ are a checkpoint
+    pieced together from two runs, and neither can be trusted.
+
+    Raises
+    ------
+    RunDirectoryError
+        One line naming the file and the keys that differ.
+    """
+    recorded = state.extra.get("run_config") if isinstance(state.extra, dict) else None
+    if not isinstance(recorded, dict) or not isinstance(recorded.get("optimiser"), dict):
+        return  # an earlier run that recorded no run config: nothing to compare
+    keys = _differing_keys(config, recorded["optimiser"])
+    if keys:
+        shown = ", ".join(keys[:4]) + (f" and {len(keys) - 4} more" if len(keys) > 4 else "")
+        raise RunDirectoryError(f"{path}: its optimiser section differs from the run config it records at {shown}: "
+                                "not one run's checkpoint (copied from another run, or edited)")
+
+
 def _read(path: Path) -> tuple[GAState, dict[str, Any]]:
     """State and config of one checkpoint file.
 
@@ -267,6 +300,7 @@ def _read(path: Path) -> tuple[GAState, dict[str, Any]]:
     except (StateFormatError, RecursionError) as exc:
         msg = " ".join(str(exc).split())
         raise _damaged(path, f"damaged GA state: {msg[:160]}") from None
+    _check_own_config(path, state, config)
     _check_genomes(path, state, config)
     return state, config
 
