@@ -113,6 +113,24 @@ def test_law_set_evaluator_from_config_is_picklable_and_has_the_inner_attributes
     assert back == ev and back.variants.evaluators[1].base_spec == ev.variants.evaluators[1].base_spec
 
 
+def test_a_law_set_that_cannot_differ_is_warned(caplog):
+    """``embedded`` and ``calibrated`` at slope 0 are one law: warned once, naming both; a slope or a slope gene
+    makes them differ and nothing is said."""
+    from whisker_opt.wiring import warn_laws_that_cannot_differ
+
+    laws = {"optimiser": {"wall_laws": {"laws": ["embedded", "calibrated", "sliding"]}}}
+    same = WhiskerConfig.model_validate(laws)
+    with caplog.at_level("WARNING", logger="whisker_opt.wiring"):
+        assert warn_laws_that_cannot_differ(same) == ("embedded", "calibrated")
+        evaluator(same)
+    warned = [r.getMessage() for r in caplog.records if "cannot differ" in r.getMessage()]
+    assert len(warned) == 2 and "'embedded' and 'calibrated'" in warned[0] and "wall_slope = 0" in warned[0]
+    sloped = WhiskerConfig.model_validate({**laws, "material": {"wall_law": "calibrated", "wall_slope": -1.0}})
+    assert warn_laws_that_cannot_differ(sloped) == ()
+    assert warn_laws_that_cannot_differ(WhiskerConfig.model_validate(
+        {"optimiser": {"wall_laws": {"laws": ["embedded", "sliding"]}}})) == ()
+
+
 @pytest.mark.parametrize("optimiser, words", [
     ({"wall_laws": {"laws": ["embedded"]}}, "1 entries given; allowed 2..3 items"),
     ({"wall_laws": {"laws": ["embedded", "embedded"]}}, "repeated"),

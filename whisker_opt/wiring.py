@@ -426,6 +426,25 @@ def with_wall_law(cfg: WhiskerConfig, law: str) -> WhiskerConfig:
     return cfg.model_copy(update={"material": cfg.material.model_copy(update={"wall_law": law, "wall_slope": slope})})
 
 
+def warn_laws_that_cannot_differ(cfg: WhiskerConfig) -> tuple[str, ...]:
+    """Log a warning (and return the laws) when two laws of ``optimiser.wall_laws`` are the same law here:
+    ``embedded`` and ``calibrated`` at ``material.wall_slope`` = 0 (not a gene) both leave the wall as meshed,
+    so the set's mean or worst is f1 under fewer laws than it names."""
+    from whisker_opt.wall.law import WallLaw
+
+    opt = optimiser_of(cfg)
+    if opt.wall_laws is None or "wall_slope" in opt.genes.names():
+        return ()
+    slope = cfg.material.wall_slope
+    same = tuple(n for n in opt.wall_laws.laws if WallLaw(n, slope if n == "calibrated" else 0.0).identity)
+    if len(same) < 2:
+        return ()
+    logger.warning("optimiser.wall_laws: %s are the same law at material.wall_slope = %g (each leaves the wall as "
+                   "meshed): the set cannot differ there; set a slope or drop one", " and ".join(map(repr, same)),
+                   slope)
+    return same
+
+
 def law_set_evaluator(cfg: WhiskerConfig, ev):
     """``ev`` evaluated under each law of ``optimiser.wall_laws``, every measure reduced to the mean or the worst
     over the laws (:class:`whisker_opt.optimise.aggregate.AggregateEvaluator`, e.g. ``f1_mean_over_laws``).
@@ -437,6 +456,7 @@ def law_set_evaluator(cfg: WhiskerConfig, ev):
 
     opt = optimiser_of(cfg)
     spec = opt.wall_laws
+    warn_laws_that_cannot_differ(cfg)
     inners = tuple(replace(ev, base_spec=scene_spec(with_wall_law(cfg, law), ev.base_spec.design, 0.0))
                    for law in spec.laws)
     return AggregateEvaluator(ev, LawVariants(inners, tuple(spec.laws)), spec.objective, aggregate_label(opt))
