@@ -147,6 +147,13 @@ def topology_for(problem: Problem) -> Topology:
     return topo
 
 
+def support_forces(problem: Problem, u: np.ndarray) -> list[np.ndarray]:
+    """Resultant force (3,) [N] each elastic support of ``problem`` exerts on the body at the displacement
+    ``u`` (n_nodes, 3): −Σ R over its faces (:meth:`fem.support.SupportKernel.force`), from the problem's
+    cached topology."""
+    return [sk.force(u, s.k_n, s.k_t) for sk, s in zip(topology_for(problem).support_kernels, problem.supports)]
+
+
 class Assembler:
     """Residual, tangent and energy of a :class:`Problem` at a state.
 
@@ -219,9 +226,6 @@ class Assembler:
             self._support_data = np.bincount(pos, vals, minlength=self.pattern.nnz)  # (nnz,)
         return self._support_data
 
-    def support_forces(self, u: np.ndarray) -> list[np.ndarray]:
-        """Resultant force (3,) [N] each elastic support exerts on the body at displacement ``u`` (n_nodes, 3)."""
-        return [sk.force(u, s.k_n, s.k_t) for sk, s in self.supports]
 
     # ------------------------------------------------------------------ kinematics
     def deformation(self, u: np.ndarray):
