@@ -207,3 +207,13 @@ def test_run_file_refuses_bad_base_parameters_in_one_line(tmp_path, text, messag
     with pytest.raises(ConfigError, match=message) as info:
         load_config(path)
     assert "\n" not in str(info.value)
+
+
+def test_deck_refuses_the_springs_and_writes_the_other_bases():
+    """The CalculiX/Abaqus deck holds displacement sets only: it refuses 'compliant' in one line naming the key."""
+    from whisker_opt.output.scene_deck import deck_refusal
+
+    assert deck_refusal(SceneSpec(WhiskerDesign(), base_support="compliant")).startswith(
+        "scene.base_support: 'compliant'; the CalculiX/Abaqus deck writes")
+    assert all(deck_refusal(SceneSpec(WhiskerDesign(), base_support=n)) is None for n in BASE_SUPPORTS
+               if n != "compliant")

@@ -56,15 +56,17 @@ def test_flat_face_energy_is_the_closed_form():
     assert sk.energy(u, k_n, k_t) == pytest.approx(0.5 * k_n * g**2 * 3.0 * 8.0 / 3.0, rel=1e-13)
 
 
-def test_support_tangent_matches_fd(curved):
+@pytest.mark.parametrize("kernel", ["auto", "numpy"])
+def test_support_tangent_matches_fd(curved, kernel):
     """The support's tangent blocks equal the central-difference Jacobian of its residual (curved faces,
-    random state), the assembled problem's too; the support part alone is what the support adds."""
+    random state), the assembled problem's too, with either element kernel; the support part alone is what
+    the support adds."""
     mesh, faces = curved
     mat = NeoHookean(0.5, 0.2)
     bare = Problem(mesh, mat)
     prob = Problem(mesh, mat, supports=(ElasticSupport(faces, 3.0, 0.8),))
     u, p = _state(prob, seed=7)
-    asm, asm0 = Assembler(prob), Assembler(bare)
+    asm, asm0 = Assembler(prob, kernel), Assembler(bare, kernel)
     x = np.concatenate([u.ravel(), p])
     n_u = prob.n_u
 
