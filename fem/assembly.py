@@ -3,9 +3,10 @@
 Discrete potential (P2 displacement, P0 element pressure p_e)::
 
     Π(u, p) = Σ_e [ ∫_e W_iso(F) dV + p_e ∫_e (J − 1) dV − (D1/4) p_e² V_e ]
-              + Ψ_fibres(u) + Σ_e ½ C_e Ē_e² − W_ext(u)
+              + Ψ_fibres(u) + Σ_e ½ C_e Ē_e² + Π_s(u) − W_ext(u)
 
-(Ψ_fibres: embedded trusses, fem.truss; Σ_e ½ C_e Ē_e²: smeared fibres, fem.fibre_field.)
+(Ψ_fibres: embedded trusses, fem.truss; Σ_e ½ C_e Ē_e²: smeared fibres, fem.fibre_field; Π_s: elastic
+surface supports, fem.support.)
 
 Stationarity gives (G = F⁻¹, ∂J/∂F = J Gᵀ)::
 
@@ -32,6 +33,7 @@ from fem.pressure import PressureKernel
 from fem.problem import Problem, ProblemError
 from fem.quadrature import tet_rule, tri_rule
 from fem.sparsity import Pattern, build_pattern
+from fem.support import SupportKernel
 from fem.tensor3 import det3, det_inv3
 from fem.truss import TrussKernel
 
@@ -86,12 +88,19 @@ class Topology:
             dA = np.linalg.norm(np.cross(a1, a2), axis=-1)  # (n_f, n_qp)
             wts = np.einsum("q,qa,fq->fa", rule.weights, Nf, dA)  # (n_f, 6)  ∫ N_a dA
             self.traction_forces.append((dt.faces, wts))
-        groups = [pk.faces for pk in self.pressure_kernels] + [tk.nodes for tk in self.truss_kernels]
+        self.support_kernels = [SupportKernel(mesh.points, s.faces, problem.face_quadrature_degree)
+                                for s in problem.supports]
+        groups = ([pk.faces for pk in self.pressure_kernels] + [tk.nodes for tk in self.truss_kernels]
+                  + [sk.faces for sk in self.support_kernels])
         self.pattern: Pattern = build_pattern(mesh.n_nodes, mesh.cells, groups)
         pat = self.pattern
         self.pressure_pos = [
             pat.node_block_positions(pk.faces[:, :, None], pk.faces[:, None, :]).transpose(0, 1, 3, 2, 4)
             for pk in self.pressure_kernels
+        ]  # each (n_f, 6, 3, 6, 3)
+        self.support_pos = [
+            pat.node_block_positions(sk.faces[:, :, None], sk.faces[:, None, :]).transpose(0, 1, 3, 2, 4)
+            for sk in self.support_kernels
         ]  # each (n_f, 6, 3, 6, 3)
         self.pressure_pos_flat = np.concatenate([p.ravel() for p in self.pressure_pos] + [np.zeros(0, np.int64)])
         # fibre tangents scatter linearly from 9 chord-space numbers per segment
@@ -115,6 +124,7 @@ def topology_key(problem: Problem) -> tuple:
         tuple(id(t.segments) for t in problem.trusses),
         tuple(id(t.faces) for t in problem.tractions),
         tuple(id(f.stiffness) for f in problem.fibre_fields),
+        tuple(id(s.faces) for s in problem.supports),
         problem.quadrature_degree,
         problem.face_quadrature_degree,
     )
@@ -133,8 +143,15 @@ def topology_for(problem: Problem) -> Topology:
         # keep referenced arrays alive so the id()-based key stays valid
         problem._cache[key] = topo
         problem._cache[key + ("refs",)] = (problem.mesh, problem.pressures, problem.trusses, problem.tractions,
-                                           problem.fibre_fields)
+                                           problem.fibre_fields, problem.supports)
     return topo
+
+
+def support_forces(problem: Problem, u: np.ndarray) -> list[np.ndarray]:
+    """Resultant force (3,) [N] each elastic support of ``problem`` exerts on the body at the displacement
+    ``u`` (n_nodes, 3): −Σ R over its faces (:meth:`fem.support.SupportKernel.force`), from the problem's
+    cached topology."""
+    return [sk.force(u, s.k_n, s.k_t) for sk, s in zip(topology_for(problem).support_kernels, problem.supports)]
 
 
 class Assembler:
@@ -168,6 +185,9 @@ class Assembler:
         self.element_terms = list(self.topo.field_kernels) + [
             FrozenStressKernel(self.topo.dNdX, self.topo.wdet, fs.elements, fs.stress)
             for fs in problem.frozen_stresses]
+        #: the elastic supports' constant tangent data (nnz,): their kernels' blocks of this problem's stiffnesses
+        self.supports = list(zip(self.topo.support_kernels, problem.supports))
+        self._support_data = None
 
     def scatter_index(self) -> np.ndarray:
         """Data positions of the element tangent contributions (uu, up, pu, pp), in the order the numpy path stacks them (cached)."""
@@ -194,7 +214,18 @@ class Assembler:
                                 minlength=len(data))
         for B, kmat in zip(topo.truss_maps, truss_out):
             data += B @ kmat.ravel()  # (nnz,)  fibre blocks w_a w_b kmat_ik
+        if self.supports:
+            data += self.support_data()
         return data
+
+    def support_data(self) -> np.ndarray:
+        """Tangent data (nnz,) of the elastic supports: their blocks K (:mod:`fem.support`), constant (cached)."""
+        if self._support_data is None:
+            pos = np.concatenate([p.ravel() for p in self.topo.support_pos])
+            vals = np.concatenate([sk.blocks(s.k_n, s.k_t).ravel() for sk, s in self.supports])
+            self._support_data = np.bincount(pos, vals, minlength=self.pattern.nnz)  # (nnz,)
+        return self._support_data
+
 
     # ------------------------------------------------------------------ kinematics
     def deformation(self, u: np.ndarray):
@@ -235,6 +266,8 @@ class Assembler:
             Pi += tk.energy(x)
         for fk in self.element_terms:
             Pi += fk.energy(F)
+        for sk, s in self.supports:
+            Pi += sk.energy(u, s.k_n, s.k_t)
         return float(Pi)
 
     # ------------------------------------------------------------------ residual and tangent
@@ -290,6 +323,9 @@ class Assembler:
             fa = wts[:, :, None] * np.asarray(t0, float)[None, None, :]  # (n_f, 6, 3)
             R[: 3 * topo.n_nodes] -= np.bincount((3 * faces[:, :, None] + np.arange(3)).ravel(), fa.ravel(),
                                                  minlength=3 * topo.n_nodes)
+        for sk, s in self.supports:
+            R[: 3 * topo.n_nodes] += np.bincount((3 * sk.faces[:, :, None] + np.arange(3)).ravel(),
+                                                 sk.residual(u, s.k_n, s.k_t).ravel(), minlength=3 * topo.n_nodes)
         truss_out = []
         for tk, dofs in zip(topo.truss_kernels, topo.truss_dofs):
             Rt, Kt = tk.evaluate(x, need_tangent)

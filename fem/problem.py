@@ -105,6 +105,36 @@ class DeadTraction:
 
 
 @dataclass(frozen=True)
+class ElasticSupport:
+    """Distributed linear springs on reference boundary faces (:mod:`fem.support`).
+
+    Energy Π_s = ½ ∫_Γ [k_n (u·n0)² + k_t |u − (u·n0) n0|²] dA over the reference faces, n0 their
+    reference unit normal: a Winkler foundation with a tangential spring.
+
+    Parameters
+    ----------
+    faces : ndarray (n_f, 6) int
+        6-node triangles (either orientation).
+    k_n, k_t : float
+        Normal and tangential stiffness per reference area [N/mm³], finite and >= 0.
+    name : str
+    """
+
+    faces: np.ndarray
+    k_n: float
+    k_t: float
+    name: str = "support"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "faces", _tri6_faces(f"ElasticSupport({self.name})", self.faces))
+        for key in ("k_n", "k_t"):
+            v = getattr(self, key)
+            if not (np.isfinite(v) and v >= 0):
+                raise ProblemError(f"ElasticSupport({self.name}).{key}={v!r}: must be finite and >= 0 N/mm^3")
+            object.__setattr__(self, key, float(v))
+
+
+@dataclass(frozen=True)
 class EmbeddedTrusses:
     """Truss fibres embedded in the host tets (no nodes of their own).
 
@@ -245,6 +275,9 @@ class Problem:
     tractions : tuple of DeadTraction
     fibre_fields : tuple of SmearedFibres
         Their arrays have one column per point of the tet rule of ``quadrature_degree``.
+    supports : tuple of ElasticSupport
+        Elastic surface supports (springs on faces); their faces are part of the topology, their
+        stiffnesses are not.
     frozen_stresses : tuple of FrozenStress
         Prescribed stresses (one per quadrature point of the same rule); not part of the
         topology, so a problem that adds them shares its sparsity pattern and factorisation analysis.
@@ -266,6 +299,7 @@ class Problem:
     tractions: tuple[DeadTraction, ...] = ()
     fibre_fields: tuple[SmearedFibres, ...] = ()
     frozen_stresses: tuple[FrozenStress, ...] = ()
+    supports: tuple[ElasticSupport, ...] = ()
     quadrature_degree: int = 2
     face_quadrature_degree: int = 4
     formulation: str = "mixed"
@@ -282,6 +316,9 @@ class Problem:
         for dt in self.tractions:
             if dt.faces.size and (dt.faces.min() < 0 or dt.faces.max() >= n):
                 raise ProblemError(f"DeadTraction({dt.name}).faces: node index outside [0, {n - 1}]")
+        for sp in self.supports:
+            if sp.faces.size and (sp.faces.min() < 0 or sp.faces.max() >= n):
+                raise ProblemError(f"ElasticSupport({sp.name}).faces: node index outside [0, {n - 1}]")
         for tr in self.trusses:
             if tr.host_elements.size and (tr.host_elements.min() < 0 or tr.host_elements.max() >= self.mesh.n_elements):
                 raise ProblemError(f"EmbeddedTrusses({tr.name}).host_elements outside [0, {self.mesh.n_elements - 1}]")

@@ -102,3 +102,21 @@ def locate_fibres(
         seg = np.stack([np.arange(len(pts) - 1), np.arange(1, len(pts))], axis=1).astype(np.int64)
         out.append(FibrePath(pts, loc.host_elements, _clip_to_tet(loc.local_coords), seg, float(phase)))
     return tuple(out)
+
+
+def band_nodes(points: np.ndarray, nodes: np.ndarray, x_max: float, tol: float = 1e-9) -> np.ndarray:
+    """The nodes of a set at x ≤ ``x_max`` (within ``tol`` relative to the set's axial extent), shape (k,) int64:
+    the band of a surface from the base up to ``x_max``, e.g. the outer surface a holder grips.
+
+    Raises
+    ------
+    ValueError
+        No node of the set lies there.
+    """
+    nodes = np.asarray(nodes, dtype=np.int64)
+    x = points[nodes, 0]
+    span = float(x.max() - x.min()) if len(x) else 0.0
+    sel = nodes[x <= x_max + tol * max(span, 1.0)]
+    if len(sel) == 0:
+        raise ValueError(f"band_nodes: no node at x <= {x_max:g} mm (the set starts at x = {x.min():g} mm)")
+    return sel

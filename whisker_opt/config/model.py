@@ -116,9 +116,9 @@ _SCENE_OWN: dict[str, Any] = {
         True, description="`simulate` runs the intact (at Q_i) / trimmed (vented) pair instead of one scene")),
 }
 _SCENE_SHARED = declared_fields(SceneSpec, ("contact_ratio", "contact_at", "deflection", "calibration", "band_width",
-                                            "base_support"))
+                                            "base_support", "base_grip_depth", "base_k_n", "base_k_t"))
 _SCENE_ORDER = ("Q_i", "trim", "contact_ratio", "contact_at", "deflection", "delta_step", "calibration", "band_width",
-                "base_support", "gauge_variant", "pair")
+                "base_support", "base_grip_depth", "base_k_n", "base_k_t", "gauge_variant", "pair")
 
 #: The ``scene`` section: its own keys plus the experiment settings :class:`whisker_opt.experiment.spec.SceneSpec`
 #: declares (contact, deflection, gauge factor, contact band).
@@ -210,6 +210,14 @@ class WhiskerConfig(StrictModel):
     @model_validator(mode="after")
     def _wall_laws_can_be_evaluated(self) -> "WhiskerConfig":
         check_wall_laws(self)  # the slope, the design, scene.Q_i and the gene box against the laws
+        return self
+
+    @model_validator(mode="after")
+    def _grip_within_the_whisker(self) -> "WhiskerConfig":
+        d, L = self.scene.base_grip_depth, self.design.L - self.scene.trim
+        if self.scene.base_support == "grip" and not d < L:
+            raise ValueError(f"scene.base_grip_depth={d:g}: must be < the whisker's length {L:g} mm "
+                             "(design.L - scene.trim)")
         return self
 
 

@@ -4,8 +4,9 @@
 (a mesh with its gauge located in it when it is built):
 
 1. :func:`pressurise`
-    Base face fixed (all components; ``base_support='sliding'`` holds it axially and only its
-    inner half radially, :func:`base_dirichlet`), follower pressure Q on every cavity face, fibres
+    Base held by the mechanism ``spec.base_support`` (:mod:`whisker_opt.experiment.base_supports`: by default
+    every base node fixed; or sliding, axial, gripped over a depth, on elastic supports), follower pressure Q
+    on every cavity face, fibres
     embedded as trusses; the rubber is :func:`scene_material` (one law, or a cap of another).
     Skipped when Q = 0 (the state is then the reference state).
     Outputs the axial extension Δl(Q) (mean axial displacement of the tip face), the new
@@ -53,6 +54,7 @@ from fem.state import State
 from geometry.design import WhiskerDesign
 from geometry.fibre_field import smeared_fibres
 from geometry.mesh import MeshSizing, WhiskerMesh, build_mesh
+from whisker_opt.experiment.base_supports import BaseHold, base_hold
 from whisker_opt.experiment.contact import Contact, contact_band, place_contact_ring
 from whisker_opt.experiment.gauge import GaugedMesh, GaugeReader, ReadingContext
 from whisker_opt.experiment.gauge_variants import GAUGE_VARIANTS
@@ -105,7 +107,8 @@ class SceneResult:
         (:func:`contact_reactions`).
     base_reaction : ndarray, shape (k + 1, 3)
         Force the base support exerts on the whisker at each solved δ [N] (x, y, z): Σ R
-        over the base nodes. With Q = 0 its y component balances the contact force.
+        over the held base nodes plus the force of any elastic supports (:func:`contact_reactions`).
+        With Q = 0 its y component balances the contact force.
     von_mises_max : float
         Largest nodal von Mises stress of the deflected state (δ = ``spec.deflection``) [MPa]:
         :func:`peak_von_mises` of the deflection's problem (NaN when not computed).
@@ -180,22 +183,19 @@ def scene_material(mesh, spec: SceneSpec) -> IsochoricI1Material:
 
 
 def base_dirichlet(wm: WhiskerMesh, spec: SceneSpec) -> list[Dirichlet]:
-    """The base's supports (:attr:`SceneSpec.base_support`), all prescribed to zero.
-
-    'clamped': one set, every base node in x, y, z. 'sliding': every base node in x, and the
-    nodes with r ≤ D/4 in y and z (the first set's values have shape (n_base, 1)).
-    """
-    base = wm.node_sets["base"]
-    if spec.base_support == "clamped":
-        return [Dirichlet(base, (0, 1, 2))]
-    r = np.linalg.norm(wm.mesh.points[base, 1:], axis=1)  # (n_base,)
-    return [Dirichlet(base, (0,)), Dirichlet(base[r <= 0.25 * spec.design.D + 1e-9], (1, 2))]
+    """The base's displacement sets (:attr:`SceneSpec.base_support`, its mechanism's
+    :class:`~whisker_opt.experiment.base_supports.BaseHold`), all prescribed to zero; empty for a base on
+    elastic supports alone."""
+    return list(base_hold(wm, spec).dirichlet)
 
 
-def make_problem(wm: WhiskerMesh, spec: SceneSpec, band_nodes: np.ndarray | None) -> Problem:
-    """FE problem of the scene: supported base, cavity pressure (if Q > 0), fibres, contact band."""
+def make_problem(wm: WhiskerMesh, spec: SceneSpec, band_nodes: np.ndarray | None,
+                 hold: BaseHold | None = None) -> Problem:
+    """FE problem of the scene: the held base (``hold``, default that of ``spec.base_support``), cavity pressure
+    (if Q > 0), fibres, contact band."""
     d = spec.design
-    dirichlet = base_dirichlet(wm, spec)
+    hold = base_hold(wm, spec) if hold is None else hold
+    dirichlet = list(hold.dirichlet)
     if band_nodes is not None:
         dirichlet.append(Dirichlet(band_nodes, (1,)))
     pressures = (FollowerPressure(wm.face_sets["cavity"]),) if spec.Q > 0 else ()
@@ -211,6 +211,7 @@ def make_problem(wm: WhiskerMesh, spec: SceneSpec, band_nodes: np.ndarray | None
         pressures=pressures,
         trusses=trusses,
         fibre_fields=fields,
+        supports=hold.supports,
         formulation=spec.formulation,
     )
 
@@ -301,28 +302,28 @@ class Pressurised:
     Attributes
     ----------
     problem : Problem
-        The pressurise problem (fixed base, cavity pressure, fibres); the deflection
+        The pressurise problem (held base, cavity pressure, fibres); the deflection
         problem shares its topology cache.
-    zeros_base : ndarray, shape (n_base, 3)
-        The base's prescribed (zero) displacements (shape (n_base, 1) with
-        ``base_support='sliding'``).
+    base_values : tuple of ndarray
+        The zero values of the base's displacement sets (one (k, n_components) array per set of
+        ``hold.dirichlet``, none for a base on elastic supports alone). Load states list these, then
+        the contact band.
     state : State
         Pressurised state; the reference state when Q = 0.
     reports : list of fem.loadpath.StepReport
-    extra_base : tuple of ndarray
-        The zero values of any further base set (``base_support='sliding'``); empty when
-        clamped. Load states list ``zeros_base``, then these, then the contact band.
+    hold : BaseHold
+        What holds the base (:mod:`whisker_opt.experiment.base_supports`).
     """
 
     problem: Problem
-    zeros_base: np.ndarray
+    base_values: tuple
     state: State
     reports: list
-    extra_base: tuple = ()
+    hold: BaseHold
 
 
 def pressurise(spec: SceneSpec, wm: WhiskerMesh, start: tuple[float, State] | None = None) -> Pressurised:
-    """Step 1 on ``wm``: fixed base, cavity pressure raised from 0 to Q (skipped when Q = 0).
+    """Step 1 on ``wm``: held base, cavity pressure raised from 0 to Q (skipped when Q = 0).
 
     ``start = (Q0, state)``: a warm start, the pressure raised from Q0 to Q in one requested
     step from ``state``, a converged state at Q0 of this mesh or of one with the same nodes
@@ -330,12 +331,12 @@ def pressurise(spec: SceneSpec, wm: WhiskerMesh, start: tuple[float, State] | No
     the solver tolerances (measured in benchmarks/studies/compensation_map.py). Default: from the
     reference state at 0 in ``spec.n_pressure_steps`` steps.
     """
-    prob1 = make_problem(wm, spec, None)
-    zeros_base, *extra = (np.zeros(dr.shape) for dr in prob1.dirichlet)
-    extra = tuple(extra)
+    hold = base_hold(wm, spec)
+    prob1 = make_problem(wm, spec, None, hold)
+    zeros = tuple(np.zeros(dr.shape) for dr in prob1.dirichlet)
     state = State.zero(prob1)
     if spec.Q <= 0:
-        return Pressurised(prob1, zeros_base, state, [], extra)
+        return Pressurised(prob1, zeros, state, [], hold)
     fr = tuple(np.linspace(0, 1, spec.n_pressure_steps + 1)[1:])
     q0, step = 0.0, 0.34
     if start is not None:
@@ -343,8 +344,8 @@ def pressurise(spec: SceneSpec, wm: WhiskerMesh, start: tuple[float, State] | No
     states, rep = solve_path(
         prob1,
         state,
-        LoadState((q0,), (zeros_base, *extra)),
-        LoadState((spec.Q,), (zeros_base, *extra)),
+        LoadState((q0,), zeros),
+        LoadState((spec.Q,), zeros),
         fractions=fr,
         # full Newton: pressurising a fibre-wound chamber is strongly nonlinear, where
         # a reused tangent converges slowly (reuse ratio 0.05-0.2: 48-54 iterations
@@ -358,7 +359,7 @@ def pressurise(spec: SceneSpec, wm: WhiskerMesh, start: tuple[float, State] | No
                         max_step=min(spec.solve_options.max_step, step),
                         intermediate_rtol=_pressure_intermediate_rtol(spec.solve_options)),
     )
-    return Pressurised(prob1, zeros_base, states[-1], list(rep), extra)
+    return Pressurised(prob1, zeros, states[-1], list(rep), hold)
 
 
 #: Residual tolerance of the pressurisation's increments below Q (their energy tolerance is its
@@ -420,8 +421,10 @@ def contact_reactions(problem: Problem, state: State, pressures: tuple, band: np
     The residual R = f_int − f_ext (:meth:`fem.assembly.Assembler.evaluate`) vanishes at the free
     degrees of freedom of a converged state; at a prescribed one it is the force the support
     exerts on the body (equilibrium f_int = f_ext + r). So the contact force in −y is
-    F = −Σ_{band} R_y and the base reaction is Σ_{base} R (x, y, z components). F is
-    work-conjugate to δ: F dδ is the work of the pusher.
+    F = −Σ_{band} R_y and the base reaction is Σ_{base} R (x, y, z components) plus the force of
+    the problem's elastic supports (:func:`fem.assembly.support_forces`; a base on springs has no
+    prescribed degree of freedom, so the springs carry the whole reaction). F is work-conjugate to δ:
+    F dδ is the work of the pusher.
 
     Parameters
     ----------
@@ -431,7 +434,7 @@ def contact_reactions(problem: Problem, state: State, pressures: tuple, band: np
     pressures : tuple of float
         The follower pressures' magnitudes at ``state``.
     band, base : ndarray of int
-        Contact band and base node indices.
+        Contact band and the held base nodes (:attr:`whisker_opt.experiment.base_supports.BaseHold.nodes`).
     residual : ndarray, optional
         R of ``state`` under ``problem`` and ``pressures`` when already known (the converged
         Newton solve's last evaluation, :attr:`fem.state.State.residual`); evaluated otherwise.
@@ -440,13 +443,14 @@ def contact_reactions(problem: Problem, state: State, pressures: tuple, band: np
     -------
     ndarray, shape (4,)
     """
-    from fem.assembly import Assembler
+    from fem.assembly import Assembler, support_forces
 
     R = residual
     if R is None:
         R = Assembler(problem).evaluate(state.u, state.p, pressures, need_tangent=False)[0]
     Ru = R[: 3 * problem.mesh.n_nodes].reshape(-1, 3)  # (n_nodes, 3)
-    return np.concatenate([[-Ru[band, 1].sum()], Ru[base].sum(axis=0)])
+    held = Ru[base].sum(axis=0) + sum(support_forces(problem, state.u), np.zeros(3))  # (3,)
+    return np.concatenate([[-Ru[band, 1].sum()], held])
 
 
 def reading_context(spec: SceneSpec) -> ReadingContext:
@@ -474,19 +478,19 @@ def deflect_and_read(spec: SceneSpec, gm: GaugedMesh, pre: Pressurised, contact:
     band = contact_band(wm, u1, contact.x(wm, u1), spec.band_width, contact.at_tip)
     # same mesh, faces and fibres: replace() shares the topology cache (sparsity
     # pattern, PARDISO analysis) with the pressurise problem
-    prob2 = replace(pre.problem, dirichlet=(*base_dirichlet(wm, spec), Dirichlet(band, (1,))))
+    prob2 = replace(pre.problem, dirichlet=(*pre.hold.dirichlet, Dirichlet(band, (1,))))
     if not spec.law.identity:  # the wall law about the pressurised state (whisker_opt.wall.law)
         prob2 = apply_law(prob2, pre.state, spec.law.factor(spec.Q, spec.design),
                           chamber_elements(wm.mesh.points, wm.mesh.cells, spec.design))
     uy0 = u1[band, 1:2]  # (k, 1)
     pq = (spec.Q,) if spec.Q > 0 else ()
-    load0 = LoadState(pq, (pre.zeros_base, *pre.extra_base, uy0))
-    load1 = LoadState(pq, (pre.zeros_base, *pre.extra_base, uy0 - spec.deflection))
+    load0 = LoadState(pq, (*pre.base_values, uy0))
+    load1 = LoadState(pq, (*pre.base_values, uy0 - spec.deflection))
     reader.zero(u1)
     fractions = tuple(np.linspace(0, 1, spec.n_deflection_steps + 1)[1:])
     readings = [(0.0,) * len(GAUGE_VARIANTS)]
     t_read = [0.0]
-    base = np.asarray(wm.node_sets["base"], dtype=np.int64)
+    base = np.asarray(pre.hold.nodes, dtype=np.int64)
     forces = [contact_reactions(prob2, pre.state, pq, band, base)]
     forces[0][0] = 0.0  # onset: the pusher only touches (the band's residual is the solver's round-off)
 

@@ -19,6 +19,8 @@ import numpy as np
 from geometry.design import WhiskerDesign, parameter, parameter_violations
 from geometry.materials import RUBBER_C10
 from geometry.sizing import MeshSizing
+from whisker_opt.experiment.base_supports import BASE_SUPPORTS
+from whisker_opt.experiment.bases import compliant, grip
 from whisker_opt.experiment.rubber_laws import RUBBERS
 from whisker_opt.wall.law import SLOPE_RANGE, WALL_LAW_NAMES, WallLaw
 
@@ -41,8 +43,6 @@ def cap_elements(mesh, c: float) -> np.ndarray:
 #: The chamber pressures a scene may take [MPa]: ``scene.Q_i`` and the gene Q_i read this range.
 Q_RANGE: tuple[float, float] = (0.0, 1.0)
 
-#: How the base face is held (:attr:`SceneSpec.base_support`).
-BASE_SUPPORTS: tuple[str, ...] = ("clamped", "sliding")
 FIBRE_MODELS: tuple[str, ...] = ("embedded", "smeared")
 
 
@@ -99,10 +99,15 @@ class SceneSpec:
     cap_rubber : str
         'same' (default: the cap is of the body's rubber) or one of the rubbers for the
         elements of the cap, those whose centroid lies at x < c, bonded to the body.
-    base_support : {'clamped', 'sliding'}
-        'clamped' (default): every node of the base face fixed in x, y and z. 'sliding':
-        every base node held axially, only the nodes within r ≤ D/4 also held in y and z,
-        so the outer half of the base may slide radially (a softer mount).
+    base_support : str
+        How the holder holds the base: one of the mechanisms of
+        :data:`whisker_opt.experiment.base_supports.BASE_SUPPORTS` ('clamped', the default: every node of
+        the base face fixed; 'sliding', 'axial', 'grip', 'compliant'; each module of
+        :mod:`whisker_opt.experiment.bases` documents its mechanism and its parameters' ranges).
+    base_grip_depth : float
+        Depth d [mm] over which 'grip' holds the outer surface (0 ≤ d < the whisker's length).
+    base_k_n, base_k_t : float
+        Normal and tangential stiffness per area [N/mm³] of the 'compliant' base's springs.
     fibre_model : {'embedded', 'smeared'}
         'embedded' (default): each helix a line of trusses in its host elements
         (:mod:`geometry.fibres`). 'smeared': the winding as an anisotropic term of the wall
@@ -144,8 +149,21 @@ class SceneSpec:
         "same", "", "rubber of the cap (elements at x < c), bonded to the body: 'same' as the body, or one of "
         "the rubber laws", choices=("same",) + RUBBERS, listed=f"`same` or a {_LISTED_RUBBERS}")
     base_support: str = parameter(
-        "clamped", "", "'clamped': every base node fixed; 'sliding': the base held axially, only its inner "
-        "half (r ≤ D/4) also held radially", choices=BASE_SUPPORTS)
+        "clamped", "", "how the holder holds the base, by name: 'clamped' (every base node fixed), 'sliding' (the "
+        "base held axially, only its inner half r ≤ D/4 also radially), 'axial' (held axially only, plus two nodes "
+        "against rigid motion), 'grip' (the outer surface fixed over base_grip_depth, the base face free) or "
+        "'compliant' (the base face on springs base_k_n, base_k_t); docs/physics.md §2",
+        choices=BASE_SUPPORTS, listed="a registered base mechanism, listed by "
+        "`python3 -m whisker_opt.experiment.base_supports`")
+    base_grip_depth: float = parameter(
+        grip.DEPTH_DEFAULT, "mm", "depth d from x = 0 over which base_support 'grip' holds the outer surface "
+        "(estimated 1-6 mm for the default design); below the whisker's length", ge=0, le=100)
+    base_k_n: float = parameter(
+        compliant.K_N_DEFAULT, "N/mm^3", "normal stiffness per area of base_support 'compliant' (estimated 0.08-35 "
+        "for a rubber layer of 1-10 mm in the holder)", gt=compliant.K_RANGE[0], le=compliant.K_RANGE[1])
+    base_k_t: float = parameter(
+        compliant.K_T_DEFAULT, "N/mm^3", "tangential stiffness per area of base_support 'compliant' (estimated "
+        "0.03-0.3, μ/h)", gt=compliant.K_RANGE[0], le=compliant.K_RANGE[1])
     fibre_model: str = parameter(
         "embedded", "", "'embedded': each helix a line of trusses in the elements that hold it; 'smeared': the "
         "winding spread over the wall as an anisotropic fibre term of the same stiffness per length "
@@ -168,6 +186,8 @@ class SceneSpec:
              "'mixed' or 'displacement'"),
             ("n_pressure_steps", self.n_pressure_steps, self.n_pressure_steps >= 1, ">= 1"),
             ("n_deflection_steps", self.n_deflection_steps, self.n_deflection_steps >= 1, ">= 1"),
+            ("base_grip_depth", self.base_grip_depth, self.base_grip_depth < self.design.length,
+             f"< the whisker's length {self.design.length:g} mm"),
         ]
         bad = [f"SceneSpec.{name}={value!r}: must be {allowed}" for name, value, ok, allowed in checks if not ok] + bad
         if self.wall_law in WALL_LAW_NAMES:

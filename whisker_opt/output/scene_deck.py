@@ -148,6 +148,9 @@ def deck_refusal(spec) -> str | None:
     if spec.fibre_model != "embedded":
         return (f"material.fibre_model: {spec.fibre_model!r}; the CalculiX/Abaqus deck writes the embedded fibres "
                 "only (springs tied into the rubber; fibre_model: embedded)")
+    if spec.base_support == "compliant":
+        return ("scene.base_support: 'compliant'; the CalculiX/Abaqus deck writes the base's displacement sets "
+                "only, not its elastic supports (base_support: clamped, sliding, axial or grip)")
     if not spec.law.identity:
         law = f" (c(Q) = 1 + {spec.wall_slope:g}·Q)" if spec.wall_law == "calibrated" else ""
         return (f"material.wall_law: {spec.wall_law!r}{law}; the CalculiX/Abaqus deck writes "
@@ -286,7 +289,7 @@ def write_scene_deck(path: str | os.PathLike, spec, wm, options: DeckOptions = D
     ------
     ValueError
         A scene the deck cannot hold (:func:`deck_refusal`): a rubber other than the neo-Hookean one, the
-        smeared fibres or a wall law other than 'embedded'.
+        smeared fibres, a wall law other than 'embedded' or a base on elastic supports.
     """
     from fem.io import atomic_write
 

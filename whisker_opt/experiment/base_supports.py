@@ -1,0 +1,68 @@
+"""How the base is held, by name: the one registry of the base mechanisms (``scene.base_support``).
+
+Each mechanism is a module of :mod:`whisker_opt.experiment.bases` with a ``NAME``, an ``ORDER``, a one-line
+``DESCRIPTION``, ``PARAMETERS`` (the :class:`whisker_opt.experiment.spec.SceneSpec` fields it reads beyond the
+mesh, each with its range and source in the module's docstring) and ``hold(wm, spec) -> BaseHold``: what holds
+the whisker mesh ``wm`` (its ``mesh``, ``node_sets`` and ``face_sets``, :class:`geometry.mesh.WhiskerMesh`).
+The scene (:func:`whisker_opt.experiment.scene.make_problem`) adds the hold's displacement sets (prescribed to
+zero) and elastic supports to every problem, and sums the base reaction over its nodes and supports. The
+modules load the finite-element code only when they hold, so the run-file models may list the names without it.
+
+Adding a mechanism: one module in ``whisker_opt/experiment/bases/`` (found by :func:`_registry`, ordered by its
+``ORDER``), its parameters as fields of ``SceneSpec`` and keys of the ``scene`` section, and a test.
+``python3 -m whisker_opt.experiment.base_supports`` lists the registered mechanisms.
+"""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass
+from types import MappingProxyType
+from typing import Any, Callable, Mapping
+
+from whisker_opt.experiment.bases import BaseHold
+
+__all__ = ["BASE_MECHANISMS", "BASE_SUPPORTS", "BaseHold", "BaseMechanism", "base_hold", "listing"]
+
+
+@dataclass(frozen=True)
+class BaseMechanism:
+    """One registered base mechanism (see the module docstring)."""
+
+    name: str
+    description: str
+    parameters: tuple[str, ...]
+    hold: Callable[..., Any]
+
+
+def _registry() -> dict[str, BaseMechanism]:
+    """Every module of :mod:`whisker_opt.experiment.bases`, in the order of their ``ORDER``."""
+    import importlib
+    import pkgutil
+
+    import whisker_opt.experiment.bases as pkg
+
+    mods = [importlib.import_module(f"{pkg.__name__}.{m.name}") for m in pkgutil.iter_modules(pkg.__path__)]
+    return {m.NAME: BaseMechanism(m.NAME, m.DESCRIPTION, tuple(m.PARAMETERS), m.hold)
+            for m in sorted(mods, key=lambda m: (m.ORDER, m.NAME))}
+
+
+#: The base mechanisms, by name (read-only); the first is the default.
+BASE_MECHANISMS: Mapping[str, BaseMechanism] = MappingProxyType(_registry())
+#: Their names: the values ``scene.base_support`` allows.
+BASE_SUPPORTS: tuple[str, ...] = tuple(BASE_MECHANISMS)
+
+
+def base_hold(wm, spec) -> BaseHold:
+    """The hold of ``spec.base_support`` on the whisker mesh ``wm``."""
+    return BASE_MECHANISMS[spec.base_support].hold(wm, spec)
+
+
+def listing() -> str:
+    """One line per registered mechanism, in order: its name, its description and the parameters it reads."""
+    return "".join(f"{m.name}: {m.description}" + (f" (reads {', '.join(m.parameters)})" if m.parameters else "")
+                   + "\n" for m in BASE_MECHANISMS.values())
+
+
+if __name__ == "__main__":  # python3 -m whisker_opt.experiment.base_supports: the registered mechanisms
+    sys.stdout.write(listing())
