@@ -11,9 +11,10 @@ per design and per quantity — f1, ε_i(5), ε_c(5) of the line and the section
   with 1/k; the sectors 8, 10, 12, 16, 20 do not exactly; level 5 is the ``reference`` preset);
 * the remaining uncertainty of the finest value: |q∞ − q_finest| where p exists, else the
   largest of the last two moves (no asymptotic range, so nothing better can be claimed);
-* whether it has stopped moving: the last move within the tolerance ``--tol-f1`` (absolute,
-  calibrated strain) or ``--tol-reading`` (relative) — the limits a reading at the GA's preset
-  would have to meet against it, so a reference that moves by more than them cannot judge it.
+* whether it has stopped moving: the last move and the uncertainty within max(``--tol-f1-rel`` · f1,
+  ``--tol-f1``) (5 % or 1e-4 calibrated strain) for f1, ``--tol-reading`` (0.3 %) for the readings
+  and Δl — the limits a reading at the GA's preset would have to meet against it, so a reference
+  that moves by more than them cannot judge it.
 
 Then each ladder preset's f1 distance from the finest level per design (and that of the presets
 ``coarse`` and ``fine`` as a run uses them: ``f1_convergence presets``), the largest over the designs (what :attr:`whisker_opt.experiment.fidelity.Preset.f1_resolution` states), and the cost.
@@ -60,8 +61,9 @@ def ladders(rows: list[dict], prefix: str = "tpl-ladder") -> dict[str, dict[int,
     return by
 
 
-def judge(levels: list[int], values: list[float], tol: float, relative: bool) -> dict:
-    """The convergence verdict of one quantity over the ladder levels (see the module docstring)."""
+def judge(levels: list[int], values: list[float], tol: float, relative: bool, floor: float = 0.0) -> dict:
+    """The convergence verdict of one quantity over the ladder levels (see the module docstring): stopped when
+    the last move and the uncertainty are within max(``tol`` · |finest| if ``relative`` else ``tol``, ``floor``)."""
     q = np.asarray(values, float)
     out = {"levels": ",".join(map(str, levels)), "values": " / ".join(f"{v:.6g}" for v in q),
            "finest_level": levels[-1], "finest": float(q[-1])}
@@ -78,13 +80,13 @@ def judge(levels: list[int], values: list[float], tol: float, relative: bool) ->
         out["uncertainty"] = float(np.max(np.abs(moves[-2:])))
     else:
         out["uncertainty"] = abs(out["last_move"])
-    limit = tol * abs(q[-1]) if relative else tol
+    limit = max(tol * abs(q[-1]) if relative else tol, floor)
     out["stopped"] = bool(len(moves) and abs(out["last_move"]) <= limit and out["uncertainty"] <= limit)
     return out
 
 
-def reference_rows(by: dict, tol_f1: float, tol_reading: float) -> list[dict]:
-    """One row per (design, quantity)."""
+def reference_rows(by: dict, tol_f1: float, tol_reading: float, tol_f1_rel: float = 0.0) -> list[dict]:
+    """One row per (design, quantity); f1 judged against max(``tol_f1_rel`` · f1, ``tol_f1``)."""
     rows = []
     for design, lv in by.items():
         ks = sorted(lv)
@@ -95,7 +97,11 @@ def reference_rows(by: dict, tol_f1: float, tol_reading: float) -> list[dict]:
                 continue
             row = {"design": design, "quantity": name, "finest_time_s": fin["time_s"],
                    "finest_elements": fin["elements"]}
-            row.update(judge(have, [float(lv[k][col]) for k in have], tol_reading if rel else tol_f1, rel))
+            vals = [float(lv[k][col]) for k in have]
+            if rel:
+                row.update(judge(have, vals, tol_reading, True))
+            else:
+                row.update(judge(have, vals, tol_f1_rel, True, floor=tol_f1))
             rows.append(row)
     return rows
 
@@ -150,6 +156,7 @@ def main(argv=None) -> int:
     ap.add_argument("--csv", default="benchmarks/results/f1_section_ladder.csv")
     ap.add_argument("--out", default=None, help="write the reference rows to this CSV")
     ap.add_argument("--tol-f1", type=float, default=1e-4, help="absolute f1 tolerance [calibrated strain]")
+    ap.add_argument("--tol-f1-rel", type=float, default=0.05, help="relative f1 tolerance (the larger one applies)")
     ap.add_argument("--tol-reading", type=float, default=0.003, help="relative tolerance of ε_i(5), ε_c(5), Δl")
     args = ap.parse_args(argv)
     raw = read_csv(Path(args.csv))
@@ -157,7 +164,7 @@ def main(argv=None) -> int:
     if not by:
         print(f"--csv: no ladder rows in {args.csv}", file=sys.stderr)
         return 2
-    rows = reference_rows(by, args.tol_f1, args.tol_reading)
+    rows = reference_rows(by, args.tol_f1, args.tol_reading, args.tol_f1_rel)
     if args.out:
         import csv
 
@@ -171,7 +178,7 @@ def main(argv=None) -> int:
                                                       "finest_time_s"]))
     stopped = [r for r in rows if r["stopped"]]
     print(f"\n{len(stopped)} of {len(rows)} (design, quantity) pairs stopped moving "
-          f"(f1 within {args.tol_f1:g}, readings and Δl within {args.tol_reading:.1%}).")
+          f"(f1 within max({args.tol_f1_rel:.0%}, {args.tol_f1:g}), readings and Δl within {args.tol_reading:.1%}).")
     for q in ("f1 line", "f1 section"):
         n = [r for r in rows if r["quantity"] == q]
         print(f"{q}: stopped at {sum(r['stopped'] for r in n)} of {len(n)} designs")
