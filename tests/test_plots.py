@@ -45,10 +45,10 @@ def _all_text(fig) -> str:
 # ----------------------------------------------------------------------------- fidelity presets
 def test_presets_carry_a_measured_f1_resolution():
     res = {n: p.f1_resolution for n, p in fidelity.PRESETS.items()}
-    assert math.isnan(res.pop("level4"))  # the finest level: no finer reference, no resolution claimed
-    assert res == {"coarse": 2e-3, "default": 1e-3, "level2": 6e-4, "fine": 7e-4,
-                   "level3": 4e-4}  # the figures of the module docstring
-    assert fidelity.f1_resolution("default", calibration=1.0) == pytest.approx(1e-3 / 3.9)
+    assert math.isnan(res.pop("reference"))  # the finest level: no finer mesh, no resolution claimed
+    assert res == {"coarse": 2e-3, "default": 2e-3, "level2": 9e-4, "fine": 7e-4, "level3": 7e-4,
+                   "level4": 4e-4}  # the figures of benchmarks/results/f1_convergence.md
+    assert fidelity.f1_resolution("default", calibration=1.0) == pytest.approx(2e-3 / 3.9)
     assert fidelity.describe(FidelityConfig(preset="coarse")) == COARSE
     over = fidelity.describe(FidelityConfig(preset="fine", n_deflection_steps=20), calibration=3.9)
     assert over["overrides"] == {"n_deflection_steps": 20} and over["f1_resolution"] == 7e-4
@@ -171,10 +171,10 @@ def test_report_and_best_json_name_the_preset_and_resolution(tmp_path):
     run_optimisation(_cfg(0.0), run, AnalyticFitness(with_curves=True), seed=1, progress=False,
                      fidelity=fidelity.describe(FidelityConfig(preset="default")))
     best = json.loads((run / "best.json").read_text())
-    assert best["fidelity"] == {"preset": "default", "f1_resolution": 1e-3, "calibration": 3.9}
+    assert best["fidelity"] == {"preset": "default", "f1_resolution": 2e-3, "calibration": 3.9}
     text = report(run)
     line = next(ln for ln in text.splitlines() if ln.startswith("fidelity"))
-    assert "preset default" in line and "f1 resolution ~1e-3" in line
+    assert "preset default" in line and "f1 resolution ~2e-3" in line
 
 
 def test_a_run_without_a_recorded_fidelity_says_so(tmp_path):
@@ -199,7 +199,7 @@ def test_target_stop_below_the_resolution_warns(tmp_path, caplog):
     assert any(said in m and "verify at a finer preset" in m for m in warned), warned
     text = report(run)
     assert f"WARNING {said}" in text
-    assert "stopped on target_fp" in text and "--preset level3" in text
+    assert "stopped on target_fp" in text and "--preset level4" in text
 
 
 def test_no_warning_above_the_resolution(tmp_path, caplog):

@@ -69,7 +69,7 @@ def test_same_preset_is_warned(run_dir, caplog):
                                                        "verify at coarse: scene 2/2 (design 1/1: trimmed scene"]
     assert all("; elapsed " in m and ", ETA " in m for m in scenes)
     text = format_rows(rows, "coarse")
-    assert "WARNING: preset coarse is the run's own preset" in text and "--preset level3" in text  # the finest preset with a measured resolution
+    assert "WARNING: preset coarse is the run's own preset" in text and "--preset level4" in text  # the finest preset with a measured resolution
     assert "f1 resolution ~2e-3 at preset coarse" in text
 
 

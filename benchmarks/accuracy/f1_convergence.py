@@ -179,7 +179,9 @@ def plot(rows: list[dict], path: Path, prefix: str = "tpl-ladder", reading: str 
         ax.plot(ks, [lv[k] for k in ks], marker="o", lw=2.0 if named else 1.0, alpha=1.0 if named else 0.55,
                 ls="-" if named else "--", label=name)
     ax.set_yscale("log")
-    ax.set_xticks([1, 2, 3, 4], ["1 (default,\nthe GA's)", "2", "3", "4"])
+    levels = sorted({k for lv in by.values() for k in lv})
+    names = {1: "1 (default,\nthe GA's)", 5: "5 (reference)"}
+    ax.set_xticks(levels, [names.get(k, str(k)) for k in levels])
     ax.set_xlabel("mesh ladder level")
     ax.set_ylabel("f1 [calibrated strain]")
     ax.set_title(f"f1, {reading} reading, over the mesh ladder\n(templates as the GA meshes; dashed: seeded random "

@@ -34,14 +34,12 @@ regenerate them with ``python3 -m whisker_opt.experiment.fidelity`` after changi
 f1 resolution
     Each preset carries ``f1_resolution``: the absolute f1 (mean |ε_i − ε_c|, in calibrated
     strain at the default ξ = 3.9, docs/physics.md §4) below which a preset's f1 is mesh error
-    rather than a difference between the two responses. For ``coarse``, ``default`` and ``fine`` it
-    comes from their f1 errors against the mesh-converged references of
-    ``benchmarks/accuracy/time_vs_error.py`` and from the gap between ``default`` and ``fine`` at
-    the case-1 optimum; for the mesh ladder (``level2``, ``level3``) from the largest distance to
-    the next finer levels measured by ``python3 -m benchmarks.accuracy.f1_convergence ladder
-    --method template``; ``reference`` has no finer mesh and claims none (NaN). The figures and
-    the derivation of each value: ``benchmarks/results/f1_convergence.md``, "The presets' f1
-    resolution: how each value was derived".
+    rather than a difference between the two responses: its largest distance from the finest level
+    measured (level 4 at twelve designs, ``reference`` at three) plus that level's own uncertainty at
+    the same design, rounded up to one significant digit (``python3 -m benchmarks.accuracy.f1_reference``;
+    no level is a converged reference, docs/physics.md §13). ``reference`` has no finer mesh and
+    claims none (NaN). The figures and the derivation of each value:
+    ``benchmarks/results/f1_convergence.md``, "The presets' f1 resolution: how each value was derived".
 
     f1 scales with the calibration ξ (``scene.calibration``): :func:`f1_resolution` converts.
     Overrides of a preset's sizing or increments (``fidelity.h_wall`` …) leave the figure of
@@ -111,12 +109,12 @@ PRESETS: dict[str, Preset] = {
     "coarse": Preset("coarse", MeshSizing(wall_layers=1.0, n_theta=8, axial_pitch_fraction=0.75, h_body=12.0,
                                           name="coarse"), n_pressure_steps=1, n_deflection_steps=3,
                      f1_resolution=2e-3),
-    "default": Preset("default", MeshSizing(), n_pressure_steps=1, n_deflection_steps=3, f1_resolution=1e-3),
-    "level2": Preset("level2", ladder_sizing(2), n_pressure_steps=1, n_deflection_steps=3, f1_resolution=6e-4),
+    "default": Preset("default", MeshSizing(), n_pressure_steps=1, n_deflection_steps=3, f1_resolution=2e-3),
+    "level2": Preset("level2", ladder_sizing(2), n_pressure_steps=1, n_deflection_steps=3, f1_resolution=9e-4),
     "fine": Preset("fine", MeshSizing(wall_layers=3.0, n_theta=12, axial_pitch_fraction=0.17, h_body=10.0,
                                       name="fine"), n_pressure_steps=2, n_deflection_steps=10, f1_resolution=7e-4),
-    "level3": Preset("level3", ladder_sizing(3), n_pressure_steps=1, n_deflection_steps=3, f1_resolution=4e-4),
-    "level4": Preset("level4", ladder_sizing(4), n_pressure_steps=1, n_deflection_steps=3),
+    "level3": Preset("level3", ladder_sizing(3), n_pressure_steps=1, n_deflection_steps=3, f1_resolution=7e-4),
+    "level4": Preset("level4", ladder_sizing(4), n_pressure_steps=1, n_deflection_steps=3, f1_resolution=4e-4),
     "reference": Preset("reference", ladder_sizing(5), n_pressure_steps=1, n_deflection_steps=3, template=False),
 }
 
