@@ -6,7 +6,7 @@ Discrete potential (P2 displacement, P0 element pressure p_e)::
               + Ψ_fibres(u) + Σ_e ½ C_e Ē_e² + Π_s(u) − W_ext(u)
 
 (Ψ_fibres: embedded trusses, fem.truss; Σ_e ½ C_e Ē_e²: smeared fibres, fem.fibre_field; Π_s: elastic
-surface supports, fem.support.)
+surface supports, fem.support; Π_m, bonded membranes, fem.membrane, enters like Π_s.)
 
 Stationarity gives (G = F⁻¹, ∂J/∂F = J Gᵀ)::
 
@@ -29,6 +29,7 @@ import numpy as np
 from fem import element, jit
 from fem.fibre_field import FibreFieldKernel
 from fem.frozen_stress import FrozenStressKernel
+from fem.membrane import MembraneKernel
 from fem.pressure import PressureKernel
 from fem.problem import Problem, ProblemError
 from fem.quadrature import tet_rule, tri_rule
@@ -90,8 +91,10 @@ class Topology:
             self.traction_forces.append((dt.faces, wts))
         self.support_kernels = [SupportKernel(mesh.points, s.faces, problem.face_quadrature_degree)
                                 for s in problem.supports]
+        self.membrane_kernels = [MembraneKernel(mesh.points, m.faces, problem.face_quadrature_degree)
+                                 for m in problem.membranes]
         groups = ([pk.faces for pk in self.pressure_kernels] + [tk.nodes for tk in self.truss_kernels]
-                  + [sk.faces for sk in self.support_kernels])
+                  + [sk.faces for sk in self.support_kernels] + [mk.faces for mk in self.membrane_kernels])
         self.pattern: Pattern = build_pattern(mesh.n_nodes, mesh.cells, groups)
         pat = self.pattern
         self.pressure_pos = [
@@ -102,6 +105,9 @@ class Topology:
             pat.node_block_positions(sk.faces[:, :, None], sk.faces[:, None, :]).transpose(0, 1, 3, 2, 4)
             for sk in self.support_kernels
         ]  # each (n_f, 6, 3, 6, 3)
+        self.membrane_pos_flat = np.concatenate(
+            [pat.node_block_positions(mk.faces[:, :, None], mk.faces[:, None, :]).transpose(0, 1, 3, 2, 4).ravel()
+             for mk in self.membrane_kernels] + [np.zeros(0, np.int64)])  # (Σ n_f·324,)
         self.pressure_pos_flat = np.concatenate([p.ravel() for p in self.pressure_pos] + [np.zeros(0, np.int64)])
         # fibre tangents scatter linearly from 9 chord-space numbers per segment
         # (TrussKernel.tangent_map); the dense block positions are only needed to build the map
@@ -125,6 +131,7 @@ def topology_key(problem: Problem) -> tuple:
         tuple(id(t.faces) for t in problem.tractions),
         tuple(id(f.stiffness) for f in problem.fibre_fields),
         tuple(id(s.faces) for s in problem.supports),
+        tuple(id(m.faces) for m in problem.membranes),
         problem.quadrature_degree,
         problem.face_quadrature_degree,
     )
@@ -143,7 +150,7 @@ def topology_for(problem: Problem) -> Topology:
         # keep referenced arrays alive so the id()-based key stays valid
         problem._cache[key] = topo
         problem._cache[key + ("refs",)] = (problem.mesh, problem.pressures, problem.trusses, problem.tractions,
-                                           problem.fibre_fields, problem.supports)
+                                           problem.fibre_fields, problem.supports, problem.membranes)
     return topo
 
 
@@ -188,6 +195,13 @@ class Assembler:
         #: the elastic supports' constant tangent data (nnz,): their kernels' blocks of this problem's stiffnesses
         self.supports = list(zip(self.topo.support_kernels, problem.supports))
         self._support_data = None
+        #: the bonded membranes: (kernel, thickness (n_f, n_qp or 1), Y, ν)
+        self.membranes = []
+        for mk, m in zip(self.topo.membrane_kernels, problem.membranes):
+            if m.thickness.shape[1] not in (1, mk.n_qp):
+                raise ProblemError(f"Membrane({m.name}).thickness: {m.thickness.shape[1]} points per face, the "
+                                   f"triangle rule of degree {problem.face_quadrature_degree} has {mk.n_qp}")
+            self.membranes.append((mk, m.thickness, m.youngs_modulus, m.poisson))
 
     def scatter_index(self) -> np.ndarray:
         """Data positions of the element tangent contributions (uu, up, pu, pp), in the order the numpy path stacks them (cached)."""
@@ -204,8 +218,9 @@ class Assembler:
             return np.ones(self.topo.n_el)
         return -0.5 * self.problem.material.d1 * self.topo.vol
 
-    def _add_load_tangents(self, data: np.ndarray, pres_out: list, truss_out: list, field_out: list) -> np.ndarray:
-        """Add the follower-pressure blocks and the fibre tangents to the tangent data (in place)."""
+    def _add_load_tangents(self, data: np.ndarray, pres_out: list, truss_out: list, field_out: list,
+                           memb_out: list = ()) -> np.ndarray:
+        """Add the follower-pressure blocks, the fibre and membrane tangents to the tangent data (in place)."""
         topo = self.topo
         for fk, Ke in zip(self.element_terms, field_out):
             data += np.bincount(self.pattern.elem_uu[fk.elements].ravel(), Ke.ravel(), minlength=len(data))
@@ -216,6 +231,9 @@ class Assembler:
             data += B @ kmat.ravel()  # (nnz,)  fibre blocks w_a w_b kmat_ik
         if self.supports:
             data += self.support_data()
+        if memb_out:
+            data += np.bincount(topo.membrane_pos_flat, np.concatenate([Km.ravel() for Km in memb_out]),
+                                minlength=len(data))
         return data
 
     def support_data(self) -> np.ndarray:
@@ -268,6 +286,8 @@ class Assembler:
             Pi += fk.energy(F)
         for sk, s in self.supports:
             Pi += sk.energy(u, s.k_n, s.k_t)
+        for mk, t, Y, nu in self.membranes:
+            Pi += mk.energy(x, t, Y, nu)
         return float(Pi)
 
     # ------------------------------------------------------------------ residual and tangent
@@ -326,6 +346,12 @@ class Assembler:
         for sk, s in self.supports:
             R[: 3 * topo.n_nodes] += np.bincount((3 * sk.faces[:, :, None] + np.arange(3)).ravel(),
                                                  sk.residual(u, s.k_n, s.k_t).ravel(), minlength=3 * topo.n_nodes)
+        memb_out = []
+        for mk, t, Y, nu in self.membranes:
+            Rm, Km = mk.evaluate(x, t, Y, nu, need_tangent)
+            R[: 3 * topo.n_nodes] += np.bincount((3 * mk.faces[:, :, None] + np.arange(3)).ravel(), Rm.ravel(),
+                                                 minlength=3 * topo.n_nodes)
+            memb_out.append(Km)
         truss_out = []
         for tk, dofs in zip(topo.truss_kernels, topo.truss_dofs):
             Rt, Kt = tk.evaluate(x, need_tangent)
@@ -342,11 +368,11 @@ class Assembler:
             return R, None, min_j
 
         if self.kernel == "numba":
-            return R, self._tangent_numba(F, J, G, coef, pJ, pres_out, truss_out, field_out), min_j
+            return R, self._tangent_numba(F, J, G, coef, pJ, pres_out, truss_out, field_out, memb_out), min_j
 
-        return R, self._tangent_numpy(F, J, G, coef, pJ, pres_out, truss_out, field_out), min_j
+        return R, self._tangent_numpy(F, J, G, coef, pJ, pres_out, truss_out, field_out, memb_out), min_j
 
-    def _tangent_numpy(self, F, J, G, coef, pJ, pres_out, truss_out, field_out) -> np.ndarray:
+    def _tangent_numpy(self, F, J, G, coef, pJ, pres_out, truss_out, field_out, memb_out=()) -> np.ndarray:
         """Tangent data (nnz,) of the solid, summed in numpy (the reference the compiled kernel matches),
         plus the load terms' tangents."""
         topo = self.topo
@@ -393,9 +419,9 @@ class Assembler:
 
         parts_val = [Ke.reshape(n_el, 30, 30).ravel(), Kup.ravel(), Kup.ravel(), self._kpp()]
         data = np.bincount(self.scatter_index(), np.concatenate(parts_val), minlength=self.pattern.nnz)
-        return self._add_load_tangents(data, pres_out, truss_out, field_out)
+        return self._add_load_tangents(data, pres_out, truss_out, field_out, memb_out)
 
-    def _tangent_numba(self, F, J, G, coef, pJ, pres_out, truss_out, field_out) -> np.ndarray:
+    def _tangent_numba(self, F, J, G, coef, pJ, pres_out, truss_out, field_out, memb_out=()) -> np.ndarray:
         """Tangent data (nnz,) with the compiled element kernel (same sums as the numpy path)."""
         topo, pat, mat = self.topo, self.pattern, self.problem.material
         disp = self.problem.formulation == "displacement"
@@ -415,4 +441,4 @@ class Assembler:
                                 arr(coef["a"]), arr(b), arr(coef["g"] - pJ), arr(coef["h"]), d2f, dI, arr(J),
                                 use_d2f, disp, pat.elem_uu, pat.elem_up, pat.elem_pu, data)
         data[pat.elem_pp] += self._kpp()  # one entry per element
-        return self._add_load_tangents(data, pres_out, truss_out, field_out)
+        return self._add_load_tangents(data, pres_out, truss_out, field_out, memb_out)

@@ -135,6 +135,53 @@ class ElasticSupport:
 
 
 @dataclass(frozen=True)
+class Membrane:
+    """A thin elastic sheet bonded to reference boundary faces (:mod:`fem.membrane`).
+
+    Energy Π_m = ∫_Γ0 t W(E_s) dA0 of the surface Green–Lagrange strain E_s, W the plane-stress Saint
+    Venant–Kirchhoff energy (Y/(2(1 − ν²))) [(1 − ν) tr(E_s²) + ν (tr E_s)²].
+
+    Parameters
+    ----------
+    faces : ndarray (n_f, 6) int
+        6-node triangles (either orientation).
+    thickness : float or ndarray (n_f, n_qp)
+        Sheet thickness t [mm], finite and >= 0: one value, or one per face and point of the problem's
+        triangle rule (:attr:`fem.membrane.MembraneKernel.points`), e.g. 0 outside a footprint.
+    youngs_modulus : float
+        Y [MPa], finite and > 0.
+    poisson : float
+        ν, in [0, 0.5).
+    name : str
+    """
+
+    faces: np.ndarray
+    thickness: object
+    youngs_modulus: float
+    poisson: float
+    name: str = "membrane"
+
+    def __post_init__(self) -> None:
+        f = _tri6_faces(f"Membrane({self.name})", self.faces)
+        object.__setattr__(self, "faces", f)
+        t = np.asarray(self.thickness, dtype=np.float64)
+        t = np.full((len(f), 1), float(t)) if t.ndim == 0 else np.ascontiguousarray(t)
+        if t.ndim != 2 or t.shape[0] != len(f):
+            raise ProblemError(f"Membrane({self.name}).thickness: shape {t.shape}, expected a number or "
+                               f"(n_faces, n_qp) with n_faces = {len(f)}")
+        if not np.all(np.isfinite(t)) or np.any(t < 0):
+            raise ProblemError(f"Membrane({self.name}).thickness: must be finite and >= 0 mm")
+        object.__setattr__(self, "thickness", t)
+        if not (np.isfinite(self.youngs_modulus) and self.youngs_modulus > 0):
+            raise ProblemError(f"Membrane({self.name}).youngs_modulus={self.youngs_modulus!r}: must be finite "
+                               "and > 0 MPa")
+        if not (0.0 <= self.poisson < 0.5):
+            raise ProblemError(f"Membrane({self.name}).poisson={self.poisson!r}: must be in [0, 0.5)")
+        object.__setattr__(self, "youngs_modulus", float(self.youngs_modulus))
+        object.__setattr__(self, "poisson", float(self.poisson))
+
+
+@dataclass(frozen=True)
 class EmbeddedTrusses:
     """Truss fibres embedded in the host tets (no nodes of their own).
 
@@ -278,6 +325,9 @@ class Problem:
     supports : tuple of ElasticSupport
         Elastic surface supports (springs on faces); their faces are part of the topology, their
         stiffnesses are not.
+    membranes : tuple of Membrane
+        Thin sheets bonded to faces; their faces are part of the topology, their thickness and
+        moduli are not.
     frozen_stresses : tuple of FrozenStress
         Prescribed stresses (one per quadrature point of the same rule); not part of the
         topology, so a problem that adds them shares its sparsity pattern and factorisation analysis.
@@ -300,6 +350,7 @@ class Problem:
     fibre_fields: tuple[SmearedFibres, ...] = ()
     frozen_stresses: tuple[FrozenStress, ...] = ()
     supports: tuple[ElasticSupport, ...] = ()
+    membranes: tuple[Membrane, ...] = ()
     quadrature_degree: int = 2
     face_quadrature_degree: int = 4
     formulation: str = "mixed"
@@ -319,6 +370,9 @@ class Problem:
         for sp in self.supports:
             if sp.faces.size and (sp.faces.min() < 0 or sp.faces.max() >= n):
                 raise ProblemError(f"ElasticSupport({sp.name}).faces: node index outside [0, {n - 1}]")
+        for mb in self.membranes:
+            if mb.faces.size and (mb.faces.min() < 0 or mb.faces.max() >= n):
+                raise ProblemError(f"Membrane({mb.name}).faces: node index outside [0, {n - 1}]")
         for tr in self.trusses:
             if tr.host_elements.size and (tr.host_elements.min() < 0 or tr.host_elements.max() >= self.mesh.n_elements):
                 raise ProblemError(f"EmbeddedTrusses({tr.name}).host_elements outside [0, {self.mesh.n_elements - 1}]")

@@ -47,6 +47,16 @@ def gauge_mask(design: WhiskerDesign, points: np.ndarray, faces6: np.ndarray) ->
     return (x >= design.x_ss) & (x <= design.x_ss + design.e) & (ang <= design.gauge_half_angle_deg)
 
 
+def footprint_mask(points: np.ndarray, x_lo: float, x_hi: float, width: float) -> np.ndarray:
+    """Which of ``points`` (..., 3) lie on a rectangle of the outer surface centred on the +y generator: axial
+    position ``x_lo <= x <= x_hi`` and arc length ``|r atan2(z, y)| <= width/2`` from the +y generator
+    (r = sqrt(y² + z²)), shape (...). The footprint of a sheet bonded over the gauge (the ``gauge`` face set
+    selects by angle, this by arc length, the sheet's own width)."""
+    x, y, z = points[..., 0], points[..., 1], points[..., 2]
+    arc = np.hypot(y, z) * np.abs(np.arctan2(z, y))
+    return (x >= x_lo) & (x <= x_hi) & (arc <= 0.5 * width)
+
+
 def face_sets(design: WhiskerDesign, qm: QuadraticMesh) -> dict[str, np.ndarray]:
     """The named outward tri6 face sets, each shape (n_f, 6) int64."""
     f, c = qm.faces6, qm.face_class

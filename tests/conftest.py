@@ -79,6 +79,8 @@ QUICK: dict[str, tuple[str, ...]] = {
     "test_fem_post.py": ("*",),
     "test_fem_tangent.py": ("*",),
     "test_fem_support.py": ("*",),
+    "test_fem_membrane.py": ("*",),
+    "test_gauge_patches.py": ("test_registry_is_the_list_of_names", "test_vanishing_sheet_reads_as_the_bare_surface"),
     "test_base_supports.py": ("test_registry_is_the_list_of_names", "test_compliant_base_adds_the_winkler_rotation",
                               "test_grip_is_a_clamp_at_its_depth"),
     "test_fem_tensor3.py": ("*",),

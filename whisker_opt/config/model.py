@@ -116,9 +116,12 @@ _SCENE_OWN: dict[str, Any] = {
         True, description="`simulate` runs the intact (at Q_i) / trimmed (vented) pair instead of one scene")),
 }
 _SCENE_SHARED = declared_fields(SceneSpec, ("contact_ratio", "contact_at", "deflection", "calibration", "band_width",
-                                            "base_support", "base_grip_depth", "base_k_n", "base_k_t"))
+                                            "base_support", "base_grip_depth", "base_k_n", "base_k_t",
+                                            "gauge_patch", "patch_length", "patch_width", "patch_thickness",
+                                            "patch_modulus", "patch_poisson"))
 _SCENE_ORDER = ("Q_i", "trim", "contact_ratio", "contact_at", "deflection", "delta_step", "calibration", "band_width",
-                "base_support", "base_grip_depth", "base_k_n", "base_k_t", "gauge_variant", "pair")
+                "base_support", "base_grip_depth", "base_k_n", "base_k_t", "gauge_patch", "patch_length", "patch_width",
+                "patch_thickness", "patch_modulus", "patch_poisson", "gauge_variant", "pair")
 
 #: The ``scene`` section: its own keys plus the experiment settings :class:`whisker_opt.experiment.spec.SceneSpec`
 #: declares (contact, deflection, gauge factor, contact band).

@@ -57,6 +57,7 @@ from geometry.mesh import MeshSizing, WhiskerMesh, build_mesh
 from whisker_opt.experiment.base_supports import BaseHold, base_hold
 from whisker_opt.experiment.contact import Contact, contact_band, place_contact_ring
 from whisker_opt.experiment.gauge import GaugedMesh, GaugeReader, ReadingContext
+from whisker_opt.experiment.gauge_patches import patch_membranes
 from whisker_opt.experiment.gauge_variants import GAUGE_VARIANTS
 from whisker_opt.experiment.rubber_laws import rubber_material
 from whisker_opt.experiment.spec import SceneSpec, cap_elements
@@ -192,7 +193,7 @@ def base_dirichlet(wm: WhiskerMesh, spec: SceneSpec) -> list[Dirichlet]:
 def make_problem(wm: WhiskerMesh, spec: SceneSpec, band_nodes: np.ndarray | None,
                  hold: BaseHold | None = None) -> Problem:
     """FE problem of the scene: the held base (``hold``, default that of ``spec.base_support``), cavity pressure
-    (if Q > 0), fibres, contact band."""
+    (if Q > 0), fibres, the gauge's sheet (``spec.gauge_patch``), contact band."""
     d = spec.design
     hold = base_hold(wm, spec) if hold is None else hold
     dirichlet = list(hold.dirichlet)
@@ -212,6 +213,7 @@ def make_problem(wm: WhiskerMesh, spec: SceneSpec, band_nodes: np.ndarray | None
         trusses=trusses,
         fibre_fields=fields,
         supports=hold.supports,
+        membranes=patch_membranes(wm, spec),
         formulation=spec.formulation,
     )
 

@@ -21,6 +21,8 @@ from geometry.materials import RUBBER_C10
 from geometry.sizing import MeshSizing
 from whisker_opt.experiment.base_supports import BASE_SUPPORTS
 from whisker_opt.experiment.bases import compliant, grip
+from whisker_opt.experiment.gauge_patches import GAUGE_PATCHES
+from whisker_opt.experiment.patches import bonded
 from whisker_opt.experiment.rubber_laws import RUBBERS
 from whisker_opt.wall.law import SLOPE_RANGE, WALL_LAW_NAMES, WallLaw
 
@@ -108,6 +110,15 @@ class SceneSpec:
         Depth d [mm] over which 'grip' holds the outer surface (0 ≤ d < the whisker's length).
     base_k_n, base_k_t : float
         Normal and tangential stiffness per area [N/mm³] of the 'compliant' base's springs.
+    gauge_patch : str
+        What the gauge adds to the surface, one of :data:`whisker_opt.experiment.gauge_patches.GAUGE_PATCHES`:
+        'none' (the default, the bare rubber) or 'bonded' (a stiff sheet over the gauge's footprint,
+        :mod:`whisker_opt.experiment.patches.bonded`, which documents the defaults' sources).
+    patch_length, patch_width, patch_thickness : float
+        The 'bonded' sheet's axial length (centred on the grid), arc width (centred on the +y generator) and
+        thickness [mm].
+    patch_modulus, patch_poisson : float
+        The 'bonded' sheet's Young's modulus [MPa] and Poisson ratio [-].
     fibre_model : {'embedded', 'smeared'}
         'embedded' (default): each helix a line of trusses in its host elements
         (:mod:`geometry.fibres`). 'smeared': the winding as an anisotropic term of the wall
@@ -164,6 +175,25 @@ class SceneSpec:
     base_k_t: float = parameter(
         compliant.K_T_DEFAULT, "N/mm^3", "tangential stiffness per area of base_support 'compliant' (estimated "
         "0.03-0.3, μ/h)", gt=compliant.K_RANGE[0], le=compliant.K_RANGE[1])
+    gauge_patch: str = parameter(
+        "none", "", "what the gauge adds to the surface it is bonded to: 'none' (the bare rubber) or 'bonded' (a "
+        "stiff sheet, its backing and adhesive, over patch_length × patch_width); docs/physics.md §3",
+        choices=GAUGE_PATCHES, listed="a registered gauge patch, listed by "
+        "`python3 -m whisker_opt.experiment.gauge_patches`")
+    patch_length: float = parameter(
+        bonded.LENGTH_DEFAULT, "mm", "axial length of gauge_patch 'bonded', centred on the grid (the gauge's base; "
+        "estimated 6-7 mm)", gt=0, le=50)
+    patch_width: float = parameter(
+        bonded.WIDTH_DEFAULT, "mm", "arc width of gauge_patch 'bonded' around the +y generator (the gauge's base; "
+        "estimated 2.5-3 mm)", gt=0, le=50)
+    patch_thickness: float = parameter(
+        bonded.THICKNESS_DEFAULT, "mm", "thickness of gauge_patch 'bonded' (polyimide base about 0.015 plus "
+        "adhesive, estimated 0.02-0.035)", gt=0, le=1)
+    patch_modulus: float = parameter(
+        bonded.MODULUS_DEFAULT, "MPa", "Young's modulus of gauge_patch 'bonded' (polyimide 2500, cyanoacrylate "
+        "1000-2000: estimated 1500-4000)", gt=0, le=1e6)
+    patch_poisson: float = parameter(
+        bonded.POISSON_DEFAULT, "-", "Poisson ratio of gauge_patch 'bonded' (polyimide 0.34)", ge=0, lt=0.5)
     fibre_model: str = parameter(
         "embedded", "", "'embedded': each helix a line of trusses in the elements that hold it; 'smeared': the "
         "winding spread over the wall as an anisotropic fibre term of the same stiffness per length "

@@ -151,6 +151,9 @@ def deck_refusal(spec) -> str | None:
     if spec.base_support == "compliant":
         return ("scene.base_support: 'compliant'; the CalculiX/Abaqus deck writes the base's displacement sets "
                 "only, not its elastic supports (base_support: clamped, sliding, axial or grip)")
+    if spec.gauge_patch != "none":
+        return (f"scene.gauge_patch: {spec.gauge_patch!r}; the CalculiX/Abaqus deck writes the bare surface under "
+                "the gauge only, not a sheet bonded on it (gauge_patch: none)")
     if not spec.law.identity:
         law = f" (c(Q) = 1 + {spec.wall_slope:g}·Q)" if spec.wall_law == "calibrated" else ""
         return (f"material.wall_law: {spec.wall_law!r}{law}; the CalculiX/Abaqus deck writes "

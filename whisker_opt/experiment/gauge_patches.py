@@ -1,0 +1,65 @@
+"""What the gauge adds to the surface it is bonded to, by name: the one registry of ``scene.gauge_patch``.
+
+Each choice is a module of :mod:`whisker_opt.experiment.patches` with a ``NAME``, an ``ORDER``, a one-line
+``DESCRIPTION``, ``PARAMETERS`` (the :class:`whisker_opt.experiment.spec.SceneSpec` fields it reads, each with
+its range and source in the module's docstring) and ``membranes(wm, spec) -> tuple of fem.problem.Membrane``:
+the sheets bonded to the whisker mesh ``wm``. The scene (:func:`whisker_opt.experiment.scene.make_problem`)
+adds them to every problem; the readings are unchanged (docs/physics.md §3). The modules load the
+finite-element code only when asked for their sheets, so the run-file models may list the names without it.
+
+Adding a choice: one module in ``whisker_opt/experiment/patches/`` (found by :func:`_registry`, ordered by its
+``ORDER``), its parameters as fields of ``SceneSpec`` and keys of the ``scene`` section, and a test.
+``python3 -m whisker_opt.experiment.gauge_patches`` lists the registered choices.
+"""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass
+from types import MappingProxyType
+from typing import Any, Callable, Mapping
+
+__all__ = ["GAUGE_PATCHES", "PATCHES", "GaugePatch", "listing", "patch_membranes"]
+
+
+@dataclass(frozen=True)
+class GaugePatch:
+    """One registered choice (see the module docstring)."""
+
+    name: str
+    description: str
+    parameters: tuple[str, ...]
+    membranes: Callable[..., Any]
+
+
+def _registry() -> dict[str, GaugePatch]:
+    """Every module of :mod:`whisker_opt.experiment.patches`, in the order of their ``ORDER``."""
+    import importlib
+    import pkgutil
+
+    import whisker_opt.experiment.patches as pkg
+
+    mods = [importlib.import_module(f"{pkg.__name__}.{m.name}") for m in pkgutil.iter_modules(pkg.__path__)]
+    return {m.NAME: GaugePatch(m.NAME, m.DESCRIPTION, tuple(m.PARAMETERS), m.membranes)
+            for m in sorted(mods, key=lambda m: (m.ORDER, m.NAME))}
+
+
+#: The choices, by name (read-only); the first is the default.
+PATCHES: Mapping[str, GaugePatch] = MappingProxyType(_registry())
+#: Their names: the values ``scene.gauge_patch`` allows.
+GAUGE_PATCHES: tuple[str, ...] = tuple(PATCHES)
+
+
+def patch_membranes(wm, spec) -> tuple:
+    """The sheets of ``spec.gauge_patch`` on the whisker mesh ``wm``."""
+    return tuple(PATCHES[spec.gauge_patch].membranes(wm, spec))
+
+
+def listing() -> str:
+    """One line per registered choice, in order: its name, its description and the parameters it reads."""
+    return "".join(f"{p.name}: {p.description}" + (f" (reads {', '.join(p.parameters)})" if p.parameters else "")
+                   + "\n" for p in PATCHES.values())
+
+
+if __name__ == "__main__":  # python3 -m whisker_opt.experiment.gauge_patches: the registered choices
+    sys.stdout.write(listing())
