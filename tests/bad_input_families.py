@@ -146,18 +146,13 @@ class StudyOutcome:
         return sum(s[1] != s[2] for s in self.steps)
 
 
-_CHILD = """
-import sys
-sys.path.insert(0, {repo!r})
-from tests.test_study_resume import patch, argv
-from whisker_opt.cli.main import main
-patch(setattr, sleep_s=float(sys.argv[3]))
-sys.exit(main(argv(sys.argv[1], sys.argv[2])))
-"""
+def _child(kind: str, root: Path, sleep_s: float, journal: Path | None = None, hold_at: int = 0) -> subprocess.Popen:
+    """The study ``kind`` in a child process on the beam model; with ``hold_at`` > 0 it blocks (until signalled)
+    at its first model call once ``journal`` holds that many finished pieces."""
+    from tests.test_study_resume import CHILD
 
-
-def _child(kind: str, root: Path, sleep_s: float) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-c", _CHILD.format(repo=str(REPO)), kind, str(root), str(sleep_s)],
+    return subprocess.Popen([sys.executable, "-c", CHILD.format(repo=str(REPO)), kind, str(root), str(sleep_s),
+                             str(journal or ""), str(hold_at)],
                             cwd=root, env=child_env(), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                             stdin=subprocess.DEVNULL)
 
@@ -179,7 +174,7 @@ def interrupted_study(kind: str, root: Path, timeout: float = 300.0) -> StudyOut
     t0 = time.monotonic()
     root.mkdir(parents=True, exist_ok=True)
     folder, journal = root / "out", root / "out" / journal_name
-    proc = _child(kind, root, 0.05)
+    proc = _child(kind, root, 0.0, journal, hold_at=3)  # held once 3 pieces are kept: the signal cannot come late
     deadline = time.monotonic() + timeout
     while proc.poll() is None and _pieces(journal) < 3 and time.monotonic() < deadline:
         time.sleep(0.02)

@@ -10,7 +10,15 @@ The full suite stays the CI command.
 
 from __future__ import annotations
 
+import signal
+
 import pytest
+
+# A suite started in the background of a non-interactive shell inherits SIGINT ignored, and Python then raises
+# no KeyboardInterrupt, in this process or in the children it starts: the tests that interrupt a study or a
+# worker's start need Ctrl-C to mean what it means at a terminal.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 #: test module -> names of its quick tests (every parametrisation of a name is included).
 QUICK: dict[str, tuple[str, ...]] = {

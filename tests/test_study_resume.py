@@ -34,38 +34,60 @@ STUDIES = {
     "calibrate": ("calibration.partial.json", "calibration.json"),
 }
 
+#: A study in a child process on the beam model: argv KIND ROOT SLEEP_S JOURNAL HOLD_AT; with HOLD_AT > 0 it
+#: blocks (until signalled or killed) at its first model call once JOURNAL holds that many finished pieces.
 CHILD = """
-import sys
+import json, sys
 sys.path.insert(0, {repo!r})
 from tests.test_study_resume import patch, argv
 from whisker_opt.cli.main import main
-patch(setattr, sleep_s=float(sys.argv[3]))
+journal, hold_at = sys.argv[4], int(sys.argv[5])
+
+def hold():
+    if hold_at <= 0:
+        return False
+    try:
+        with open(journal) as f:
+            return len(json.load(f)["done"]) >= hold_at
+    except (OSError, ValueError, KeyError, TypeError):
+        return False
+
+patch(setattr, sleep_s=float(sys.argv[3]), hold=hold)
 sys.exit(main(argv(sys.argv[1], sys.argv[2])))
 """
 
 
-def _slow(fn, sleep_s):
+def _pause(sleep_s: float, hold) -> None:
+    """Sleep ``sleep_s``; then, while ``hold()`` says so, sleep without end (until a signal ends the process)."""
+    time.sleep(sleep_s)
+    while hold is not None and hold():
+        time.sleep(3600.0)
+
+
+def _slow(fn, sleep_s, hold=None):
     def wrapped(*args, **kwargs):
-        time.sleep(sleep_s)
+        _pause(sleep_s, hold)
         return fn(*args, **kwargs)
 
     return wrapped
 
 
-def patch(set_attr, sleep_s: float = 0.0) -> None:
-    """Replace the FE scenes by the beam model (``set_attr``: ``setattr`` or ``monkeypatch.setattr``)."""
+def patch(set_attr, sleep_s: float = 0.0, hold=None) -> None:
+    """Replace the FE scenes by the beam model (``set_attr``: ``setattr`` or ``monkeypatch.setattr``); each model
+    call first sleeps ``sleep_s`` and, when ``hold()`` is true, blocks until the process is signalled (a study
+    held at a known point instead of raced)."""
     from tests.test_compensation_map import _BeamRunner
     from whisker_opt.calibration import forward
     from whisker_opt.experiment import scene
 
     class SlowBeamRunner(_BeamRunner):
         def run(self, spec, keep_states=False):
-            time.sleep(sleep_s)
+            _pause(sleep_s, hold)
             return super().run(spec, keep_states)
 
     set_attr(scene, "SceneRunner", SlowBeamRunner)
     for name in ("reading", "extension"):
-        set_attr(forward.BeamSimulator, name, _slow(getattr(forward.BeamSimulator, name), sleep_s))
+        set_attr(forward.BeamSimulator, name, _slow(getattr(forward.BeamSimulator, name), sleep_s, hold))
 
 
 def _inputs(root: Path, kind: str) -> Path:
@@ -102,11 +124,13 @@ def _journal_entries(path: Path) -> int:
         return 0
 
 
-def kill_part_way(kind: str, root: Path, at_least: int, sleep_s: float = 0.05, timeout: float = 60.0) -> int:
-    """Run ``kind`` in a child and SIGKILL it once its journal holds ``at_least`` pieces; returns that count."""
+def kill_part_way(kind: str, root: Path, at_least: int, sleep_s: float = 0.0, timeout: float = 60.0) -> int:
+    """Run ``kind`` in a child and SIGKILL it once its journal holds ``at_least`` pieces (the child is held there,
+    so the kill cannot come after the study ended); returns that count."""
     journal = root / "out" / STUDIES[kind][0]
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
-    proc = subprocess.Popen([sys.executable, "-c", CHILD.format(repo=str(REPO)), kind, str(root), str(sleep_s)],
+    proc = subprocess.Popen([sys.executable, "-c", CHILD.format(repo=str(REPO)), kind, str(root), str(sleep_s),
+                             str(journal), str(at_least)],
                             cwd=REPO, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     err = kill_when(proc, lambda: _journal_entries(journal) >= at_least, timeout, 0.01)
     assert proc.returncode == -signal.SIGKILL, f"the child was not killed mid-study ({proc.returncode}): {err}"

@@ -31,34 +31,11 @@ from pathlib import Path
 
 import numpy as np
 
-from whisker_opt.calibration.forward import RestoreSearch, SceneSimulator, predict
-from whisker_opt.calibration.measurements import Restore
+from benchmarks.prototype import A_VALUES, Q_VALUES, claims, k_law
+from whisker_opt.calibration.forward import RestoreSearch
 from whisker_opt.config.model import load_config
 
 ROOT = Path(__file__).resolve().parents[2]
-A_VALUES = (0.45, 0.55, 0.7, 0.85, 1.0)
-Q_VALUES = (0.0, 0.002, 0.05, 0.1, 0.15, 0.2)
-
-
-def k_law(q: float) -> float:
-    """The thesis' softening law k(Q) = −1.337 Q + 0.9958."""
-    return -1.337 * q + 0.9958
-
-
-def claims(cfg, search: RestoreSearch) -> dict:
-    """Every model value the table needs, for one model."""
-    sim = SceneSimulator(deflection=1.0)
-    vent = Restore("vent", "-", trim_ref=0.0, Q_ref=0.1, trim=5.0, Q=0.048, a=1.0, delta=1.0, sigma=0.005)
-    conv = Restore("conv", "-", trim_ref=5.0, Q_ref=0.1, trim=0.0, Q=0.192, a=1.0, delta=1.0, sigma=0.005)
-    out = {"vent": predict(vent, cfg, sim, search), "conv": predict(conv, cfg, sim, search)}
-    eps = np.array([[float(sim.reading(cfg, 0.0, q, a, [1.0])[0]) for q in Q_VALUES] for a in A_VALUES])  # (n_a, n_Q)
-    out["eps"] = eps
-    out["dl"] = {q: sim.extension(cfg, 0.0, q) for q in (0.05, 0.1, 0.2)}
-    out["eps65"] = {q: float(sim.reading(cfg, 5.0, q, 1.0, [1.0])[0]) for q in (0.0, 0.048, 0.1)}
-    out["scenes"] = sim.solved
-    return out
-
-
 def _q(p) -> str:
     return f"{p.value:.4f}" + ("" if p.matched else " (no match)")
 

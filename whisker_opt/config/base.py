@@ -47,7 +47,14 @@ class InvalidValues(ValidationError, ConfigError):
             line = describe({**e, "loc": (*prefix, *e["loc"])}, root, None)
             if line not in lines:
                 lines.append(line)
-        out = cls.from_exception_data(err.title, err.errors(include_url=False))
+        try:
+            out = cls.from_exception_data(err.title, err.errors(include_url=False))
+        except (KeyError, TypeError, ValueError):  # an error type pydantic-core cannot rebuild (e.g. 'path_type')
+            from pydantic_core import PydanticCustomError
+
+            out = cls.from_exception_data(err.title, [
+                {"type": PydanticCustomError(e["type"], e["msg"].replace("{", "(").replace("}", ")")),
+                 "loc": e["loc"], "input": e.get("input")} for e in err.errors(include_url=False)])
         out.text = "; ".join(lines)
         return out
 
@@ -82,6 +89,10 @@ class StrictModel(BaseModel):
             if isinstance(exc, InvalidValues):
                 raise
             raise InvalidValues.of(exc, type(self), data) from None
+
+    # Validation builds nested sections as BaseModel.__init__ would, not through the __init__ above (whose
+    # keyword arguments could not carry a YAML mapping's integer key): only a direct call comes here.
+    __init__.__pydantic_base_init__ = True  # type: ignore[attr-defined]
 
     @classmethod
     def model_validate(cls, obj: Any, *args: Any, **kwargs: Any):

@@ -240,13 +240,18 @@ def _differing_keys(a: Any, b: Any, prefix: str = "") -> list[str]:
     return [] if a == b else [prefix.rstrip(".") or "(the whole section)"]
 
 
+#: Optimiser keys a resume changes in the checkpoint without editing ``config.yaml``: ``--max-generations``.
+RESUME_MAY_CHANGE = ("stopping.max_generations",)
+
+
 def _check_own_config(path: Path, state: GAState, config: dict[str, Any]) -> None:
     """Refuse a checkpoint whose optimiser section is not the one of the run config its state records.
 
     A checkpoint keeps the optimiser section twice: as its ``config`` (what a resume breeds with) and inside
     ``state.extra["run_config"]`` (the resolved run file, with its SHA-256, that resume and report compare with
-    ``config.yaml``). A resume with an allowed config change rewrites both; two that differ are a checkpoint
-    pieced together from two runs, and neither can be trusted.
+    ``config.yaml``). A resume with an allowed config change rewrites both, and ``resume --max-generations``
+    raises the first one's ``stopping.max_generations`` alone (:data:`RESUME_MAY_CHANGE`); two that differ
+    otherwise are a checkpoint pieced together from two runs, and neither can be trusted.
 
     Raises
     ------
@@ -256,7 +261,7 @@ def _check_own_config(path: Path, state: GAState, config: dict[str, Any]) -> Non
     recorded = state.extra.get("run_config") if isinstance(state.extra, dict) else None
     if not isinstance(recorded, dict) or not isinstance(recorded.get("optimiser"), dict):
         return  # an earlier run that recorded no run config: nothing to compare
-    keys = _differing_keys(config, recorded["optimiser"])
+    keys = [k for k in _differing_keys(config, recorded["optimiser"]) if k not in RESUME_MAY_CHANGE]
     if keys:
         shown = ", ".join(keys[:4]) + (f" and {len(keys) - 4} more" if len(keys) > 4 else "")
         raise RunDirectoryError(f"{path}: its optimiser section differs from the run config it records at {shown}: "

@@ -1,0 +1,36 @@
+"""The thesis' prototype observations as the model computes them, shared by the studies that compare a model with
+them (``benchmarks/studies/thesis_claims.py``, ``benchmarks/studies/boundaries.py``).
+
+The observations (the thesis' prototype experiments, Table 3.1 prototype): the vent that restored a 5 mm trim
+(0.048 MPa), the two-prototype converse (0.192 MPa), the reading's rise with Q at every contact ratio, the
+softening law k(Q) = −1.337 Q + 0.9958 and the extension Δl(Q); see those scripts' docstrings.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from whisker_opt.calibration.forward import RestoreSearch, SceneSimulator, predict
+from whisker_opt.calibration.measurements import Restore
+
+A_VALUES = (0.45, 0.55, 0.7, 0.85, 1.0)
+Q_VALUES = (0.0, 0.002, 0.05, 0.1, 0.15, 0.2)
+
+
+def k_law(q: float) -> float:
+    """The thesis' softening law k(Q) = −1.337 Q + 0.9958."""
+    return -1.337 * q + 0.9958
+
+
+def claims(cfg, search: RestoreSearch) -> dict:
+    """Every model value the table needs, for one model."""
+    sim = SceneSimulator(deflection=1.0)
+    vent = Restore("vent", "-", trim_ref=0.0, Q_ref=0.1, trim=5.0, Q=0.048, a=1.0, delta=1.0, sigma=0.005)
+    conv = Restore("conv", "-", trim_ref=5.0, Q_ref=0.1, trim=0.0, Q=0.192, a=1.0, delta=1.0, sigma=0.005)
+    out = {"vent": predict(vent, cfg, sim, search), "conv": predict(conv, cfg, sim, search)}
+    eps = np.array([[float(sim.reading(cfg, 0.0, q, a, [1.0])[0]) for q in Q_VALUES] for a in A_VALUES])  # (n_a, n_Q)
+    out["eps"] = eps
+    out["dl"] = {q: sim.extension(cfg, 0.0, q) for q in (0.05, 0.1, 0.2)}
+    out["eps65"] = {q: float(sim.reading(cfg, 5.0, q, 1.0, [1.0])[0]) for q in (0.0, 0.048, 0.1)}
+    out["scenes"] = sim.solved
+    return out
