@@ -99,7 +99,7 @@ class DesignPoints:
     def __init__(self, cfg: WhiskerConfig, genes: Mapping[str, float], runner, journal=None) -> None:
         self.cfg, self.genes, self.runner = cfg, {k: float(v) for k, v in genes.items()}, runner
         self.journal = journal
-        self.ev = wiring.evaluator(cfg, robust=False)
+        self.ev = wiring.nominal_evaluator(cfg)
         self.delta = self.ev.samples()
         self.scalar = cfg.robustness.recovery_scalar
         self.curves: dict[tuple, Any] = {}

@@ -203,9 +203,19 @@ def warn_smeared_on_one_layer(cfg: WhiskerConfig) -> bool:
     return True
 
 
+def nominal_evaluator(cfg: WhiskerConfig, keep_curves: bool = False, validate: bool = True):
+    """The :class:`whisker_opt.optimise.evaluator.SceneEvaluator` of a config's nominal design (its base design
+    validated unless ``validate`` is False), whatever ``optimiser.robust`` and ``optimiser.wall_laws`` say: what
+    the studies that vary the design or the law themselves evaluate (the wall-law spread, robustness)."""
+    from whisker_opt.optimise.evaluator import SceneEvaluator
+
+    warn_smeared_on_one_layer(cfg)
+    base = scene_spec(cfg, design_from_config(cfg, 0.0, validate), 0.0)
+    return SceneEvaluator(base, optimiser_of(cfg).trim, cfg.scene.delta_step, cfg.scene.gauge_variant, keep_curves)
+
+
 def evaluator(cfg: WhiskerConfig, keep_curves: bool = False, validate: bool = True, robust: bool = True):
-    """The GA's :class:`whisker_opt.optimise.evaluator.SceneEvaluator` for a config (its base
-    design validated unless ``validate`` is False).
+    """The GA's evaluator of a genome for a config: :func:`nominal_evaluator`, over variants where the config asks.
 
     With ``optimiser.robust`` set (and ``robust`` True) it is evaluated over the tolerances of the
     ``robustness`` section (:func:`robust_evaluator`, the GA minimising ``f1_robust`` = mean + k·std of f1);
@@ -213,12 +223,7 @@ def evaluator(cfg: WhiskerConfig, keep_curves: bool = False, validate: bool = Tr
     ``f1_worst_over_laws``); either outcome's ``f1`` is the nominal design's. ``robust=False`` gives the
     nominal evaluator whatever the config says.
     """
-    from whisker_opt.optimise.evaluator import SceneEvaluator
-
-    warn_smeared_on_one_layer(cfg)
-    base = scene_spec(cfg, design_from_config(cfg, 0.0, validate), 0.0)
-    ev = SceneEvaluator(base, optimiser_of(cfg).trim, cfg.scene.delta_step, cfg.scene.gauge_variant,
-                        keep_curves)
+    ev = nominal_evaluator(cfg, keep_curves, validate)
     if robust and optimiser_of(cfg).robust is not None:
         return robust_evaluator(cfg, ev)
     if robust and optimiser_of(cfg).wall_laws is not None:
@@ -492,7 +497,7 @@ def design_scene_specs(cfg: WhiskerConfig, genes: Mapping[str, float], validate:
         message names each parameter by its gene (``gene alpha``), its key (``design.D``,
         ``optimiser.trim``) or ``trim`` (0, the intact whisker).
     """
-    intact, trimmed = evaluator(cfg, validate=validate).specs(genes, validate=False)
+    intact, trimmed = nominal_evaluator(cfg, validate=validate).specs(genes, validate=False)
     if validate:
         keys = design_keys()
         keys.update({g: f"gene {g}" for g in (*GEOMETRY_GENES, *genes) if g in keys})

@@ -609,7 +609,7 @@ def finish_law_spread(run_dir: Path, cfg: WhiskerConfig, progress: bool = False)
     from whisker_opt.optimise.evaluator import SceneEvaluator
 
     top = wiring.optimiser_of(cfg).law_spread_top
-    if not top or not isinstance(wiring.evaluator(cfg, robust=False), SceneEvaluator):
+    if not top or not isinstance(wiring.nominal_evaluator(cfg), SceneEvaluator):
         return
     try:
         rows, preset = law_spread_run(run_dir, top, progress)

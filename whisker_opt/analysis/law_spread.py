@@ -107,7 +107,7 @@ def law_spread(cfg, designs: Sequence[Mapping[str, float]], laws: Sequence[str] 
                                    "vent_gap": float("nan"), "resolution": resolution, "status": "ok", "reason": ""}
             try:
                 lcfg = wiring.with_wall_law(cfg, law)
-                ev = wiring.evaluator(lcfg, robust=False)
+                ev = wiring.nominal_evaluator(lcfg)
                 specs = wiring.design_scene_specs(lcfg, genes)
                 res = {}
                 for name, spec in specs.items():
