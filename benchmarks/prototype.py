@@ -3,7 +3,9 @@ them (``benchmarks/studies/thesis_claims.py``, ``benchmarks/studies/boundaries.p
 
 The observations (the thesis' prototype experiments, Table 3.1 prototype): the vent that restored a 5 mm trim
 (0.048 MPa), the two-prototype converse (0.192 MPa), the reading's rise with Q at every contact ratio, the
-softening law k(Q) = −1.337 Q + 0.9958 and the extension Δl(Q); see those scripts' docstrings.
+softening law k(Q) = −1.337 Q + 0.9958, the extension Δl(Q) and the calibration factor ξ of the simulated strain to
+the real gauge, 3.8 at a = 1 and 4.0 at a = 0.5 (the thesis' FE against the prototype); see those scripts'
+docstrings.
 """
 
 from __future__ import annotations
@@ -15,6 +17,10 @@ from whisker_opt.calibration.measurements import Restore
 
 A_VALUES = (0.45, 0.55, 0.7, 0.85, 1.0)
 Q_VALUES = (0.0, 0.002, 0.05, 0.1, 0.15, 0.2)
+
+
+#: The thesis' ξ, the real gauge's reading over its FE's strain, at a = 1 and a = 0.5.
+XI = {1.0: 3.8, 0.5: 4.0}
 
 
 def k_law(q: float) -> float:
@@ -32,5 +38,6 @@ def claims(cfg, search: RestoreSearch) -> dict:
     out["eps"] = eps
     out["dl"] = {q: sim.extension(cfg, 0.0, q) for q in (0.05, 0.1, 0.2)}
     out["eps65"] = {q: float(sim.reading(cfg, 5.0, q, 1.0, [1.0])[0]) for q in (0.0, 0.048, 0.1)}
+    out["eps_a05"] = float(sim.reading(cfg, 0.0, 0.0, 0.5, [1.0])[0])  # for ξ's dependence on a (ξ at a = 0.5, 1)
     out["scenes"] = sim.solved
     return out

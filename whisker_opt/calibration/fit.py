@@ -34,7 +34,13 @@ beats the start, the fit of lower final cost is the result, and two fits ending 
 as a start-dependent result.
 
 Held-out observations take no part in C; they are predicted with the start and the fitted values and
-their miss m_k(θ̂) − y_k reported.
+their miss m_k(θ̂) − y_k reported, with the prediction's own uncertainty from the parameters' (linear
+propagation, the same Numerical Recipes §15.5): with g = ∂m_k/∂θ at θ̂ (forward differences of step
+``diff_step`` of each range) and Cov(θ) scaled by max(1, χ²/ν) as :func:`uncertainty` scales the std,
+
+    σ_pred,k = √(gᵀ Cov(θ) g),   z_k = (m_k(θ̂) − y_k) / √(σ_k² + σ_pred,k²),
+
+so |z_k| ≲ 2 is a held-out observation the calibrated model predicts within both uncertainties.
 
 Status of a fit (:attr:`FitOutcome.state`): ``converged`` when ``least_squares`` met its tolerance
 (``ftol``, ``xtol`` or ``gtol``); ``budget exhausted`` when it stopped at its evaluation budget first;
@@ -189,6 +195,10 @@ class ObservationResult:
     held_out: bool
     start: Prediction
     fitted: Prediction
+    #: The uncertainty of the fitted model's value from the parameters' (held-out observations; nan otherwise).
+    predicted_std: float = math.nan
+    #: How many specimens the observation compares (1 or 2, its file's ``specimens`` column).
+    specimens: int = 1
 
     @property
     def miss(self) -> float:
@@ -201,6 +211,11 @@ class ObservationResult:
     @property
     def residual(self) -> float:
         return self.weight * self.miss / self.sigma
+
+    @property
+    def z(self) -> float:
+        """The miss over √(σ² + σ_pred²): nan when the prediction's uncertainty is unknown."""
+        return self.miss / math.hypot(self.sigma, self.predicted_std)
 
 
 @dataclass(frozen=True)
@@ -580,12 +595,14 @@ def fit(problem: Problem, held_out: Sequence[Weighted] = (), *, max_evaluations:
     theta = chosen.values
     r = problem.residuals_at(theta)
     jac_theta = np.asarray(res.jac, dtype=float) / problem.width  # (m, n): dr/dθ = dr/du / (upper - lower)
-    std, std_scaled, corr, s, chi2, dof = _uncertainties(jac_theta, r)
+    std, std_scaled, corr, s, chi2, dof, cov = _uncertainties(jac_theta, r)
     fitted_preds = problem.predictions(theta)
     held_start = problem.predictions(theta0, held_out) if held_out else []
     held_fit = problem.predictions(theta, held_out) if held_out else []
+    held_std = prediction_std(problem, theta, held_out, held_fit, cov * max(1.0, chi2 / dof if dof > 0 else 1.0),
+                              diff_step) if held_out else []
     results = [_result(w, p0, p1, False) for w, p0, p1 in zip(problem.observations, start_preds, fitted_preds)]
-    results += [_result(w, p0, p1, True) for w, p0, p1 in zip(held_out, held_start, held_fit)]
+    results += [_result(w, p0, p1, True, sd) for w, p0, p1, sd in zip(held_out, held_start, held_fit, held_std)]
     outcome = FitOutcome(
         parameters=params, values=theta, std=std, std_scaled=std_scaled, correlation=corr,
         at_bound=bounds_reached(theta, params, tolerance), cost_start=0.5 * float(r0 @ r0), cost=0.5 * chi2,
@@ -649,11 +666,59 @@ def _uncertainties(jac_theta: np.ndarray, r: np.ndarray):
     chi2 = float(r @ r)
     dof = r.size - n
     std_scaled = std * math.sqrt(chi2 / dof) if dof > 0 else np.full(n, np.nan)
-    return std, std_scaled, corr, s, chi2, dof
+    return std, std_scaled, corr, s, chi2, dof, cov
 
 
-def _result(w: Weighted, start: Prediction, fitted: Prediction, held_out: bool) -> ObservationResult:
+def prediction_std(problem: Problem, theta, observations: Sequence[Weighted], at_theta: Sequence[Prediction],
+                   cov: np.ndarray, diff_step: float) -> list[float]:
+    """σ_pred = √(gᵀ Cov g) of each observation's model value at θ (the module docstring).
+
+    Parameters
+    ----------
+    problem : Problem
+    theta : array_like, shape (n,)
+        The fitted values θ̂.
+    observations : sequence of Weighted
+    at_theta : sequence of Prediction
+        Their values at θ̂.
+    cov : ndarray, shape (n, n)
+        Cov(θ) (inf along directions the fit does not determine).
+    diff_step : float
+        Forward-difference step in the normalised parameters (backward near the upper end).
+
+    Returns
+    -------
+    list of float
+        nan where a shifted prediction found no match; inf where g has a component along an undetermined
+        direction.
+    """
+    u0 = problem.u(theta)
+    m0 = np.array([p.value for p in at_theta])  # (k,)
+    grad = np.empty((len(observations), u0.size))  # (k, n): ∂m/∂θ
+    ok = np.array([p.matched for p in at_theta])
+    for i in range(u0.size):
+        h = diff_step if u0[i] + diff_step <= 1.0 else -diff_step
+        v = u0.copy()
+        v[i] += h
+        preds = problem.predictions(problem.theta(v), observations)
+        ok &= np.array([p.matched for p in preds])
+        grad[:, i] = (np.array([p.value for p in preds]) - m0) / (h * problem.width[i])
+    out = []
+    for k in range(len(observations)):
+        g = grad[k]
+        if not ok[k]:
+            out.append(math.nan)
+            continue
+        used = g != 0.0
+        c = cov[np.ix_(used, used)]  # (n', n')
+        out.append(math.inf if not np.all(np.isfinite(c)) else math.sqrt(max(0.0, float(g[used] @ c @ g[used]))))
+    return out
+
+
+def _result(w: Weighted, start: Prediction, fitted: Prediction, held_out: bool,
+            predicted_std: float = math.nan) -> ObservationResult:
     ob = w.observation
     return ObservationResult(name=ob.name, kind=ob.kind, where=ob.where, unit=ob.unit, measured=float(ob.value),
                              sigma=float(ob.sigma), weight=float(w.weight), held_out=held_out, start=start,
-                             fitted=fitted)
+                             fitted=fitted, predicted_std=float(predicted_std),
+                             specimens=int(getattr(ob, "specimens", 1)))

@@ -17,6 +17,12 @@ makes the model's readings).
     ``Q_ref``, ``Q``, ``a``, ``delta``, ``sigma`` [MPa, the uncertainty of Q]; optional ``name``. Venting
     a trimmed whisker back to the intact response is ``trim_ref = 0, Q_ref = Q_i, trim = Δ, Q = Q_c``.
 
+Every kind also takes the optional column ``specimens`` (1 or 2, default 1): how many specimens the observation
+compares. 1 is one whisker measured twice (a ratio of its readings, a trimmed whisker against itself before the
+cut); 2 is two whiskers made separately (a comparison between two prototypes), whose ``sigma`` must then include
+the difference between two castings, not only the reading's. The fit weighs every row by its ``sigma`` alone; the
+column is recorded with the observation and shown in the report, so the reader sees which σ carries that part.
+
 Every malformed value is a :class:`MeasurementError` (a :class:`~whisker_opt.config.model.ConfigError`)
 of one line naming the file, the data row (1 = the first row under the header), its line in the
 file and the column: ``data/p3.csv: row 2 (line 5), column a: 1.5 is outside the allowed range (0, 1]``.
@@ -64,6 +70,7 @@ class Extension:
     dl: float
     sigma: float
     trim: float = 0.0
+    specimens: int = 1
     cut_columns: tuple = field(default=(), repr=False, compare=False)
 
     kind = "extension"
@@ -91,6 +98,7 @@ class Response:
     sigma: float
     trim: float = 0.0
     ref_Q: float | None = None
+    specimens: int = 1
     cut_columns: tuple = field(default=(), repr=False, compare=False)
 
     kind = "response"
@@ -118,6 +126,7 @@ class Restore:
     a: float
     delta: float
     sigma: float
+    specimens: int = 1
     cut_columns: tuple = field(default=(), repr=False, compare=False)
 
     kind = "restore"
@@ -148,12 +157,14 @@ _RANGES: dict[str, tuple] = {
     "sigma": (SIGMA_MIN, SIGMA_MAX, False, False, "in the unit of the measured value"),
     "trim": (0.0, None, False, True, "mm"), "trim_ref": (0.0, None, False, True, "mm"),
     "length": (0.0, None, True, False, "mm"), "length_ref": (0.0, None, True, False, "mm"),
+    "specimens": (1.0, 2.0, False, False, "(1: one whisker measured twice, 2: two whiskers made separately)"),
 }
 #: Required and optional columns of each kind.
 COLUMNS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
-    "extension": (("Q", "dl", "sigma"), ("trim", "name")),
-    "response": (("Q", "a", "delta", "eps", "sigma"), ("trim", "length", "ref_Q", "name")),
-    "restore": (("Q_ref", "Q", "a", "delta", "sigma"), ("trim_ref", "length_ref", "trim", "length", "name")),
+    "extension": (("Q", "dl", "sigma"), ("trim", "name", "specimens")),
+    "response": (("Q", "a", "delta", "eps", "sigma"), ("trim", "length", "ref_Q", "name", "specimens")),
+    "restore": (("Q_ref", "Q", "a", "delta", "sigma"), ("trim_ref", "length_ref", "trim", "length", "name",
+                                                        "specimens")),
 }
 
 
@@ -303,6 +314,13 @@ def read_measurements(path: str | Path, kind: str, *, length_L: float, max_delta
         def num(col: str, **kw) -> float:
             return rows.number(n, line, row, col, **kw)
 
+        def specimens() -> int:
+            x = rows.number(n, line, row, "specimens", default=1.0)
+            if x != int(x):
+                raise rows.error(f"row {n} (line {line}), column specimens: {row['specimens']} is not 1 or 2 (how "
+                                 "many specimens the observation compares)")
+            return int(x)
+
         def delta() -> float:
             if max_delta is None:
                 return num("delta")
@@ -310,18 +328,18 @@ def read_measurements(path: str | Path, kind: str, *, length_L: float, max_delta
 
         if kind == "extension":
             out.append(Extension(name, where, Q=num("Q"), dl=num("dl"), sigma=num("sigma"),
-                                 trim=rows.trim(n, line, row, "", length_L), cut_columns=cuts))
+                                 trim=rows.trim(n, line, row, "", length_L), specimens=specimens(), cut_columns=cuts))
         elif kind == "response":
             ref = rows.number(n, line, row, "ref_Q", default=None) if "ref_Q" in row else None
             eps = num("eps") if ref is None else num("eps", lo=-RATIO_MAX, hi=RATIO_MAX,
                                                       unit="(a ratio of two readings, with ref_Q)")
             out.append(Response(name, where, Q=num("Q"), a=num("a"), delta=delta(), eps=eps,
                                 sigma=num("sigma"), trim=rows.trim(n, line, row, "", length_L), ref_Q=ref,
-                                cut_columns=cuts))
+                                specimens=specimens(), cut_columns=cuts))
         else:
             out.append(Restore(name, where, trim_ref=rows.trim(n, line, row, "_ref", length_L), Q_ref=num("Q_ref"),
                                trim=rows.trim(n, line, row, "", length_L), Q=num("Q"), a=num("a"), delta=delta(),
-                               sigma=num("sigma"), cut_columns=cuts))
+                               sigma=num("sigma"), specimens=specimens(), cut_columns=cuts))
     for ob in out:
         if ob.sigma < SIGMA_RELATIVE_WARN * abs(ob.value):
             logger.warning("%s, column sigma: %g is %.1e of the measured value %g: a relative uncertainty below %g, "

@@ -54,6 +54,7 @@ def _observation(o: ObservationResult) -> dict[str, Any]:
         "start": _f(o.start.value), "start_matched": o.start.matched, "start_miss": _f(o.start_miss),
         "fitted": _f(o.fitted.value), "matched": o.fitted.matched, "miss": _f(o.miss),
         "residual": _f(o.residual), "note": o.fitted.note, "start_note": o.start.note,
+        "specimens": o.specimens, "predicted_std": _f(o.predicted_std), "z": _f(o.z),
     }
 
 
@@ -87,8 +88,10 @@ def summary_dict(outcome: FitOutcome, *, source: str, config: str, model: str,
         "chi2_per_dof": _f(outcome.chi2_per_dof), "chi2_per_dof_limit": _f(chi2_limit(outcome.dof)),
         "chi2_quantile": CHI2_QUANTILE, "at_bound_tolerance": outcome.tolerance,
         "observations": [_observation(o) for o in outcome.observations],
-        "held_out": {o.name: {"measured": o.measured, "predicted": _f(o.fitted.value), "miss": _f(o.miss),
-                              "matched": o.fitted.matched, "unit": o.unit} for o in outcome.held_out},
+        "held_out": {o.name: {"measured": o.measured, "sigma": o.sigma, "predicted": _f(o.fitted.value),
+                              "predicted_std": _f(o.predicted_std), "miss": _f(o.miss), "z": _f(o.z),
+                              "matched": o.fitted.matched, "unit": o.unit, "specimens": o.specimens}
+                     for o in outcome.held_out},
         "evaluations": outcome.evaluations, "max_evaluations": outcome.max_evaluations,
         "scenes_solved": outcome.scenes, "seconds": outcome.seconds,
         "status": outcome.status, "message": outcome.message,
@@ -145,7 +148,8 @@ def calibrated_yaml(cfg: WhiskerConfig, outcome: FitOutcome, *, source: str, con
                      f"({what}; range [{p.lower:g}, {p.upper:g}], start {p.start:.6g})")
     for o in outcome.held_out:
         state = "" if o.fitted.matched else " (no match found)"
-        lines.append(f"# Held out: {o.name}: measured {o.measured:.6g}, predicted {o.fitted.value:.6g}{state} {o.unit}")
+        lines.append(f"# Held out: {o.name}: measured {_pm(o.measured, o.sigma, o.unit)}, predicted "
+                     f"{_pm(o.fitted.value, o.predicted_std, o.unit)}{state}, z {o.z:+.2g}")
     lines += ["# Use it by name (e.g. `whisker-opt run THIS_FILE`); the project's defaults are unchanged.", ""]
     return "\n".join(lines) + yaml.safe_dump(data, sort_keys=False)
 
@@ -180,7 +184,8 @@ def format_summary(outcome: FitOutcome, *, source: str) -> str:
     out += ["", f"{'observation':<26} {'kind':<9} {'measured':>10} {'±σ':>8} {'start':>10} {'fitted':>10} "
                 f"{'miss':>10}  unit"]
     for o in outcome.observations:
-        tag = " [held out]" if o.held_out else ""
+        tag = (f" [held out: predicted ±{o.predicted_std:.3g}, z {o.z:+.2g}]" if o.held_out else "") + \
+            (" [two specimens]" if o.specimens == 2 else "")
         flag = "" if o.fitted.matched else " (no match)"
         out.append(f"{o.name:<26} {o.kind:<9} {o.measured:>10.5g} {o.sigma:>8.3g} {o.start.value:>10.5g} "
                    f"{o.fitted.value:>10.5g} {o.miss:>+10.4g}  {o.unit}{tag}{flag}")

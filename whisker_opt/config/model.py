@@ -83,7 +83,8 @@ MaterialConfig = create_model(
     "or another registered law, e.g. a named Yeoh fit of a published silicone (docs/physics.md, model form); the cap "
     "may be of another rubber; "
     "the fibre winding embedded as lines or smeared over the wall.",
-    **declared_fields(SceneSpec, ("c10", "d1", "rubber", "cap_rubber", "fibre_model", "wall_law", "wall_slope")),
+    **declared_fields(SceneSpec, ("c10", "d1", "rubber", "cap_rubber", "cap_joint", "cap_joint_k", "fibre_model",
+                                "wall_law", "wall_slope")),
 )
 
 

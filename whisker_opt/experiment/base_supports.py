@@ -37,14 +37,11 @@ class BaseMechanism:
 
 def _registry() -> dict[str, BaseMechanism]:
     """Every module of :mod:`whisker_opt.experiment.bases`, in the order of their ``ORDER``."""
-    import importlib
-    import pkgutil
+    from whisker_opt.experiment.registry import discover
 
-    import whisker_opt.experiment.bases as pkg
-
-    mods = [importlib.import_module(f"{pkg.__name__}.{m.name}") for m in pkgutil.iter_modules(pkg.__path__)]
+    mods = discover("whisker_opt.experiment.bases")
     return {m.NAME: BaseMechanism(m.NAME, m.DESCRIPTION, tuple(m.PARAMETERS), m.hold)
-            for m in sorted(mods, key=lambda m: (m.ORDER, m.NAME))}
+            for m in mods}
 
 
 #: The base mechanisms, by name (read-only); the first is the default.

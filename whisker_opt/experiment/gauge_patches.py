@@ -34,14 +34,11 @@ class GaugePatch:
 
 def _registry() -> dict[str, GaugePatch]:
     """Every module of :mod:`whisker_opt.experiment.patches`, in the order of their ``ORDER``."""
-    import importlib
-    import pkgutil
+    from whisker_opt.experiment.registry import discover
 
-    import whisker_opt.experiment.patches as pkg
-
-    mods = [importlib.import_module(f"{pkg.__name__}.{m.name}") for m in pkgutil.iter_modules(pkg.__path__)]
+    mods = discover("whisker_opt.experiment.patches")
     return {m.NAME: GaugePatch(m.NAME, m.DESCRIPTION, tuple(m.PARAMETERS), m.membranes)
-            for m in sorted(mods, key=lambda m: (m.ORDER, m.NAME))}
+            for m in mods}
 
 
 #: The choices, by name (read-only); the first is the default.

@@ -39,14 +39,11 @@ class GaugeReading:
 
 def _registry() -> dict[str, GaugeReading]:
     """Every module of :mod:`whisker_opt.experiment.readings`, in the order of their ``ORDER``."""
-    import importlib
-    import pkgutil
+    from whisker_opt.experiment.registry import discover
 
-    import whisker_opt.experiment.readings as pkg
-
-    mods = [importlib.import_module(f"{pkg.__name__}.{m.name}") for m in pkgutil.iter_modules(pkg.__path__)]
+    mods = discover("whisker_opt.experiment.readings")
     return {m.NAME: GaugeReading(m.NAME, m.DESCRIPTION, m.state, m.relative, getattr(m, "points", None))
-            for m in sorted(mods, key=lambda m: (m.ORDER, m.NAME))}
+            for m in mods}
 
 
 #: The gauge readings, by name, in the order a reader returns them (read-only).

@@ -58,14 +58,11 @@ class RubberLaw:
 
 def _registry() -> dict[str, RubberLaw]:
     """Every law of every module of :mod:`whisker_opt.experiment.rubbers`, the modules in ``ORDER``."""
-    import importlib
-    import pkgutil
+    from whisker_opt.experiment.registry import discover
 
-    import whisker_opt.experiment.rubbers as pkg
-
-    mods = [importlib.import_module(f"{pkg.__name__}.{m.name}") for m in pkgutil.iter_modules(pkg.__path__)]
+    mods = discover("whisker_opt.experiment.rubbers")
     laws = [(name, RubberLaw(m.make, tuple(constants), source))
-            for m in sorted(mods, key=lambda m: (m.ORDER, m.__name__))
+            for m in mods
             for name, (constants, source) in m.LAWS.items()]
     names = [n for n, _ in laws]
     if len(set(names)) != len(names) or "same" in names:
@@ -106,8 +103,10 @@ def rubber_law(name: str, c10: float, d1: float) -> IsochoricI1Material:
     return RUBBER_LAWS[name].law(c10, d1)
 
 
-def rubber_material(rubber: str, cap_rubber: str, c10: float, d1: float, cap: np.ndarray) -> IsochoricI1Material:
-    """The rubber of a whisker: one law, or the cap's law on the cap's elements and the body's elsewhere.
+def rubber_material(rubber: str, cap_rubber: str, c10: float, d1: float, cap: np.ndarray,
+                    cap_factor: float = 1.0) -> IsochoricI1Material:
+    """The rubber of a whisker: one law, or the cap's law on the cap's elements and the body's elsewhere, the cap's
+    moduli scaled by its joint's factor.
 
     Parameters
     ----------
@@ -118,19 +117,30 @@ def rubber_material(rubber: str, cap_rubber: str, c10: float, d1: float, cap: np
         [MPa], [1/MPa] (:func:`rubber_law`).
     cap : ndarray of bool, shape (n_el,)
         The cap's elements (:func:`whisker_opt.experiment.spec.cap_elements`); not read for one law.
+    cap_factor : float
+        s > 0 on the cap's moduli (its joint, :func:`whisker_opt.experiment.cap_joints.cap_factor`; 1 = tied).
 
     Returns
     -------
     fem.material.IsochoricI1Material
         :func:`rubber_law` of ``rubber``, or a :class:`fem.material.ElementwiseMaterial` of
-        (body, cap) laws with group 1 on ``cap``.
+        (body, cap) laws with group 1 on ``cap``; a :class:`fem.material.ScaledMaterial` of it (s on ``cap``,
+        1 elsewhere) when ``cap_factor`` ≠ 1.
     """
-    from fem.material import ElementwiseMaterial
+    from fem.material import ElementwiseMaterial, ScaledMaterial
 
     body = rubber_law(rubber, c10, d1)
-    if cap_rubber in ("same", rubber):
-        return body
-    return ElementwiseMaterial((body, rubber_law(cap_rubber, c10, d1)), np.asarray(cap, dtype=bool).astype(np.int64))
+    cap = np.asarray(cap, dtype=bool)
+    mat = body if cap_rubber in ("same", rubber) else \
+        ElementwiseMaterial((body, rubber_law(cap_rubber, c10, d1)), cap.astype(np.int64))
+    if cap_factor == 1.0:
+        return mat
+    return ScaledMaterial(mat, np.where(cap, float(cap_factor), 1.0))
+
+
+def cap_law(rubber: str, cap_rubber: str, c10: float, d1: float) -> IsochoricI1Material:
+    """The law of the cap's elements: ``cap_rubber``'s, or the body's for 'same'."""
+    return rubber_law(rubber if cap_rubber == "same" else cap_rubber, c10, d1)
 
 
 def listing() -> str:

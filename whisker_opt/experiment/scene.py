@@ -59,7 +59,8 @@ from whisker_opt.experiment.contact import Contact, contact_band, place_contact_
 from whisker_opt.experiment.gauge import GaugedMesh, GaugeReader, ReadingContext
 from whisker_opt.experiment.gauge_patches import patch_membranes
 from whisker_opt.experiment.gauge_variants import GAUGE_VARIANTS
-from whisker_opt.experiment.rubber_laws import rubber_material
+from whisker_opt.experiment.cap_joints import cap_factor
+from whisker_opt.experiment.rubber_laws import cap_law, rubber_material
 from whisker_opt.experiment.spec import SceneSpec, cap_elements
 from whisker_opt.wall.law import apply_law, chamber_elements, mid_chamber_x
 
@@ -178,9 +179,16 @@ class SceneResult:
 
 def scene_material(mesh, spec: SceneSpec) -> IsochoricI1Material:
     """The rubber of the scene on ``mesh`` (:attr:`SceneSpec.rubber`, :attr:`SceneSpec.cap_rubber`): one
-    law, or the cap's law on :func:`cap_elements` and the body's elsewhere
-    (:func:`whisker_opt.experiment.rubber_laws.rubber_material`)."""
-    return rubber_material(spec.rubber, spec.cap_rubber, spec.c10, spec.d1, cap_elements(mesh, spec.design.c))
+    law, or the cap's law on :func:`cap_elements` and the body's elsewhere, the cap scaled by its joint
+    (:attr:`SceneSpec.cap_joint`; :func:`whisker_opt.experiment.rubber_laws.rubber_material`)."""
+    return rubber_material(spec.rubber, spec.cap_rubber, spec.c10, spec.d1, cap_elements(mesh, spec.design.c),
+                           scene_cap_factor(spec))
+
+
+def scene_cap_factor(spec: SceneSpec) -> float:
+    """The factor of :attr:`SceneSpec.cap_joint` on the cap's moduli (1 for a tied cap)."""
+    mu = cap_law(spec.rubber, spec.cap_rubber, spec.c10, spec.d1).shear_modulus
+    return cap_factor(spec.cap_joint, spec, spec.design.c, mu)
 
 
 def base_dirichlet(wm: WhiskerMesh, spec: SceneSpec) -> list[Dirichlet]:

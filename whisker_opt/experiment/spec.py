@@ -21,6 +21,8 @@ from geometry.materials import RUBBER_C10
 from geometry.sizing import MeshSizing
 from whisker_opt.experiment.base_supports import BASE_SUPPORTS
 from whisker_opt.experiment.bases import compliant, grip
+from whisker_opt.experiment.cap_joints import CAP_JOINTS
+from whisker_opt.experiment.caps import compliant as compliant_cap
 from whisker_opt.experiment.gauge_patches import GAUGE_PATCHES
 from whisker_opt.experiment.patches import bonded
 from whisker_opt.experiment.rubber_laws import RUBBERS
@@ -101,6 +103,12 @@ class SceneSpec:
     cap_rubber : str
         'same' (default: the cap is of the body's rubber) or one of the rubbers for the
         elements of the cap, those whose centroid lies at x < c, bonded to the body.
+    cap_joint : str
+        How the cap is joined to the body: one of :data:`whisker_opt.experiment.cap_joints.CAP_JOINTS`
+        ('tied', the default; 'compliant', a bond layer smeared over the cap,
+        :mod:`whisker_opt.experiment.caps.compliant`, which documents its range).
+    cap_joint_k : float
+        The 'compliant' joint's stiffness per area [N/mm³].
     base_support : str
         How the holder holds the base: one of the mechanisms of
         :data:`whisker_opt.experiment.base_supports.BASE_SUPPORTS` ('clamped', the default: every node of
@@ -159,6 +167,13 @@ class SceneSpec:
     cap_rubber: str = parameter(
         "same", "", "rubber of the cap (elements at x < c), bonded to the body: 'same' as the body, or one of "
         "the rubber laws", choices=("same",) + RUBBERS, listed=f"`same` or a {_LISTED_RUBBERS}")
+    cap_joint: str = parameter(
+        "tied", "", "how the cap is joined to the body: 'tied' (shared nodes) or 'compliant' (a bond layer of "
+        "stiffness cap_joint_k per area, smeared over the cap's thickness); docs/physics.md §2",
+        choices=CAP_JOINTS, listed="a registered cap joint, listed by `python3 -m whisker_opt.experiment.cap_joints`")
+    cap_joint_k: float = parameter(
+        compliant_cap.K_DEFAULT, "N/mm^3", "stiffness per area of cap_joint 'compliant', μ/h of the bond layer "
+        "(estimated 0.4-10 for a silicone glue layer)", gt=compliant_cap.K_RANGE[0], le=compliant_cap.K_RANGE[1])
     base_support: str = parameter(
         "clamped", "", "how the holder holds the base, by name: 'clamped' (every base node fixed), 'sliding' (the "
         "base held axially, only its inner half r ≤ D/4 also radially), 'axial' (held axially only, plus two nodes "

@@ -57,13 +57,10 @@ class Spread:
 
 def _registry() -> dict[str, Callable[[Spread, float, float], float]]:
     """Every module of :mod:`whisker_opt.optimise.reductions`, by ``NAME``, in the order of their ``ORDER``."""
-    import importlib
-    import pkgutil
+    from whisker_opt.experiment.registry import discover
 
-    import whisker_opt.optimise.reductions as pkg
-
-    mods = [importlib.import_module(f"{pkg.__name__}.{m.name}") for m in pkgutil.iter_modules(pkg.__path__)]
-    return {m.NAME: m.reduce for m in sorted(mods, key=lambda m: (m.ORDER, m.NAME))}
+    mods = discover("whisker_opt.optimise.reductions")
+    return {m.NAME: m.reduce for m in mods}
 
 
 #: The reductions over variants, by name: ``reduce(spread, k, worse) -> float`` (module docstring).

@@ -145,6 +145,9 @@ def deck_refusal(spec) -> str | None:
     if spec.rubber != "neo_hookean" or spec.cap_rubber not in ("same", spec.rubber):
         return (f"material.rubber: {spec.rubber!r} (cap_rubber {spec.cap_rubber!r}); the CalculiX/Abaqus deck "
                 "writes the neo-Hookean law only (rubber: neo_hookean, cap_rubber: same)")
+    if spec.cap_joint != "tied":
+        return (f"material.cap_joint: {spec.cap_joint!r}; the CalculiX/Abaqus deck writes one rubber for the "
+                "whole body, not a cap scaled by its joint (cap_joint: tied)")
     if spec.fibre_model != "embedded":
         return (f"material.fibre_model: {spec.fibre_model!r}; the CalculiX/Abaqus deck writes the embedded fibres "
                 "only (springs tied into the rubber; fibre_model: embedded)")

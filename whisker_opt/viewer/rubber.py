@@ -2,7 +2,7 @@
 
 The viewer shows the arrays the solver stored (:mod:`whisker_opt.output.scenes`); only when a
 file lacks one does it compute it, and then with the law the run was solved with: the
-``material`` section of the run's ``config.yaml`` (``rubber``, ``cap_rubber``, ``C10``, ``D1``)
+``material`` section of the run's ``config.yaml`` (``rubber``, ``cap_rubber``, ``C10``, ``D1``, ``cap_joint``)
 made into a law by the one registry of rubbers,
 :func:`whisker_opt.experiment.rubber_laws.rubber_material`. A cap of another rubber needs the cap's
 end c [mm]: the file's own ``design_c`` field data, else the scene's design, else the
@@ -39,6 +39,10 @@ class RunRubber:
         [1/MPa].
     c : float or None
         The config's cap end ``design.c`` [mm] (None when unknown).
+    cap_joint : str
+        :attr:`whisker_opt.experiment.spec.SceneSpec.cap_joint`.
+    cap_joint_k : float
+        [N/mm³], the 'compliant' joint's stiffness.
     """
 
     rubber: str
@@ -46,11 +50,13 @@ class RunRubber:
     c10: float
     d1: float
     c: float | None = None
+    cap_joint: str = "tied"
+    cap_joint_k: float = 1.0
 
     @property
     def has_cap_law(self) -> bool:
-        """The cap is of another law than the body."""
-        return self.cap_rubber not in ("same", self.rubber)
+        """The cap is of another law than the body, or scaled by a joint that is not tied."""
+        return self.cap_rubber not in ("same", self.rubber) or self.cap_joint != "tied"
 
     def law(self, points: np.ndarray, cells: np.ndarray, c: float | None = None) -> IsochoricI1Material | None:
         """The law on a TET10 mesh (one row per cell when the cap is of another rubber).
@@ -79,7 +85,14 @@ class RunRubber:
             return None
         cap = (cap_elements(SimpleNamespace(points=np.asarray(points, dtype=float), cells=np.asarray(cells)), c)
                if self.has_cap_law else np.zeros(len(cells), dtype=bool))
-        return rubber_material(self.rubber, self.cap_rubber, self.c10, self.d1, cap)
+        factor = 1.0
+        if self.cap_joint != "tied":
+            from whisker_opt.experiment.cap_joints import cap_factor
+            from whisker_opt.experiment.rubber_laws import cap_law
+
+            factor = cap_factor(self.cap_joint, self, c, cap_law(self.rubber, self.cap_rubber, self.c10,
+                                                                   self.d1).shear_modulus)
+        return rubber_material(self.rubber, self.cap_rubber, self.c10, self.d1, cap, factor)
 
 
 def run_rubber(config: Mapping[str, Any]) -> RunRubber | None:
@@ -106,7 +119,7 @@ def run_rubber(config: Mapping[str, Any]) -> RunRubber | None:
         from geometry.design import WhiskerDesign
 
         c = float(WhiskerDesign().c)
-    return RunRubber(m.rubber, m.cap_rubber, float(m.C10), float(m.D1), c)
+    return RunRubber(m.rubber, m.cap_rubber, float(m.C10), float(m.D1), c, m.cap_joint, float(m.cap_joint_k))
 
 
 def cap_end(grid, design: Mapping[str, Any] | None = None) -> float | None:

@@ -91,11 +91,9 @@ def _measures_of(module) -> tuple[Measure, ...]:
 
 def _registry() -> dict[str, Measure]:
     """Every measure of every module of this package, the modules in the order of their ``ORDER``."""
-    import importlib
-    import pkgutil
+    from whisker_opt.experiment.registry import discover
 
-    mods = [importlib.import_module(f"{__name__}.{m.name}") for m in pkgutil.iter_modules(__path__)]
-    measures = [x for m in sorted(mods, key=lambda m: (m.ORDER, m.__name__)) for x in _measures_of(m)]
+    measures = [x for m in discover(__name__) for x in _measures_of(m)]
     names = [x.name for x in measures]
     if len(set(names)) != len(names):
         raise ValueError(f"measures: a name registered twice: {sorted({n for n in names if names.count(n) > 1})}")
