@@ -85,6 +85,9 @@ def test_the_fit_recovers_the_parameters_that_made_the_data(tmp_path):
     report = json.loads((tmp_path / "calibration.json").read_text())
     assert [p["path"] for p in report["parameters"]] == list(TRUE)
     assert report["held_out"]["trimmed_tip"]["miss"] == pytest.approx(held.miss)
+    assert np.isfinite(held.predicted_std) and held.predicted_std > 0
+    assert report["held_out"]["trimmed_tip"]["predicted_std"] == pytest.approx(held.predicted_std)
+    assert abs(report["held_out"]["trimmed_tip"]["z"]) < 1.0  # the true model, predicted within its uncertainty
     assert report["evaluations"] == out.evaluations > 3
     # the calibrated run file is a run file with the fitted values, and says what it is
     text = (tmp_path / "calibrated.yaml").read_text()
@@ -166,6 +169,10 @@ GOOD = "Q,a,delta,eps,sigma\n0.1,1,1,0.013,1e-4\n"
     (GOOD + "0.1,1,40,0.013,1e-4\n", ("row 2 (line 3), column delta", "outside the allowed range (0, 30]")),
     (GOOD + "-0.1,1,1,0.013,1e-4\n", ("row 2 (line 3), column Q", "outside the allowed range [0, 1] MPa")),
     (GOOD + "0.1,1,1,0.013,0\n", ("row 2 (line 3), column sigma", "outside the allowed range [1e-12, 1000]")),
+    ("Q,a,delta,eps,sigma,specimens\n0.1,1,1,0.013,1e-4,3\n", ("row 1 (line 2), column specimens",
+                                                               "outside the allowed range [1, 2]")),
+    ("Q,a,delta,eps,sigma,specimens\n0.1,1,1,0.013,1e-4,1.5\n", ("row 1 (line 2), column specimens",
+                                                                 "1.5 is not 1 or 2")),
 ])
 def test_a_malformed_file_is_one_line_naming_file_row_and_column(tmp_path, text, words):
     path = tmp_path / "resp.csv"
@@ -186,7 +193,50 @@ def test_lengths_and_trims_of_a_row(tmp_path):
         read_measurements(path, "response", length_L=70.0)
     path.write_text("Q,a,delta,eps,sigma,length\n0,1,1,0.01,1e-4,65\n")
     (ob,) = read_measurements(path, "response", length_L=70.0)
-    assert ob.trim == 5.0 and ob.name == "r:1" and ob.ref_Q is None
+    assert ob.trim == 5.0 and ob.name == "r:1" and ob.ref_Q is None and ob.specimens == 1
+
+
+def test_a_row_says_how_many_specimens_it_compares(tmp_path):
+    """The shipped restore file: the vent compares one specimen with itself, the converse two prototypes, whose σ
+    carries the casting-to-casting spread and is the larger."""
+    obs = {o.name: o for o in read_measurements(Path(__file__).parents[1] / "configs" / "data" / "thesis_restore.csv",
+                                                 "restore", length_L=70.0)}
+    assert obs["vent_65_matches_70"].specimens == 1 and obs["pressurise_70_matches_65"].specimens == 2
+    assert obs["pressurise_70_matches_65"].sigma > obs["vent_65_matches_70"].sigma
+
+
+def test_a_held_out_prediction_carries_the_parameters_uncertainty():
+    """σ_pred = √(gᵀ Cov g) for a model linear in θ: m(θ) = G θ, g the row of G; exact for forward differences.
+    An observation that moves along an undetermined direction is inf; one the shifts cannot match is nan."""
+    from whisker_opt.calibration.fit import prediction_std
+    from whisker_opt.calibration.forward import Prediction
+
+    G = np.array([[2.0, -1.0], [0.5, 3.0]])  # (k, n)
+    lower, width = np.array([0.0, 1.0]), np.array([2.0, 4.0])
+
+    class Linear:
+        def __init__(self):
+            self.lower, self.width = lower, width
+
+        def u(self, theta):
+            return (np.asarray(theta) - lower) / width
+
+        def theta(self, u):
+            return lower + np.asarray(u) * width
+
+        def predictions(self, theta, observations):
+            return [Prediction(float(v)) for v in G @ np.asarray(theta)]
+
+    cov = np.array([[0.04, 0.01], [0.01, 0.09]])
+    theta = np.array([1.0, 2.0])
+    at = Linear().predictions(theta, None)
+    got = prediction_std(Linear(), theta, [None, None], at, cov, 0.05)
+    np.testing.assert_allclose(got, [np.sqrt(g @ cov @ g) for g in G], rtol=1e-10)
+    undetermined = cov.copy()
+    undetermined[1, :] = undetermined[:, 1] = np.inf
+    assert prediction_std(Linear(), theta, [None, None], at, undetermined, 0.05) == [np.inf, np.inf]
+    unmatched = [Prediction(at[0].value, matched=False), at[1]]
+    assert np.isnan(prediction_std(Linear(), theta, [None, None], unmatched, cov, 0.05)[0])
 
 
 def test_the_command_refuses_bad_input_in_one_line_and_runs_on_a_calibrated_file(tmp_path, capsys):

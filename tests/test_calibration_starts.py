@@ -157,7 +157,7 @@ def test_the_wall_slope_fit_ends_at_the_same_value_from_0_and_from_minus_2(tmp_p
     costs = np.array([0.5 * float(r @ r) for r in (problem.residuals_at([s]) for s in grid)])  # (n_grid,)
     k = int(np.argmin(costs))
     assert grid[k - 1] <= a.values[0] <= grid[k + 1] and a.cost <= costs[k] * (1 + a.tolerance)
-    assert -3.2 < a.values[0] < -2.6 and a.determined == (True,) and a.calibrated
+    assert -2.7 < a.values[0] < -2.1 and a.determined == (True,) and a.calibrated  # with the files' σ (0.021, 0.03)
     # from 0 the fit from the start alone stays in another basin: reported, and the lower end taken
     assert [f.origin for f in a.starts] == ["the run file's start", "the scan's best point"]
     assert a.starts[0].cost > 2 * a.cost and abs(a.starts[0].values[0] - a.values[0]) > 2.0

@@ -184,7 +184,7 @@ def format_summary(outcome: FitOutcome, *, source: str) -> str:
     out += ["", f"{'observation':<26} {'kind':<9} {'measured':>10} {'±σ':>8} {'start':>10} {'fitted':>10} "
                 f"{'miss':>10}  unit"]
     for o in outcome.observations:
-        tag = (f" [held out: predicted ±{o.predicted_std:.3g}, z {o.z:+.2g}]" if o.held_out else "") + \
+        tag = (f" [held out] (prediction ±{o.predicted_std:.3g}, z {o.z:+.2g})" if o.held_out else "") + \
             (" [two specimens]" if o.specimens == 2 else "")
         flag = "" if o.fitted.matched else " (no match)"
         out.append(f"{o.name:<26} {o.kind:<9} {o.measured:>10.5g} {o.sigma:>8.3g} {o.start.value:>10.5g} "
