@@ -28,6 +28,16 @@ def k_law(q: float) -> float:
     return -1.337 * q + 0.9958
 
 
+def trim_effects_required() -> dict[str, float]:
+    """The trim effect T(Q) = ε(65, Q)/ε(70, Q) each restore observation needs if the 70 mm whisker's pressure
+    effect is the softening law's, ε(70, Q2)/ε(70, Q1) = k(Q1)/k(Q2):
+
+    * the vent, ε(65, 0.048) = ε(70, 0.1): T(0.048) = k(0.048)/k(0.1);
+    * the converse, ε(70, 0.192) = ε(65, 0.1): T(0.1) = k(0.1)/k(0.192).
+    """
+    return {"vent T(0.048)": k_law(0.048) / k_law(0.1), "converse T(0.1)": k_law(0.1) / k_law(0.192)}
+
+
 def claims(cfg, search: RestoreSearch) -> dict:
     """Every model value the table needs, for one model."""
     sim = SceneSimulator(deflection=1.0)
