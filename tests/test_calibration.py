@@ -208,7 +208,7 @@ def test_a_row_says_how_many_specimens_it_compares(tmp_path):
 def test_a_held_out_prediction_carries_the_parameters_uncertainty():
     """σ_pred = √(gᵀ Cov g) for a model linear in θ: m(θ) = G θ, g the row of G; exact for forward differences.
     An observation that moves along an undetermined direction is inf; one the shifts cannot match is nan."""
-    from whisker_opt.calibration.fit import prediction_std
+    from whisker_opt.calibration.propagation import prediction_std
     from whisker_opt.calibration.forward import Prediction
 
     G = np.array([[2.0, -1.0], [0.5, 3.0]])  # (k, n)

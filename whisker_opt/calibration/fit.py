@@ -76,6 +76,7 @@ from geometry.design import InvalidDesignError
 from whisker_opt.calibration.forward import Prediction, RestoreSearch, Simulator, predict
 from whisker_opt.calibration.measurements import Observation
 from whisker_opt.calibration.parameters import ModelParameter, configure
+from whisker_opt.calibration.propagation import prediction_std
 from whisker_opt.calibration.starts import FROM_SCAN, FROM_START, LocalFit, disagree, scan_points, scan_size
 from whisker_opt.config.model import ConfigError, WhiskerConfig
 
@@ -667,52 +668,6 @@ def _uncertainties(jac_theta: np.ndarray, r: np.ndarray):
     dof = r.size - n
     std_scaled = std * math.sqrt(chi2 / dof) if dof > 0 else np.full(n, np.nan)
     return std, std_scaled, corr, s, chi2, dof, cov
-
-
-def prediction_std(problem: Problem, theta, observations: Sequence[Weighted], at_theta: Sequence[Prediction],
-                   cov: np.ndarray, diff_step: float) -> list[float]:
-    """σ_pred = √(gᵀ Cov g) of each observation's model value at θ (the module docstring).
-
-    Parameters
-    ----------
-    problem : Problem
-    theta : array_like, shape (n,)
-        The fitted values θ̂.
-    observations : sequence of Weighted
-    at_theta : sequence of Prediction
-        Their values at θ̂.
-    cov : ndarray, shape (n, n)
-        Cov(θ) (inf along directions the fit does not determine).
-    diff_step : float
-        Forward-difference step in the normalised parameters (backward near the upper end).
-
-    Returns
-    -------
-    list of float
-        nan where a shifted prediction found no match; inf where g has a component along an undetermined
-        direction.
-    """
-    u0 = problem.u(theta)
-    m0 = np.array([p.value for p in at_theta])  # (k,)
-    grad = np.empty((len(observations), u0.size))  # (k, n): ∂m/∂θ
-    ok = np.array([p.matched for p in at_theta])
-    for i in range(u0.size):
-        h = diff_step if u0[i] + diff_step <= 1.0 else -diff_step
-        v = u0.copy()
-        v[i] += h
-        preds = problem.predictions(problem.theta(v), observations)
-        ok &= np.array([p.matched for p in preds])
-        grad[:, i] = (np.array([p.value for p in preds]) - m0) / (h * problem.width[i])
-    out = []
-    for k in range(len(observations)):
-        g = grad[k]
-        if not ok[k]:
-            out.append(math.nan)
-            continue
-        used = g != 0.0
-        c = cov[np.ix_(used, used)]  # (n', n')
-        out.append(math.inf if not np.all(np.isfinite(c)) else math.sqrt(max(0.0, float(g[used] @ c @ g[used]))))
-    return out
 
 
 def _result(w: Weighted, start: Prediction, fitted: Prediction, held_out: bool,

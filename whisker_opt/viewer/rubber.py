@@ -20,6 +20,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from fem.material import IsochoricI1Material
+from whisker_opt.experiment.caps.compliant import K_DEFAULT as CAP_JOINT_K_DEFAULT
 from whisker_opt.viewer.sceneinfo import finite_float
 
 logger = logging.getLogger(__name__)
@@ -51,7 +52,7 @@ class RunRubber:
     d1: float
     c: float | None = None
     cap_joint: str = "tied"
-    cap_joint_k: float = 1.0
+    cap_joint_k: float = CAP_JOINT_K_DEFAULT
 
     @property
     def has_cap_law(self) -> bool:
