@@ -48,6 +48,7 @@ def claims(cfg, search: RestoreSearch) -> dict:
     out["eps"] = eps
     out["dl"] = {q: sim.extension(cfg, 0.0, q) for q in (0.05, 0.1, 0.2)}
     out["eps65"] = {q: float(sim.reading(cfg, 5.0, q, 1.0, [1.0])[0]) for q in (0.0, 0.048, 0.1)}
+    out["eps70_vent"] = float(sim.reading(cfg, 0.0, 0.048, 1.0, [1.0])[0])  # for the trim effect at the vent's Q
     out["eps_a05"] = float(sim.reading(cfg, 0.0, 0.0, 0.5, [1.0])[0])  # for ξ's dependence on a (ξ at a = 0.5, 1)
     out["scenes"] = sim.solved
     return out

@@ -35,8 +35,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fem import element
-from fem.quadrature import tri_rule
+from fem.faces import face_geometry
 
 #: Lowest triangle-rule degree: exact for W on flat faces.
 MIN_DEGREE = 4
@@ -70,26 +69,17 @@ class MembraneKernel:
     """
 
     def __init__(self, points: np.ndarray, faces: np.ndarray, degree: int = MIN_DEGREE) -> None:
-        self.faces = np.asarray(faces, dtype=np.int64)
-        rule = tri_rule(max(int(degree), MIN_DEGREE))
-        N = element.tri6_shape_functions(rule.points)  # (n_qp, 6)
-        dN = element.tri6_shape_gradients(rule.points)  # (n_qp, 6, 2)
-        Xf = np.asarray(points, float)[self.faces]  # (n_f, 6, 3)
-        a1 = np.matmul(dN[:, :, 0], Xf)  # (n_f, n_qp, 3)  X,1
-        a2 = np.matmul(dN[:, :, 1], Xf)  # (n_f, n_qp, 3)  X,2
-        nda = np.cross(a1, a2)  # (n_f, n_qp, 3)
-        dA = np.linalg.norm(nda, axis=-1)  # (n_f, n_qp)
-        if np.any(dA <= 0):
-            raise ValueError(f"MembraneKernel: {int(np.sum(np.any(dA <= 0, axis=1)))} faces of zero area")
-        e1 = a1 / np.linalg.norm(a1, axis=-1, keepdims=True)  # (n_f, n_qp, 3)
-        e2 = np.cross(nda / dA[..., None], e1)  # (n_f, n_qp, 3)
+        g = face_geometry(points, faces, max(int(degree), MIN_DEGREE), "MembraneKernel")
+        self.faces = g.faces
+        e1 = g.a1 / np.linalg.norm(g.a1, axis=-1, keepdims=True)  # (n_f, n_qp, 3)
+        e2 = np.cross(g.normal, e1)  # (n_f, n_qp, 3)
         basis = np.stack([e1, e2], axis=-1)  # (n_f, n_qp, 3, 2)
-        jac = np.matmul(np.stack([a1, a2], axis=-2), basis)  # (n_f, n_qp, 2, 2)  J_αβ = X,α · e_β
+        jac = np.matmul(np.stack([g.a1, g.a2], axis=-2), basis)  # (n_f, n_qp, 2, 2)  J_αβ = X,α · e_β
         # ∂N/∂ξ_α = Σ_β J_αβ ∂N/∂S_β, so ∂N/∂S = ∂N/∂ξ · J⁻ᵀ
-        self.dNdS = np.matmul(dN[None], np.swapaxes(np.linalg.inv(jac), -1, -2))  # (n_f, n_qp, 6, 2)
-        self.wdA = rule.weights[None, :] * dA  # (n_f, n_qp)
-        self.points = np.matmul(N[None], Xf)  # (n_f, n_qp, 3)
-        self.n_qp = len(rule.weights)
+        self.dNdS = np.matmul(g.dN[None], np.swapaxes(np.linalg.inv(jac), -1, -2))  # (n_f, n_qp, 6, 2)
+        self.wdA = g.wdA  # (n_f, n_qp)
+        self.points = g.points  # (n_f, n_qp, 3)
+        self.n_qp = g.n_qp
 
     def surface_gradient(self, x: np.ndarray) -> np.ndarray:
         """F_s = Σ_a x_a ⊗ ∂N_a/∂S at every quadrature point of the current positions ``x`` (n_nodes, 3),

@@ -24,8 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fem import element
-from fem.quadrature import tri_rule
+from fem.faces import face_geometry
 
 #: Lowest triangle-rule degree: exact for N_a N_b on flat faces.
 MIN_DEGREE = 4
@@ -55,22 +54,11 @@ class SupportKernel:
     """
 
     def __init__(self, points: np.ndarray, faces: np.ndarray, degree: int = MIN_DEGREE) -> None:
-        self.faces = np.asarray(faces, dtype=np.int64)
-        rule = tri_rule(max(int(degree), MIN_DEGREE))
-        N = element.tri6_shape_functions(rule.points)  # (n_qp, 6)
-        dN = element.tri6_shape_gradients(rule.points)  # (n_qp, 6, 2)
-        Xf = np.asarray(points, float)[self.faces]  # (n_f, 6, 3)
-        a1 = np.matmul(dN[:, :, 0], Xf)  # (n_f, n_qp, 3)  X,1
-        a2 = np.matmul(dN[:, :, 1], Xf)  # (n_f, n_qp, 3)  X,2
-        nda = np.cross(a1, a2)  # (n_f, n_qp, 3)
-        dA = np.linalg.norm(nda, axis=-1)  # (n_f, n_qp)
-        if np.any(dA <= 0):
-            raise ValueError(f"SupportKernel: {int(np.sum(np.any(dA <= 0, axis=1)))} faces of zero area")
-        n0 = nda / dA[..., None]  # (n_f, n_qp, 3)
-        wdA = rule.weights[None, :] * dA  # (n_f, n_qp)
-        self.area = wdA.sum(axis=1)  # (n_f,)
-        self.m0 = np.einsum("fq,qa,qb->fab", wdA, N, N)  # (n_f, 6, 6)
-        self.mn = np.einsum("fq,qa,qb,fqi,fqk->faibk", wdA, N, N, n0, n0)  # (n_f, 6, 3, 6, 3)
+        g = face_geometry(points, faces, max(int(degree), MIN_DEGREE), "SupportKernel")
+        self.faces = g.faces
+        self.area = g.wdA.sum(axis=1)  # (n_f,)
+        self.m0 = np.einsum("fq,qa,qb->fab", g.wdA, g.N, g.N)  # (n_f, 6, 6)
+        self.mn = np.einsum("fq,qa,qb,fqi,fqk->faibk", g.wdA, g.N, g.N, g.normal, g.normal)  # (n_f, 6, 3, 6, 3)
 
     def blocks(self, k_n: float, k_t: float) -> np.ndarray:
         """Face stiffness blocks ``K[f, a, i, b, k]`` = k_t m0_ab δ_ik + (k_n − k_t) mn_aibk, shape (n_f, 6, 3, 6, 3)."""
