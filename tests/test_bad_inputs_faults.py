@@ -37,7 +37,8 @@ from pathlib import Path
 import pytest
 
 from tests.analytic_fitness import AnalyticFitness
-from whisker_opt import wiring, workflows
+from tests.folder_helpers import folder_contents as _digest, use_analytic_fitness
+from whisker_opt import wiring
 from whisker_opt.cli import main as cli
 from whisker_opt.config.model import dump_config, load_config
 from whisker_opt.optimise import dask_executor
@@ -93,8 +94,7 @@ def _run_file(tmp_path: Path, generations: int = 2, kind: str = "serial", extra:
 @pytest.fixture
 def analytic(monkeypatch):
     """In this process: the commands evaluate the analytic fitness and do not re-solve the best design."""
-    monkeypatch.setattr(wiring, "evaluator", lambda cfg, *a, **k: AnalyticFitness(sleep_s=0.05))
-    monkeypatch.setattr(workflows, "finish_best", lambda *a, **k: None)
+    use_analytic_fitness(monkeypatch, sleep_s=0.05)
 
 
 @pytest.fixture
@@ -107,11 +107,6 @@ def run_dir(tmp_path) -> Path:
     run_optimisation(wiring.optimiser_of(cfg), d, AnalyticFitness(), seed=5, progress=False,
                      run_config=cfg.model_dump(mode="json"))
     return d
-
-
-def _digest(folder: Path) -> dict[str, bytes]:
-    return {str(p.relative_to(folder)): (p.read_bytes() if p.is_file() and not p.is_symlink() else b"")
-            for p in sorted(folder.rglob("*"))}
 
 
 # ============================================================================ a dask scheduler that is not one

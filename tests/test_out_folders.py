@@ -10,11 +10,11 @@ new folder or one they wrote before.
 
 from __future__ import annotations
 
-import hashlib
 from pathlib import Path
 
 import pytest
 
+from tests.folder_helpers import folder_hash as _digest, one_line_refusal as _refused
 from tests.subprocess_run import CLI_MODULE, run_command
 from tests.test_rundir_safety import _analytic_run_dir
 from whisker_opt.cli.main import main
@@ -34,15 +34,6 @@ COMMANDS = {
 }
 
 
-def _digest(folder: Path) -> str:
-    h = hashlib.sha256()
-    for p in sorted(folder.rglob("*")):
-        h.update(str(p).encode())
-        if p.is_file():
-            h.update(p.read_bytes())
-    return h.hexdigest()
-
-
 def _argv(tmp_path: Path, command: str, out: Path) -> list[str]:
     args = COMMANDS[command]
     if command == "calibrate":
@@ -54,14 +45,6 @@ def _argv(tmp_path: Path, command: str, out: Path) -> list[str]:
         cfg = tmp_path / "c.yaml"
         cfg.write_text(CONFIG)
     return [args[0], str(cfg), *args[1:], "--out", str(out), "--no-progress"]
-
-
-def _refused(capsys, rc: int, command: str) -> str:
-    err = capsys.readouterr().err
-    lines = [ln for ln in err.splitlines() if ln.strip()]
-    assert rc == 2 and "Traceback" not in err and len(lines) == 1, (rc, err)
-    assert lines[0].startswith(f"whisker-opt {command}: error: "), err
-    return lines[0]
 
 
 @pytest.fixture

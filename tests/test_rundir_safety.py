@@ -19,7 +19,6 @@ evaluator, and without re-solving the best design's meshes, so that every run ta
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import json
 import os
 import pickle
@@ -31,6 +30,7 @@ from pathlib import Path
 import pytest
 
 from tests.analytic_fitness import AnalyticFitness, FailureRegion, Hold
+from tests.folder_helpers import folder_hash as _digest, one_line_refusal as _one_line, use_analytic_fitness
 from whisker_opt import wiring, workflows
 from whisker_opt.cli import main as cli
 from whisker_opt.config.optimiser import OptimiserConfig
@@ -88,31 +88,13 @@ sys.exit(main(sys.argv[1:]))
 @pytest.fixture
 def analytic(monkeypatch):
     """In this process: the commands evaluate the analytic fitness and do not re-solve the best design."""
-    monkeypatch.setattr(wiring, "evaluator", lambda cfg, *a, **k: AnalyticFitness())
-    monkeypatch.setattr(workflows, "finish_best", lambda *a, **k: None)
+    use_analytic_fitness(monkeypatch)
 
 
 def _run_file(tmp_path: Path, generations: int = 3) -> Path:
     path = tmp_path / "run.yaml"
     path.write_text(RUN_FILE.format(generations=generations, results=tmp_path / "results"))
     return path
-
-
-def _one_line(capsys, rc: int, command: str) -> str:
-    err = capsys.readouterr().err
-    lines = [ln for ln in err.splitlines() if ln.strip()]
-    assert rc == 2 and "Traceback" not in err and len(lines) == 1, (rc, err)
-    assert lines[0].startswith(f"whisker-opt {command}: error: "), err
-    return lines[0]
-
-
-def _digest(folder: Path) -> str:
-    h = hashlib.sha256()
-    for p in sorted(folder.rglob("*")):
-        h.update(str(p).encode())
-        if p.is_file():
-            h.update(p.read_bytes())
-    return h.hexdigest()
 
 
 def _evaluations(run_dir: Path) -> list[dict]:

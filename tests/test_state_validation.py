@@ -23,7 +23,8 @@ import pytest
 import yaml
 
 from tests.analytic_fitness import AnalyticFitness
-from whisker_opt import wiring, workflows
+from tests.folder_helpers import folder_contents as _digest, use_analytic_fitness
+from whisker_opt import wiring
 from whisker_opt.cli import main as cli
 from whisker_opt.config.model import dump_config, load_config
 from whisker_opt.optimise.checkpoint import CHECKPOINT_NAME, load_checkpoint
@@ -65,8 +66,7 @@ def run(tmp_path_factory) -> Path:
 @pytest.fixture
 def analytic(monkeypatch):
     """In this process: the commands evaluate the analytic fitness and do not re-solve the best design."""
-    monkeypatch.setattr(wiring, "evaluator", lambda cfg, *a, **k: AnalyticFitness())
-    monkeypatch.setattr(workflows, "finish_best", lambda *a, **k: None)
+    use_analytic_fitness(monkeypatch)
 
 
 def _copy(run: Path, tmp_path: Path, edit=None) -> Path:
@@ -79,10 +79,6 @@ def _copy(run: Path, tmp_path: Path, edit=None) -> Path:
         edit(doc)
         (d / CHECKPOINT_NAME).write_text(json.dumps(doc))
     return d
-
-
-def _digest(folder: Path) -> dict[str, bytes]:
-    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
 
 
 def _refused(capsys, command: str, d: Path, *words: str) -> str:

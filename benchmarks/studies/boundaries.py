@@ -56,7 +56,7 @@ MECHANISMS: dict[str, tuple[str, ...]] = {
     "compliant base (h = 2 mm)": ("scene.base_support=compliant",),
     "compliant base (h = 10 mm)": ("scene.base_support=compliant", "scene.base_k_n=0.118", "scene.base_k_t=0.028"),
     "bonded gauge": ("scene.gauge_patch=bonded",),
-    "bonded gauge, modulus / 10": ("scene.gauge_patch=bonded", "scene.patch_modulus=210"),
+    "bonded gauge (modulus / 10)": ("scene.gauge_patch=bonded", "scene.patch_modulus=210"),
     "cap of Dragon Skin 30": ("material.cap_rubber=yeoh_dragon_skin_30",),
     "compliant cap (k_j = 2)": ("material.cap_joint=compliant",),
     "compliant cap (k_j = 0.4)": ("material.cap_joint=compliant", "material.cap_joint_k=0.4"),
@@ -69,6 +69,10 @@ MECHANISMS: dict[str, tuple[str, ...]] = {
                                                       "material.cap_joint_k=0.4"),
     "compliant base (h = 10) + softened rubber": ("scene.base_support=compliant", "scene.base_k_n=0.118",
                                                   "scene.base_k_t=0.028", "material.C10=0.10"),
+    # the backing's modulus that configs/calibrate_base_gauge.yaml fits on the sensitivity ratios
+    "compliant base (h = 10) + bonded gauge (calibrated)": ("scene.base_support=compliant", "scene.base_k_n=0.118",
+                                                            "scene.base_k_t=0.028", "scene.gauge_patch=bonded",
+                                                            "scene.patch_modulus=7157"),
 }
 PROTOTYPE_K = {0.05: 0.93, 0.1: 0.86, 0.15: 0.79, 0.2: 0.73}
 REFERENCE = "clamped (as before)"

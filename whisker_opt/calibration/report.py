@@ -148,8 +148,11 @@ def calibrated_yaml(cfg: WhiskerConfig, outcome: FitOutcome, *, source: str, con
                      f"({what}; range [{p.lower:g}, {p.upper:g}], start {p.start:.6g})")
     for o in outcome.held_out:
         state = "" if o.fitted.matched else " (no match found)"
-        lines.append(f"# Held out: {o.name}: measured {_pm(o.measured, o.sigma, o.unit)}, predicted "
-                     f"{_pm(o.fitted.value, o.predicted_std, o.unit)}{state}, z {o.z:+.2g}")
+        u = "" if o.unit in ("", "-") else f" {o.unit}"
+        pred = (f"{o.fitted.value:.6g}{u}" if math.isnan(o.predicted_std)
+                else _pm(o.fitted.value, o.predicted_std, o.unit))
+        z = "" if math.isnan(o.z) else f", z {o.z:+.2g}"
+        lines.append(f"# Held out: {o.name}: measured {_pm(o.measured, o.sigma, o.unit)}, predicted {pred}{state}{z}")
     lines += ["# Use it by name (e.g. `whisker-opt run THIS_FILE`); the project's defaults are unchanged.", ""]
     return "\n".join(lines) + yaml.safe_dump(data, sort_keys=False)
 
@@ -184,7 +187,8 @@ def format_summary(outcome: FitOutcome, *, source: str) -> str:
     out += ["", f"{'observation':<26} {'kind':<9} {'measured':>10} {'±σ':>8} {'start':>10} {'fitted':>10} "
                 f"{'miss':>10}  unit"]
     for o in outcome.observations:
-        tag = (f" [held out] (prediction ±{o.predicted_std:.3g}, z {o.z:+.2g})" if o.held_out else "") + \
+        tag = (" [held out]" + ("" if math.isnan(o.predicted_std) else f" (prediction ±{o.predicted_std:.3g}, "
+                                f"z {o.z:+.2g})") if o.held_out else "") + \
             (" [two specimens]" if o.specimens == 2 else "")
         flag = "" if o.fitted.matched else " (no match)"
         out.append(f"{o.name:<26} {o.kind:<9} {o.measured:>10.5g} {o.sigma:>8.3g} {o.start.value:>10.5g} "
