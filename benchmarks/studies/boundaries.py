@@ -179,7 +179,7 @@ def plot(rows: list[dict], path: Path) -> None:
     import matplotlib.pyplot as plt
 
     ok = [r for r in rows if r["status"] == "ok"]
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(13, 5.6))
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(13, 7.2))
     qs = [0.0] + list(PROTOTYPE_K)
     cmap = plt.get_cmap("tab20")
     for n, r in enumerate(ok):
@@ -195,10 +195,11 @@ def plot(rows: list[dict], path: Path) -> None:
     ax2.axhline(1.0, color="grey", lw=0.8)
     for ax in (ax1, ax2):
         ax.grid(alpha=0.3)
-    ax1.legend(fontsize=7, loc="lower left")
-    ax2.legend(fontsize=8, loc="upper left")
+    handles, labels = ax1.get_legend_handles_labels()
+    h2, l2 = ax2.get_legend_handles_labels()
+    fig.legend(handles + h2, labels + l2, loc="lower center", ncol=3, fontsize=8, frameon=False)
     fig.suptitle("Base, gauge, cap and rubber mechanisms beside the Table 3.1 prototype (coarse preset)")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.2, 1, 1))
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
     plt.close(fig)
