@@ -379,3 +379,15 @@ def test_the_bound_and_chi2_limits():
     assert got == ("upper", "lower", None, None, "upper")
     assert chi2_limit(5) == pytest.approx(3.017, abs=1e-3) and chi2_limit(1) == pytest.approx(6.635, abs=1e-3)
     assert np.isnan(chi2_limit(0))
+
+
+@pytest.mark.parametrize("name", ["calibrate_base.yaml", "calibrate_base_rubber.yaml", "calibrate_base_gauge.yaml"])
+def test_the_shipped_mechanism_calibrations_fit_the_ratios_and_hold_out_both_restores(name):
+    """The base-mechanism calibrations (docs/physics.md §14.2): the six sensitivity ratios fitted, the vent (one
+    specimen) and the converse (two specimens) held out, every fitted key inside the run file's own range."""
+    path = Path(__file__).parents[1] / "configs" / name
+    prepared = prepare(load_config(path), path)
+    assert [w.observation.kind for w in prepared.fitted] == ["response"] * 6
+    held = {w.observation.name: w.observation.specimens for w in prepared.held_out}
+    assert held == {"vent_65_matches_70": 1, "pressurise_70_matches_65": 2}
+    assert prepared.cfg.scene.base_support == "compliant"
