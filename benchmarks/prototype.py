@@ -15,6 +15,34 @@ import numpy as np
 from whisker_opt.calibration.forward import RestoreSearch, SceneSimulator, predict
 from whisker_opt.calibration.measurements import Restore
 
+#: name -> run-file settings of the mechanism (the defaults of each key are in docs/config.md)
+MECHANISMS: dict[str, tuple[str, ...]] = {
+    "clamped (as before)": (),
+    "axial base": ("scene.base_support=axial",),
+    "sliding base": ("scene.base_support=sliding",),
+    "grip 2 mm": ("scene.base_support=grip", "scene.base_grip_depth=2"),
+    "compliant base (h = 2 mm)": ("scene.base_support=compliant",),
+    "compliant base (h = 10 mm)": ("scene.base_support=compliant", "scene.base_k_n=0.118", "scene.base_k_t=0.028"),
+    "bonded gauge": ("scene.gauge_patch=bonded",),
+    "bonded gauge (modulus / 10)": ("scene.gauge_patch=bonded", "scene.patch_modulus=210"),
+    "cap of Dragon Skin 30": ("material.cap_rubber=yeoh_dragon_skin_30",),
+    "compliant cap (k_j = 2)": ("material.cap_joint=compliant",),
+    "compliant cap (k_j = 0.4)": ("material.cap_joint=compliant", "material.cap_joint_k=0.4"),
+    "softened rubber (C10 = 0.10)": ("material.C10=0.10",),
+    "grip 2 mm + bonded gauge": ("scene.base_support=grip", "scene.base_grip_depth=2", "scene.gauge_patch=bonded"),
+    "compliant base (h = 10) + bonded gauge": ("scene.base_support=compliant", "scene.base_k_n=0.118",
+                                               "scene.base_k_t=0.028", "scene.gauge_patch=bonded"),
+    "compliant base (h = 10) + compliant cap (0.4)": ("scene.base_support=compliant", "scene.base_k_n=0.118",
+                                                      "scene.base_k_t=0.028", "material.cap_joint=compliant",
+                                                      "material.cap_joint_k=0.4"),
+    "compliant base (h = 10) + softened rubber": ("scene.base_support=compliant", "scene.base_k_n=0.118",
+                                                  "scene.base_k_t=0.028", "material.C10=0.10"),
+    # the backing's modulus that configs/calibrate_base_gauge.yaml fits on the sensitivity ratios
+    "compliant base (h = 10) + bonded gauge (calibrated)": ("scene.base_support=compliant", "scene.base_k_n=0.118",
+                                                            "scene.base_k_t=0.028", "scene.gauge_patch=bonded",
+                                                            "scene.patch_modulus=7157"),
+}
+
 A_VALUES = (0.45, 0.55, 0.7, 0.85, 1.0)
 Q_VALUES = (0.0, 0.002, 0.05, 0.1, 0.15, 0.2)
 

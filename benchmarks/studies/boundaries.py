@@ -27,7 +27,8 @@ Usage::
 
     OMP_NUM_THREADS=1 python3 -m benchmarks.studies.boundaries [--preset coarse] [--only NAME,...]
         [--csv benchmarks/results/boundaries.csv] [--plot docs/figures/boundaries.png]
-    python3 -m benchmarks.studies.boundaries --plot docs/figures/boundaries.png --from-csv benchmarks/results/boundaries.csv
+    python3 -m benchmarks.studies.boundaries --plot docs/figures/boundaries.png \
+        --from-csv benchmarks/results/boundaries.csv
 """
 
 from __future__ import annotations
@@ -40,40 +41,13 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.prototype import A_VALUES, Q_VALUES, XI, claims, k_law, trim_effects_required
+from benchmarks.prototype import A_VALUES, MECHANISMS, Q_VALUES, XI, claims, k_law, trim_effects_required
 from fem.newton import SolveFailed
 from whisker_opt.calibration.forward import RestoreSearch
 from whisker_opt.config.model import load_config
 
 ROOT = Path(__file__).resolve().parents[2]
 
-#: name -> run-file settings of the mechanism (the defaults of each key are in docs/config.md)
-MECHANISMS: dict[str, tuple[str, ...]] = {
-    "clamped (as before)": (),
-    "axial base": ("scene.base_support=axial",),
-    "sliding base": ("scene.base_support=sliding",),
-    "grip 2 mm": ("scene.base_support=grip", "scene.base_grip_depth=2"),
-    "compliant base (h = 2 mm)": ("scene.base_support=compliant",),
-    "compliant base (h = 10 mm)": ("scene.base_support=compliant", "scene.base_k_n=0.118", "scene.base_k_t=0.028"),
-    "bonded gauge": ("scene.gauge_patch=bonded",),
-    "bonded gauge (modulus / 10)": ("scene.gauge_patch=bonded", "scene.patch_modulus=210"),
-    "cap of Dragon Skin 30": ("material.cap_rubber=yeoh_dragon_skin_30",),
-    "compliant cap (k_j = 2)": ("material.cap_joint=compliant",),
-    "compliant cap (k_j = 0.4)": ("material.cap_joint=compliant", "material.cap_joint_k=0.4"),
-    "softened rubber (C10 = 0.10)": ("material.C10=0.10",),
-    "grip 2 mm + bonded gauge": ("scene.base_support=grip", "scene.base_grip_depth=2", "scene.gauge_patch=bonded"),
-    "compliant base (h = 10) + bonded gauge": ("scene.base_support=compliant", "scene.base_k_n=0.118",
-                                               "scene.base_k_t=0.028", "scene.gauge_patch=bonded"),
-    "compliant base (h = 10) + compliant cap (0.4)": ("scene.base_support=compliant", "scene.base_k_n=0.118",
-                                                      "scene.base_k_t=0.028", "material.cap_joint=compliant",
-                                                      "material.cap_joint_k=0.4"),
-    "compliant base (h = 10) + softened rubber": ("scene.base_support=compliant", "scene.base_k_n=0.118",
-                                                  "scene.base_k_t=0.028", "material.C10=0.10"),
-    # the backing's modulus that configs/calibrate_base_gauge.yaml fits on the sensitivity ratios
-    "compliant base (h = 10) + bonded gauge (calibrated)": ("scene.base_support=compliant", "scene.base_k_n=0.118",
-                                                            "scene.base_k_t=0.028", "scene.gauge_patch=bonded",
-                                                            "scene.patch_modulus=7157"),
-}
 PROTOTYPE_K = {0.05: 0.93, 0.1: 0.86, 0.15: 0.79, 0.2: 0.73}
 REFERENCE = "clamped (as before)"
 #: The CSV's columns: the mechanism, its settings, then the raw model values.
@@ -82,9 +56,9 @@ CSV_COLUMNS = (["mechanism", "settings", "status"] + [f"eps_a{a:g}_Q{q:g}" for a
                   "conv", "conv_matched", "dl_0.2"])
 
 
-def raw(name: str, r: dict | None, status: str = "ok") -> dict:
-    """The CSV row of one mechanism: its raw model values (empty where it failed)."""
-    out = {"mechanism": name, "settings": " ".join(MECHANISMS.get(name, ())), "status": status}
+def raw(name: str, settings: tuple[str, ...], r: dict | None, status: str = "ok") -> dict:
+    """The CSV row of one mechanism: its settings and raw model values (empty where it failed)."""
+    out = {"mechanism": name, "settings": " ".join(settings), "status": status}
     if r is None:
         return out
     for i, a in enumerate(A_VALUES):
@@ -144,7 +118,8 @@ def row(name: str, v: dict, ref: dict | None) -> dict:
 
 
 def prototype_row() -> dict:
-    return {"mechanism": "prototypes", "k(0.05 / 0.1 / 0.15 / 0.2)": " / ".join(f"{v:.2f}" for v in PROTOTYPE_K.values()),
+    k = " / ".join(f"{v:.2f}" for v in PROTOTYPE_K.values())
+    return {"mechanism": "prototypes", "k(0.05 / 0.1 / 0.15 / 0.2)": k,
             "rises at every a": "yes",
             "trim effect T(0 / 0.048 / 0.1)": "- / {:.3f} (vent) / {:.3f} (converse), by the k law".format(
                 *trim_effects_required().values()), "vent Q_c [MPa]": "0.048 ± 0.021",
@@ -191,7 +166,8 @@ def plot(rows: list[dict], path: Path) -> None:
     ax1.plot(qs, [1.0] + list(PROTOTYPE_K.values()), "ks", ms=8, mfc="none", mew=2, label="prototypes")
     ax2.axhline(k_law(0) / k_law(0.2), color="k", lw=2, ls=":", label="prototypes (k law at every a)")
     ax1.set(xlabel="Q [MPa]", ylabel="k(Q) = ε(0)/ε(Q) at a = 1", title="softening the gauge implies")
-    ax2.set(xlabel="contact ratio a", ylabel="ε(0.2 MPa)/ε(0) at δ = 1 mm", title="pressure effect along the whisker")
+    ax2.set(xlabel="contact ratio a", ylabel="ε(0.2 MPa)/ε(0) at δ = 1 mm",
+            title="pressure effect along the whisker")
     ax2.axhline(1.0, color="grey", lw=0.8)
     for ax in (ax1, ax2):
         ax.grid(alpha=0.3)
@@ -218,34 +194,35 @@ def main(argv=None) -> int:
     ap.add_argument("--from-csv", type=Path, default=None, help="read the raw values instead of solving")
     ap.add_argument("--plot", type=Path, default=None, help="write the figure here")
     args = ap.parse_args(argv)
+    mechanisms = dict(MECHANISMS)
     for spec in args.extra:
         name, _, settings = spec.partition("=")
         if not name or not settings:
             print(f"--set: {spec!r} is not NAME=KEY=VALUE;KEY=VALUE", file=sys.stderr)
             return 2
-        MECHANISMS[name] = tuple(s for s in settings.split(";") if s)
+        mechanisms[name] = tuple(s for s in settings.split(";") if s)
     if args.from_csv is not None:
         with open(args.from_csv, newline="") as fh:
             rows = list(csv.DictReader(fh))
     else:
-        names = list(MECHANISMS) if args.only is None else [n.strip() for n in args.only.split(",")]
-        unknown = [n for n in names if n not in MECHANISMS]
+        names = list(mechanisms) if args.only is None else [n.strip() for n in args.only.split(",")]
+        unknown = [n for n in names if n not in mechanisms]
         if unknown:
-            print(f"--only: {unknown[0]!r} is not one of {', '.join(MECHANISMS)}", file=sys.stderr)
+            print(f"--only: {unknown[0]!r} is not one of {', '.join(mechanisms)}", file=sys.stderr)
             return 2
         base = (f"fidelity.preset={args.preset}",) if args.preset else ()
         search = RestoreSearch(Q_max=args.q_max, scan=args.scan, xtol=1e-5)
         rows = []
         for name in names:
-            cfg = load_config(args.config, settings=base + MECHANISMS[name])
+            cfg = load_config(args.config, settings=base + mechanisms[name])
             t0 = time.perf_counter()
             try:
                 r = claims(cfg, search)
             except SolveFailed as exc:  # a scene of the mechanism that does not solve: its reason in the table
-                rows.append(raw(name, None, f"a scene failed: {' '.join(str(exc).split())[:90]}"))
+                rows.append(raw(name, mechanisms[name], None, f"a scene failed: {' '.join(str(exc).split())[:90]}"))
                 print(f"# {name}: failed ({exc})", flush=True)
                 continue
-            rows.append(raw(name, r))
+            rows.append(raw(name, mechanisms[name], r))
             print(f"# {name}: {r['scenes']} scenes, {time.perf_counter() - t0:.0f} s, preset {cfg.fidelity.preset}",
                   flush=True)
         if args.csv is not None:

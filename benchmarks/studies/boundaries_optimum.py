@@ -1,7 +1,7 @@
 """What the prototype's boundary mechanisms would change in a reference case's optimum: f1 and the vent's
 recovery rate of the case-1 optimum and of the thesis' default design, solved with the clamped base (the
 default scene), the soft compliant base, and the soft base with the gauge's bonded backing at its calibrated
-modulus (docs/physics.md §14.2; the mechanisms' settings are those of ``benchmarks/studies/boundaries.py``).
+modulus (docs/physics.md §14.2; the mechanisms' settings are those of ``benchmarks.prototype.MECHANISMS``).
 
 Each (design, mechanism) is :func:`whisker_opt.analysis.law_spread.law_spread` of the run file with the
 mechanism's settings under its own wall law: the intact, uncompensated and trimmed scenes at the run file's
@@ -19,7 +19,7 @@ import sys
 import time
 from pathlib import Path
 
-from benchmarks.studies.boundaries import MECHANISMS
+from benchmarks.prototype import MECHANISMS
 from whisker_opt.analysis.law_spread import law_spread
 from whisker_opt.config.model import load_config
 
