@@ -1,5 +1,5 @@
-"""Helpers the command-line safety tests share: what a folder holds, a command's one-line refusal, and the analytic
-fitness in place of the finite-element one."""
+"""Helpers the command-line safety tests share: what a folder holds, a command's or a run file's one-line refusal,
+and the analytic fitness in place of the finite-element one."""
 
 from __future__ import annotations
 
@@ -41,3 +41,18 @@ def use_analytic_fitness(monkeypatch, **fitness) -> None:
 
     monkeypatch.setattr(wiring, "evaluator", lambda cfg, *a, **k: AnalyticFitness(**fitness))
     monkeypatch.setattr(workflows, "finish_best", lambda *a, **k: None)
+
+
+def assert_run_file_refused(folder: Path, text: str, message: str) -> str:
+    """Loading a run file of ``text`` (written in ``folder``) raises one line of ConfigError matching ``message``."""
+    import pytest
+
+    from whisker_opt.config.base import ConfigError
+    from whisker_opt.config.model import load_config
+
+    path = folder / "run.yaml"
+    path.write_text(text)
+    with pytest.raises(ConfigError, match=message) as info:
+        load_config(path)
+    assert "\n" not in str(info.value)
+    return str(info.value)

@@ -24,6 +24,7 @@ from fem.meshgen import box_mesh
 from fem.problem import DeadTraction, Problem
 from fem.state import State
 from geometry.design import WhiskerDesign
+from tests.folder_helpers import assert_run_file_refused
 from whisker_opt.experiment.base_supports import BASE_MECHANISMS, BASE_SUPPORTS, base_hold
 from whisker_opt.experiment.spec import SceneSpec
 
@@ -199,14 +200,7 @@ def test_stiff_compliant_base_is_the_clamped_scene(scenes):
     ("scene: {base_grip_depth: -1}\n", r"scene\.base_grip_depth: -1 is outside the allowed range \[0, 100\]"),
 ])
 def test_run_file_refuses_bad_base_parameters_in_one_line(tmp_path, text, message):
-    from whisker_opt.config.base import ConfigError
-    from whisker_opt.config.model import load_config
-
-    path = tmp_path / "run.yaml"
-    path.write_text(text)
-    with pytest.raises(ConfigError, match=message) as info:
-        load_config(path)
-    assert "\n" not in str(info.value)
+    assert_run_file_refused(tmp_path, text, message)
 
 
 def test_deck_refuses_the_springs_and_writes_the_other_bases():

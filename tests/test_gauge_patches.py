@@ -21,6 +21,7 @@ import pytest
 
 from geometry.design import WhiskerDesign
 from geometry.tagging import footprint_mask
+from tests.folder_helpers import assert_run_file_refused
 from whisker_opt.experiment.fidelity import PRESETS
 from whisker_opt.experiment.gauge_patches import GAUGE_PATCHES, PATCHES, listing, patch_membranes
 from whisker_opt.experiment.patches import bonded
@@ -141,14 +142,7 @@ def test_scene_refuses_bad_patch_parameters(key, value, message):
     ("scene: {gauge_patch: glued}\n", r"scene\.gauge_patch: 'glued'"),
 ])
 def test_run_file_refuses_bad_patch_parameters_in_one_line(tmp_path, text, message):
-    from whisker_opt.config.base import ConfigError
-    from whisker_opt.config.model import load_config
-
-    path = tmp_path / "run.yaml"
-    path.write_text(text)
-    with pytest.raises(ConfigError, match=message) as info:
-        load_config(path)
-    assert "\n" not in str(info.value)
+    assert_run_file_refused(tmp_path, text, message)
 
 
 def test_deck_refuses_the_sheet():

@@ -8,7 +8,8 @@ The scene (:func:`whisker_opt.experiment.scene.make_problem`) adds the hold's di
 zero) and elastic supports to every problem, and sums the base reaction over its nodes and supports. The
 modules load the finite-element code only when they hold, so the run-file models may list the names without it.
 
-Adding a mechanism: one module in ``whisker_opt/experiment/bases/`` (found by :func:`_registry`, ordered by its
+Adding a mechanism: one module in ``whisker_opt/experiment/bases/`` (found by
+:func:`whisker_opt.experiment.registry.mechanisms`, ordered by its
 ``ORDER``), its parameters as fields of ``SceneSpec`` and keys of the ``scene`` section, and a test.
 ``python3 -m whisker_opt.experiment.base_supports`` lists the registered mechanisms.
 """
@@ -16,49 +17,29 @@ Adding a mechanism: one module in ``whisker_opt/experiment/bases/`` (found by :f
 from __future__ import annotations
 
 import sys
-from dataclasses import dataclass
-from types import MappingProxyType
-from typing import Any, Callable, Mapping
+from typing import Mapping
 
 from whisker_opt.experiment.bases import BaseHold
+from whisker_opt.experiment.registry import Mechanism, mechanisms
+from whisker_opt.experiment.registry import listing as mechanism_listing
 
-__all__ = ["BASE_MECHANISMS", "BASE_SUPPORTS", "BaseHold", "BaseMechanism", "base_hold", "listing"]
-
-
-@dataclass(frozen=True)
-class BaseMechanism:
-    """One registered base mechanism (see the module docstring)."""
-
-    name: str
-    description: str
-    parameters: tuple[str, ...]
-    hold: Callable[..., Any]
-
-
-def _registry() -> dict[str, BaseMechanism]:
-    """Every module of :mod:`whisker_opt.experiment.bases`, in the order of their ``ORDER``."""
-    from whisker_opt.experiment.registry import discover
-
-    mods = discover("whisker_opt.experiment.bases")
-    return {m.NAME: BaseMechanism(m.NAME, m.DESCRIPTION, tuple(m.PARAMETERS), m.hold)
-            for m in mods}
+__all__ = ["BASE_MECHANISMS", "BASE_SUPPORTS", "BaseHold", "base_hold", "listing"]
 
 
 #: The base mechanisms, by name (read-only); the first is the default.
-BASE_MECHANISMS: Mapping[str, BaseMechanism] = MappingProxyType(_registry())
+BASE_MECHANISMS: Mapping[str, Mechanism] = mechanisms("whisker_opt.experiment.bases", "hold")
 #: Their names: the values ``scene.base_support`` allows.
 BASE_SUPPORTS: tuple[str, ...] = tuple(BASE_MECHANISMS)
 
 
 def base_hold(wm, spec) -> BaseHold:
     """The hold of ``spec.base_support`` on the whisker mesh ``wm``."""
-    return BASE_MECHANISMS[spec.base_support].hold(wm, spec)
+    return BASE_MECHANISMS[spec.base_support].act(wm, spec)
 
 
 def listing() -> str:
     """One line per registered mechanism, in order: its name, its description and the parameters it reads."""
-    return "".join(f"{m.name}: {m.description}" + (f" (reads {', '.join(m.parameters)})" if m.parameters else "")
-                   + "\n" for m in BASE_MECHANISMS.values())
+    return mechanism_listing(BASE_MECHANISMS)
 
 
 if __name__ == "__main__":  # python3 -m whisker_opt.experiment.base_supports: the registered mechanisms

@@ -8,39 +8,23 @@ moduli that stands for the joint (``values`` its parameters by name, ``c`` [mm] 
 scales the cap's elements by it, for the solver, the result files and the viewer alike.
 
 Adding a joint: one module in ``whisker_opt/experiment/caps/`` (found by
-:func:`whisker_opt.experiment.registry.discover`), its parameters as fields of ``SceneSpec`` and keys of the
+:func:`whisker_opt.experiment.registry.mechanisms`), its parameters as fields of ``SceneSpec`` and keys of the
 ``material`` section, and a test. ``python3 -m whisker_opt.experiment.cap_joints`` lists the registered joints.
 """
 
 from __future__ import annotations
 
 import sys
-from dataclasses import dataclass
-from types import MappingProxyType
-from typing import Callable, Mapping
+from typing import Mapping
 
-__all__ = ["CAP_JOINTS", "JOINTS", "CapJoint", "cap_factor", "listing"]
+from whisker_opt.experiment.registry import Mechanism, mechanisms
+from whisker_opt.experiment.registry import listing as mechanism_listing
 
-
-@dataclass(frozen=True)
-class CapJoint:
-    """One registered joint (see the module docstring)."""
-
-    name: str
-    description: str
-    parameters: tuple[str, ...]
-    factor: Callable[[Mapping[str, float], float, float], float]
-
-
-def _registry() -> dict[str, CapJoint]:
-    from whisker_opt.experiment.registry import discover
-
-    return {m.NAME: CapJoint(m.NAME, m.DESCRIPTION, tuple(m.PARAMETERS), m.factor)
-            for m in discover("whisker_opt.experiment.caps")}
+__all__ = ["CAP_JOINTS", "JOINTS", "cap_factor", "listing"]
 
 
 #: The joints, by name (read-only); the first is the default.
-JOINTS: Mapping[str, CapJoint] = MappingProxyType(_registry())
+JOINTS: Mapping[str, Mechanism] = mechanisms("whisker_opt.experiment.caps", "factor")
 #: Their names: the values ``material.cap_joint`` allows.
 CAP_JOINTS: tuple[str, ...] = tuple(JOINTS)
 
@@ -52,13 +36,12 @@ def cap_factor(joint: str, source, c: float, mu: float) -> float:
     if joint not in JOINTS:
         raise ValueError(f"cap joint {joint!r}: must be " + " or ".join(map(repr, CAP_JOINTS)))
     j = JOINTS[joint]
-    return float(j.factor({p: float(getattr(source, p)) for p in j.parameters}, c, mu))
+    return float(j.act({p: float(getattr(source, p)) for p in j.parameters}, c, mu))
 
 
 def listing() -> str:
     """One line per registered joint, in order: its name, its description and the parameters it reads."""
-    return "".join(f"{j.name}: {j.description}" + (f" (reads {', '.join(j.parameters)})" if j.parameters else "")
-                   + "\n" for j in JOINTS.values())
+    return mechanism_listing(JOINTS)
 
 
 if __name__ == "__main__":  # python3 -m whisker_opt.experiment.cap_joints: the registered joints

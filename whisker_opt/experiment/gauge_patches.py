@@ -7,7 +7,8 @@ the sheets bonded to the whisker mesh ``wm``. The scene (:func:`whisker_opt.expe
 adds them to every problem; the readings are unchanged (docs/physics.md §3). The modules load the
 finite-element code only when asked for their sheets, so the run-file models may list the names without it.
 
-Adding a choice: one module in ``whisker_opt/experiment/patches/`` (found by :func:`_registry`, ordered by its
+Adding a choice: one module in ``whisker_opt/experiment/patches/`` (found by
+:func:`whisker_opt.experiment.registry.mechanisms`, ordered by its
 ``ORDER``), its parameters as fields of ``SceneSpec`` and keys of the ``scene`` section, and a test.
 ``python3 -m whisker_opt.experiment.gauge_patches`` lists the registered choices.
 """
@@ -15,47 +16,28 @@ Adding a choice: one module in ``whisker_opt/experiment/patches/`` (found by :fu
 from __future__ import annotations
 
 import sys
-from dataclasses import dataclass
-from types import MappingProxyType
-from typing import Any, Callable, Mapping
+from typing import Mapping
 
-__all__ = ["GAUGE_PATCHES", "PATCHES", "GaugePatch", "listing", "patch_membranes"]
+from whisker_opt.experiment.registry import Mechanism, mechanisms
+from whisker_opt.experiment.registry import listing as mechanism_listing
 
-
-@dataclass(frozen=True)
-class GaugePatch:
-    """One registered choice (see the module docstring)."""
-
-    name: str
-    description: str
-    parameters: tuple[str, ...]
-    membranes: Callable[..., Any]
-
-
-def _registry() -> dict[str, GaugePatch]:
-    """Every module of :mod:`whisker_opt.experiment.patches`, in the order of their ``ORDER``."""
-    from whisker_opt.experiment.registry import discover
-
-    mods = discover("whisker_opt.experiment.patches")
-    return {m.NAME: GaugePatch(m.NAME, m.DESCRIPTION, tuple(m.PARAMETERS), m.membranes)
-            for m in mods}
+__all__ = ["GAUGE_PATCHES", "PATCHES", "listing", "patch_membranes"]
 
 
 #: The choices, by name (read-only); the first is the default.
-PATCHES: Mapping[str, GaugePatch] = MappingProxyType(_registry())
+PATCHES: Mapping[str, Mechanism] = mechanisms("whisker_opt.experiment.patches", "membranes")
 #: Their names: the values ``scene.gauge_patch`` allows.
 GAUGE_PATCHES: tuple[str, ...] = tuple(PATCHES)
 
 
 def patch_membranes(wm, spec) -> tuple:
     """The sheets of ``spec.gauge_patch`` on the whisker mesh ``wm``."""
-    return tuple(PATCHES[spec.gauge_patch].membranes(wm, spec))
+    return tuple(PATCHES[spec.gauge_patch].act(wm, spec))
 
 
 def listing() -> str:
     """One line per registered choice, in order: its name, its description and the parameters it reads."""
-    return "".join(f"{p.name}: {p.description}" + (f" (reads {', '.join(p.parameters)})" if p.parameters else "")
-                   + "\n" for p in PATCHES.values())
+    return mechanism_listing(PATCHES)
 
 
 if __name__ == "__main__":  # python3 -m whisker_opt.experiment.gauge_patches: the registered choices

@@ -5,15 +5,22 @@ package of modules, one per entry, each with an ``ORDER`` (an int that places it
 one the default) and, for most, a ``NAME``. :func:`discover` imports every module of the package and returns
 them in that order; the registry reads what it needs from each. Adding an entry is adding a module: no list to
 edit.
+
+The scene's mechanisms (the base, the gauge patch, the cap joint) share one shape: each module has a ``NAME``, a
+one-line ``DESCRIPTION``, the ``PARAMETERS`` it reads and one callable that acts on the scene;
+:func:`mechanisms` makes such a package a read-only registry of :class:`Mechanism` and :func:`listing` its
+one-line-per-entry listing.
 """
 
 from __future__ import annotations
 
 import importlib
 import pkgutil
-from types import ModuleType
+from dataclasses import dataclass
+from types import MappingProxyType, ModuleType
+from typing import Any, Callable, Mapping
 
-__all__ = ["discover"]
+__all__ = ["Mechanism", "discover", "listing", "mechanisms"]
 
 
 def discover(package: str) -> list[ModuleType]:
@@ -40,3 +47,27 @@ def discover(package: str) -> list[ModuleType]:
         if not hasattr(m, "ORDER"):
             raise AttributeError(f"{m.__name__}: a module of the registry {package} needs an ORDER (an int)")
     return sorted(mods, key=lambda m: (m.ORDER, getattr(m, "NAME", m.__name__)))
+
+
+@dataclass(frozen=True)
+class Mechanism:
+    """One registered mechanism of the scene: its module's ``NAME``, ``DESCRIPTION``, ``PARAMETERS`` and the
+    callable that acts (``hold``, ``membranes``, ``factor``, as its registry names it)."""
+
+    name: str
+    description: str
+    parameters: tuple[str, ...]
+    act: Callable[..., Any]
+
+
+def mechanisms(package: str, act: str) -> Mapping[str, Mechanism]:
+    """The mechanisms of ``package`` by name, in :func:`discover` order (read-only; the first is the default),
+    each acting by its module's callable named ``act``."""
+    return MappingProxyType({m.NAME: Mechanism(m.NAME, m.DESCRIPTION, tuple(m.PARAMETERS), getattr(m, act))
+                             for m in discover(package)})
+
+
+def listing(registry: Mapping[str, Mechanism]) -> str:
+    """One line per mechanism, in order: its name, its description and the parameters it reads."""
+    return "".join(f"{m.name}: {m.description}" + (f" (reads {', '.join(m.parameters)})" if m.parameters else "")
+                   + "\n" for m in registry.values())
